@@ -1,0 +1,34 @@
+# Two commands do all set-up on a fresh machine:
+#   make demo   — create .venv, install jaxtrack, run the main job
+#   make test   — create .venv, install jaxtrack with test extras, run the tests
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test lint bench install clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e ".[dev]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/jaxtrack demo
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check jaxtrack tests benchmarks
+
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks.particle_counts
+
+clean:
+	rm -rf $(VENV) build *.egg-info
