@@ -9,6 +9,16 @@ CMU data: "The data used in this project was obtained from mocap.cs.cmu.edu. The
 created with funding from NSF EIA-0196217."
 """
 
-from jaxtrack.data._catalogue import COLLECTIONS, data_folders, list_clips, load_clip, path
+from jaxtrack.data._catalogue import (
+    COLLECTIONS,
+    bundled_folder,
+    clip_files,
+    data_folders,
+    list_clips,
+    load_clip,
+    path,
+    shared_folder,
+)
 
-__all__ = ["COLLECTIONS", "data_folders", "list_clips", "load_clip", "path"]
+__all__ = ["COLLECTIONS", "bundled_folder", "clip_files", "data_folders", "list_clips", "load_clip",
+           "path", "shared_folder"]

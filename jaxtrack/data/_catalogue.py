@@ -22,7 +22,8 @@ from pathlib import Path
 
 from jaxtrack.body.motion import Motion, load_motion
 
-__all__ = ["COLLECTIONS", "data_folders", "list_clips", "load_clip", "path"]
+__all__ = ["COLLECTIONS", "bundled_folder", "clip_files", "data_folders", "list_clips", "load_clip",
+           "path", "shared_folder"]
 
 COLLECTIONS = {
     "animateddrawings": "animateddrawings_bvh",
@@ -36,7 +37,8 @@ COLLECTIONS = {
 MOTION_SUFFIXES = (".bvh", ".amc")
 
 
-def _bundled_folder() -> Path | None:
+def bundled_folder() -> Path | None:
+    """The folder of data files shipped inside the package (None in a zipped install)."""
     resource = importlib.resources.files(__package__).joinpath("files")
     # a zipped install has no real folder; the .amc reader needs the .asf beside it on disk
     return resource if isinstance(resource, Path) and resource.is_dir() else None
@@ -50,7 +52,7 @@ def _ancestors(start: Path) -> list[Path]:
 def data_folders() -> list[tuple[str, Path]]:
     """Every place searched for data, in search order, as `(description, folder)`."""
     folders: list[tuple[str, Path]] = []
-    bundled = _bundled_folder()
+    bundled = bundled_folder()
     if bundled is not None:
         folders.append(("files bundled with jaxtrack", bundled))
     environment = os.environ.get("JAXTRACK_DATA")
@@ -101,18 +103,29 @@ def path(name: str) -> Path:
     )
 
 
-def list_clips() -> list[str]:
-    """Names of every motion clip (.bvh, .amc) that `load_clip` can find, sorted."""
-    aliases = {folder: alias for alias, folder in COLLECTIONS.items()}
-    names: set[str] = set()
-    for _, folder in data_folders():
-        for file in folder.rglob("*"):
-            if file.suffix.lower() not in MOTION_SUFFIXES or not file.is_file():
-                continue
+def shared_folder() -> Path | None:
+    """The full data collection outside the package ($JAXTRACK_DATA or a shared/data), if any."""
+    for description, folder in data_folders():
+        if description.startswith(("$JAXTRACK_DATA", "shared/data")) and folder.is_dir():
+            return folder
+    return None
+
+
+def clip_files(folder: Path) -> dict[str, Path]:
+    """Every motion clip (.bvh, .amc) under one data folder: clip name -> file, sorted by name."""
+    aliases = {name: alias for alias, name in COLLECTIONS.items()}
+    clips = {}
+    for file in Path(folder).rglob("*"):
+        if file.suffix.lower() in MOTION_SUFFIXES and file.is_file():
             relative = file.relative_to(folder)
             collection = aliases.get(relative.parts[0], relative.parts[0])
-            names.add("/".join((collection, *relative.parts[1:-1], file.stem)))
-    return sorted(names)
+            clips["/".join((collection, *relative.parts[1:-1], file.stem))] = file
+    return dict(sorted(clips.items()))
+
+
+def list_clips() -> list[str]:
+    """Names of every motion clip (.bvh, .amc) that `load_clip` can find, sorted."""
+    return sorted({name for _, folder in data_folders() for name in clip_files(folder)})
 
 
 def load_clip(name: str) -> Motion:

@@ -1,0 +1,128 @@
+"""Marker sets: every rig maps onto them with anatomically sensible segment lengths; a rig that
+cannot be mapped says which markers and joints are missing."""
+
+import functools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jaxtrack.body.markers import (
+    HUMANEVA_15,
+    MARKER_EDGES,
+    RIG_MARKER_MAPS,
+    UPPER_BODY_12,
+    MarkerMapError,
+    marker_edges,
+    marker_positions,
+)
+from jaxtrack.body.motion import RIGS, Motion, load_motion
+from jaxtrack.data import bundled_folder, clip_files, shared_folder
+
+TESTS_DATA = Path(__file__).parents[1] / "data"
+LOCAL = {**clip_files(bundled_folder()), **clip_files(TESTS_DATA)}
+SHARED_FOLDER = shared_folder()
+SHARED = clip_files(SHARED_FOLDER) if SHARED_FOLDER is not None else {}
+CLIPS = [pytest.param(file, id=f"local:{name}") for name, file in LOCAL.items()] + (
+    [pytest.param(file, id=f"shared:{name}") for name, file in SHARED.items()] if SHARED
+    else [pytest.param(None, id="shared:absent")])
+
+
+@functools.cache
+def load(file: Path) -> Motion:
+    return load_motion(file)
+
+
+def test_marker_sets_are_as_published():
+    assert len(HUMANEVA_15) == 15 and len(UPPER_BODY_12) == 12
+    assert HUMANEVA_15[:3] == ("head", "neck", "right_shoulder") and HUMANEVA_15[8] == "pelvis"
+    assert UPPER_BODY_12[:4] == ("head", "neck", "thorax", "pelvis")
+    for rig_map in RIG_MARKER_MAPS.values():
+        assert set(HUMANEVA_15) | set(UPPER_BODY_12) <= set(rig_map)
+
+
+@pytest.mark.parametrize("names", [HUMANEVA_15, UPPER_BODY_12], ids=["humaneva", "upper_body"])
+def test_edges_form_one_tree(names):
+    edges = MARKER_EDGES[names]
+    assert edges == marker_edges(names)
+    assert len(edges) == len(names) - 1
+    reached, frontier = {0}, [0]
+    while frontier:
+        node = frontier.pop()
+        for a, b in edges:
+            for here, there in ((a, b), (b, a)):
+                if here == node and there not in reached:
+                    reached.add(there)
+                    frontier.append(there)
+    assert reached == set(range(len(names)))
+
+
+def _segment(markers: np.ndarray, names, first: str, second: str) -> np.ndarray:
+    return np.linalg.norm(markers[:, names.index(first)] - markers[:, names.index(second)], axis=-1)
+
+
+@pytest.mark.parametrize("file", CLIPS)
+def test_every_rig_maps_to_anatomical_markers(file):
+    if file is None:
+        pytest.skip("the shared/data collection is not beside this checkout")
+    motion = load(file)
+    markers = marker_positions(motion, HUMANEVA_15)
+    assert markers.shape == (motion.num_frames, 15, 3)
+    upper = marker_positions(motion, UPPER_BODY_12)
+    np.testing.assert_array_equal(upper[:, 0], markers[:, 0])
+    # bounds wide enough for a child and an adult, tight enough to catch a clavicle taken for a
+    # shoulder, a hand tip for a wrist or a toe for an ankle
+    child = 0.7 if Path(file).stem.startswith(("fair1_", "8yr_old")) else 1.0
+    for side in ("left", "right"):
+        upper_arm = _segment(markers, HUMANEVA_15, f"{side}_shoulder", f"{side}_elbow")[0]
+        forearm = _segment(markers, HUMANEVA_15, f"{side}_elbow", f"{side}_wrist")[0]
+        thigh = _segment(markers, HUMANEVA_15, f"{side}_hip", f"{side}_knee")[0]
+        shin = _segment(markers, HUMANEVA_15, f"{side}_knee", f"{side}_ankle")[0]
+        assert 0.2 * child < upper_arm < 0.4 and 0.17 * child < forearm < 0.35
+        assert 0.3 * child < thigh < 0.55 and 0.3 * child < shin < 0.55
+    shoulders = _segment(markers, HUMANEVA_15, "left_shoulder", "right_shoulder")[0]
+    hips = _segment(markers, HUMANEVA_15, "left_hip", "right_hip")[0]
+    # Bandai's upper-arm joints sit only 0.2 m apart; a clavicle start would be < 0.12 m
+    assert 0.18 * child < shoulders < 0.5 and 0.1 * child < hips < 0.35
+    first = upper[0]
+    # thorax between neck and pelvis; neck about shoulder height, head above it
+    heights = {name: first[UPPER_BODY_12.index(name), 1] for name in UPPER_BODY_12}
+    assert heights["head"] > heights["neck"] > heights["thorax"] > heights["pelvis"]
+    assert abs(heights["neck"] - heights["left_shoulder"]) < 0.15
+
+
+def test_every_rig_has_a_clip_here():
+    rigs = {load(file).rig for file in LOCAL.values()}
+    assert rigs == set(RIGS) - {"generic_bvh"}
+
+
+def _motion(names: tuple[str, ...], rig: str) -> Motion:
+    return Motion(np.zeros((2, len(names), 3)), names, (-1,) + (0,) * (len(names) - 1), 30.0,
+                  "made-up skeleton", rig)
+
+
+def test_generic_rig_uses_common_exporter_names():
+    names = ("Hips", "Spine2", "Neck", "Head") + tuple(
+        f"{side}{part}" for side in ("Left", "Right")
+        for part in ("Arm", "ForeArm", "Hand", "UpLeg", "Leg", "Foot"))
+    motion = _motion(names, "generic_bvh")
+    motion = Motion(np.arange(2 * len(names) * 3, dtype=float).reshape(2, len(names), 3), names,
+                    motion.parents, 30.0, "made-up", "generic_bvh")
+    markers = marker_positions(motion, HUMANEVA_15)
+    np.testing.assert_array_equal(markers[:, HUMANEVA_15.index("left_elbow")],
+                                  motion.positions[:, names.index("LeftForeArm")])
+
+
+def test_unmappable_rig_names_what_is_missing():
+    motion = _motion(("Hips", "Spine2", "Neck", "Head", "LeftArm", "RightArm"), "generic_bvh")
+    with pytest.raises(MarkerMapError) as caught:
+        marker_positions(motion, HUMANEVA_15)
+    message = str(caught.value)
+    assert "generic_bvh" in message and "left_knee" in message and "LeftLeg" in message
+    assert "left_shoulder" not in message  # that one was found
+    broken_cmu = _motion(("Hips", "LeftShoulder"), "cmu_bvh")
+    with pytest.raises(MarkerMapError, match=r"cmu_bvh.*right_wrist \(looked for joint RightWrist"):
+        marker_positions(broken_cmu, HUMANEVA_15)
+    with pytest.raises(MarkerMapError, match="not a marker known"):
+        marker_positions(load(LOCAL["cmu_bvh/131_01"]), ("nose",))
+    assert isinstance(caught.value, KeyError)
