@@ -220,3 +220,24 @@ def test_frame_subject_fits_a_point_cloud_with_margin():
     # the tighter direction spans the image minus the margins exactly
     span = (high - low) / np.array([512.0, 384.0])
     np.testing.assert_allclose(span.max(axis=1), 1.0, atol=1e-9)
+
+
+def test_frame_subject_keeps_a_real_motion_inside_sampled_views():
+    from jaxtrack.data import load_clip
+
+    positions = load_clip("animateddrawings/fair1_wave_hello").positions[::20]  # (42, 27, 3)
+    viewpoints = sample_viewpoints(jr.key(2), 6, elevation_range=(-0.3, 0.8), distance=(2.5, 5.0))
+    cameras = jax.vmap(lambda view: frame_subject(positions, view, (640, 480), 0.05))(viewpoints)
+    pixels, depth = jax.vmap(project_with_depth, in_axes=(0, None))(cameras, positions)
+    assert np.all(np.asarray(depth) > 0.5)
+    low, high = np.array([31.5, 23.5]) - 1e-6, np.array([607.5, 455.5]) + 1e-6  # 5% margins
+    assert np.all((pixels >= low) & (pixels <= high))
+    # the views differ: the same joint lands in different places
+    assert float(jnp.std(pixels[:, 0, 0, 0])) > 1.0
+    # keeping a calibrated camera's pose works as well (a Camera instead of a viewpoint)
+    camera = look_at(jnp.array([0.5, 1.2, 3.0]), jnp.array([0.0, 0.5, 0.0]),
+                     jnp.array([0.0, 1.0, 0.0]), 300.0, (640, 480))
+    framed = frame_subject(positions, camera, (640, 480), 0.05)
+    np.testing.assert_allclose(framed.rotation, camera.rotation)
+    inside = project(framed, positions)
+    assert np.all((inside >= low) & (inside <= high))
