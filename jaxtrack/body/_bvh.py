@@ -271,8 +271,12 @@ def load_bvh(path: Path) -> Motion:
     except OSError as error:
         raise MocapFormatError(path, None, f"cannot read: {error}") from error
     lines = text.splitlines()
-    if not any(line.strip() for line in lines):
+    first = next((n for n, line in enumerate(lines) if line.strip()), None)
+    if first is None:
         raise MocapFormatError(path, 1, "empty file")
+    if lines[first].split()[0] != "HIERARCHY":
+        raise MocapFormatError(path, first + 1, f"expected 'HIERARCHY', found "
+                               f"{lines[first].strip()[:40]!r} (missing hierarchy, or not BVH)")
     motion_line = next((n for n, line in enumerate(lines) if line.strip() == "MOTION"), None)
     if motion_line is None:
         parse_hierarchy(path, lines, len(lines))  # reports a broken hierarchy first if there is one
@@ -294,6 +298,8 @@ def load_bvh(path: Path) -> Motion:
         # joint_Root is the hips' projection on the ground, not a rigid bone: keep it as a joint
         # but make Hips a root of its own so bones (drawing, bone-length checks) are the body's
         parents[skeleton.names.index("Hips")] = -1
-    # AnimatedDrawings writes 0.008342 s (119.88 Hz) and CMU .0083333 (120 Hz): keep what is written
-    return Motion(positions, tuple(skeleton.names), tuple(parents), 1.0 / frame_time,
-                  str(path), rig)
+    # frame times are written to a few digits (1/30 s as 0.0333333, 1/120 s as .0083333): snap to
+    # the whole rate they stand for, but keep rates that are not whole (0.008342 s = 119.875 Hz)
+    fps = 1.0 / frame_time
+    fps = float(round(fps)) if abs(fps - round(fps)) < 0.01 else fps
+    return Motion(positions, tuple(skeleton.names), tuple(parents), fps, str(path), rig)

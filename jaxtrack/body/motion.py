@@ -8,7 +8,16 @@ rest of jaxtrack never sees a file's quirks:
   dropped, and an ASF bone's joint sits at the bone's *start* (its proximal joint), which is also
   where the CMU-to-BVH conversions put it, so `rhumerus` is the shoulder exactly as BVH
   `RightShoulder`/`RightArm` is;
-- `parents[j] < j` (parents come before children), `-1` for roots.
+- `parents[j] < j` (parents come before children), `-1` for roots. Bandai's `joint_Root` (the
+  hips projected on the ground) is kept as joint 0, but `Hips` is made a root of its own, because
+  the ground point does not move rigidly with the body;
+- `fps` is 1 / the file's frame time, snapped to a whole rate when within 0.01 Hz of one (files
+  write 1/30 s as `0.0333333`); AnimatedDrawings' 0.008342 s stays 119.875 Hz. AMC files carry no
+  rate: CMU captured at 120 Hz.
+
+Joint counts of the real files: AnimatedDrawings 27, Bandai 22 (21 body joints + `joint_Root`),
+CMU BVH 31, CMU ASF 31 (`root` + 30 bones; the AMC lists 29 lines per frame, root and the 28
+bones with DOFs).
 
 Units and axes per rig (what each reader converts from):
 
@@ -16,9 +25,17 @@ Units and axes per rig (what each reader converts from):
 |---|---|---|---|
 | `cmu_asf` | CMU ASF/AMC | `:units length L` -> one unit = 1/L inch (CMU: 0.0254/0.45 m) | Y |
 | `cmu_bvh` | CMU BVH (cgspeed, 31 joints) | same scaled inch as the ASF (0.0254/0.45 m) | Y |
-| `animateddrawings` | AnimatedDrawings fair1/history (27 joints) | inch (0.0254 m) | Z |
+| `animateddrawings` | AnimatedDrawings fair1/history (27 joints) | inch (0.0254 m), see below | Z |
 | `bandai` | Bandai Namco Research Motiondataset-2 | centimetre | Y |
 | `generic_bvh` | anything else | guessed from body height (m, cm, mm or inch) | Y |
+
+The rig is recognised from joint names, not from the folder: `cmu1_jumping_jacks.bvh` in the
+AnimatedDrawings folder is a CMU BVH. Units were worked out from the bones: with 0.0254/0.45 m the
+CMU subjects' femurs are 0.39-0.43 m and their hips 0.95 m above the floor; AnimatedDrawings
+adults (cmu_1006, cmu_new clips) come out 1.6-1.65 m from head joint to floor, and the fair1 rig is
+shared with the clip named `8yr_old_wave_hello`, a child about 1.1-1.2 m tall, in the same inches.
+Z-up files are turned Y-up by a rotation (x, y, z) -> (x, z, -y), never a reflection, so a subject's
+left stays left; every real clip was checked to face the way its toes point.
 """
 
 from __future__ import annotations
@@ -69,6 +86,8 @@ class Motion:
 
     def __post_init__(self):
         positions = np.asarray(self.positions, dtype=np.float64)
+        positions = positions.copy() if positions.flags.writeable else positions
+        positions.flags.writeable = False  # frozen means frozen: cached clips are shared
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "joint_names", tuple(self.joint_names))
         object.__setattr__(self, "parents", tuple(int(p) for p in self.parents))
