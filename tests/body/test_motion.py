@@ -277,3 +277,21 @@ def test_joint_index_and_validation():
         Motion(np.full((2, 1, 3), np.nan), ("a",), (-1,), 30.0, "test", "generic_bvh")
     with pytest.raises(ValueError, match="earlier joint"):
         Motion(np.zeros((2, 2, 3)), ("a", "b"), (1, -1), 30.0, "test", "generic_bvh")
+
+
+def test_unknown_rig_is_read_y_up_with_a_unit_guessed_from_height(tmp_path):
+    # Bandai's clip with its ground joint renamed is no longer recognised: read as a generic BVH,
+    # its centimetres must be recognised from the body's height alone
+    source = TEST_ONLY["bandai/dataset-2_wave-right-hand_normal_001"]
+    renamed = tmp_path / "unknown_rig.bvh"
+    renamed.write_text(source.read_text().replace("joint_Root", "Ground"))
+    generic, bandai = load_motion(renamed), load(source)
+    assert generic.rig == "generic_bvh" and bandai.rig == "bandai"
+    np.testing.assert_allclose(generic.positions, bandai.positions)
+    metres = tmp_path / "metres.bvh"
+    text = source.read_text().replace("joint_Root", "Ground").splitlines()
+    motion_line = text.index("MOTION")
+    scaled = [" ".join(f"{float(v) / 100 if i % 6 < 3 else float(v):.6f}"
+                       for i, v in enumerate(line.split())) for line in text[motion_line + 3:]]
+    metres.write_text("\n".join(text[:motion_line + 3] + scaled))
+    np.testing.assert_allclose(load_motion(metres).positions, bandai.positions, atol=1e-5)
