@@ -135,6 +135,7 @@ def _image_size(image_size: Sequence[int]) -> tuple[int, int]:
     return width, height
 
 
+@jax.jit
 def rotation_from_rotation_vector(rotation_vector: Float[ArrayLike, "3"]) -> Float[Array, "3 3"]:
     """Rodrigues' formula ``R = I + sinθ/θ [r]× + (1 − cosθ)/θ² [r]×²``, smooth at ``θ = 0``."""
     r = jnp.asarray(rotation_vector)
@@ -200,6 +201,7 @@ def to_camera_frame(camera: Camera, points_world: Float[ArrayLike, "*points 3"])
     return jnp.einsum("ij,...j->...i", camera.rotation, points.astype(dtype)) + camera.translation
 
 
+@eqx.filter_jit
 def project_with_depth(
     camera: Camera, points_world: Float[ArrayLike, "*points 3"]
 ) -> tuple[Float[Array, "*points 2"], Float[Array, "*points"]]:

@@ -134,6 +134,7 @@ def _torso_length(markers: Array) -> Array:
     return jnp.linalg.norm(torso, axis=-1)
 
 
+@eqx.filter_jit
 def build_template(markers_2d: Float[ArrayLike, "time markers 2"]) -> SPMTemplate:
     """The template of a training set: mean normalised link lengths and mean link directions.
 
@@ -157,6 +158,7 @@ def build_template(markers_2d: Float[ArrayLike, "time markers 2"]) -> SPMTemplat
     )
 
 
+@eqx.filter_jit
 def spm_forward(
     state: Float[ArrayLike, "25"], template: SPMTemplate
 ) -> Float[Array, "markers 2"]:
@@ -177,6 +179,7 @@ def spm_forward(
     return state[1:3] + jnp.asarray(_ANCESTRY, dtype) @ vectors
 
 
+@eqx.filter_jit
 def spm_initial_state(
     markers_2d: Float[ArrayLike, "*batch markers 2"],
     template: SPMTemplate,

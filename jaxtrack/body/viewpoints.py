@@ -46,6 +46,7 @@ def viewpoint_direction(viewpoint: Viewpoint) -> Float[Array, "*batch 3"]:
     )
 
 
+@eqx.filter_jit
 def sample_viewpoints(
     key: Key[Array, ""],
     num: int,
@@ -85,6 +86,7 @@ def sample_viewpoints(
     return Viewpoint(azimuth=azimuth, elevation=jnp.arcsin(sine), distance=distances)
 
 
+@eqx.filter_jit
 def frame_subject(
     points_world: Float[ArrayLike, "time joints 3"],
     view: Viewpoint | Camera,
