@@ -1,18 +1,15 @@
 """Cameras: projection against OpenCV, transformations, the Qualisys reader, viewpoints."""
 
+from pathlib import Path
+
+import cv2
 import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
 
-jax.config.update("jax_enable_x64", True)  # until tests/conftest.py sets it for the whole suite
-
-from pathlib import Path  # noqa: E402
-
-import cv2  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
-import jax.random as jr  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-from jaxtrack.body.camera import (  # noqa: E402
+from jaxtrack.body.camera import (
     Camera,
     look_at,
     project,
@@ -21,7 +18,7 @@ from jaxtrack.body.camera import (  # noqa: E402
     rotation_from_rotation_vector,
     stack_cameras,
 )
-from jaxtrack.body.viewpoints import frame_subject, sample_viewpoints  # noqa: E402
+from jaxtrack.body.viewpoints import frame_subject, sample_viewpoints
 
 QCA = Path("/work/shared/data/pose2sim_demo_singleperson/Calib.qca.txt")
 needs_qca = pytest.mark.skipif(not QCA.is_file(), reason="real Qualisys calibration not present")

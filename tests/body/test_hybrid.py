@@ -1,16 +1,13 @@
 """Ong & Gong's hybrid vector: layout, round trip, batching, a contour from a real mask."""
 
+import cv2
 import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
 
-jax.config.update("jax_enable_x64", True)  # until tests/conftest.py sets it for the whole suite
-
-import cv2  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-from jaxtrack.body.hybrid import HybridLayout, make_hybrid, split_hybrid  # noqa: E402
-from jaxtrack.vision.contours import silhouette_contour  # noqa: E402
+from jaxtrack.body.hybrid import HybridLayout, make_hybrid, split_hybrid
+from jaxtrack.vision.contours import silhouette_contour
 
 
 def random_parts(rng, batch=(), num_contour=100, num_skeleton=12):

@@ -1,18 +1,15 @@
 """Scaled Prismatic Model: exact round trip on real projected mocap, gradients, transformations."""
 
+import functools
+
 import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+import pytest
 
-jax.config.update("jax_enable_x64", True)  # until tests/conftest.py sets it for the whole suite
-
-import functools  # noqa: E402
-
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-import optimistix as optx  # noqa: E402
-import pytest  # noqa: E402
-
-from jaxtrack.body.camera import project  # noqa: E402
-from jaxtrack.body.spm import (  # noqa: E402
+from jaxtrack.body.camera import project
+from jaxtrack.body.spm import (
     SPM_LINKS,
     SPM_MARKERS,
     SPM_STATE_NAMES,
@@ -23,7 +20,7 @@ from jaxtrack.body.spm import (  # noqa: E402
     spm_forward,
     spm_initial_state,
 )
-from jaxtrack.body.viewpoints import Viewpoint, frame_subject  # noqa: E402
+from jaxtrack.body.viewpoints import Viewpoint, frame_subject
 
 FRAMES = 30  # frames per sequence: one shape, so spm_fit compiles once for the whole module
 IMAGE_SIZE = (640, 480)
