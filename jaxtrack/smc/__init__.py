@@ -1,0 +1,50 @@
+"""Generic sequential Monte Carlo engine: knows nothing of bodies or images.
+
+Models implement ``StateSpaceModel`` for one particle; ``run`` filters a whole sequence in one
+compiled ``lax.scan``; ``step`` is the same frame update for online use.
+"""
+
+from jaxtrack.smc._batch import run_batch
+from jaxtrack.smc._filter import (
+    FilterResult,
+    FilterState,
+    StepInfo,
+    best_particle,
+    filter_sequence,
+    initialize,
+    run,
+    step,
+    weighted_mean,
+)
+from jaxtrack.smc._linear_gaussian import (
+    KalmanResult,
+    LinearGaussian,
+    kalman_filter,
+    random_linear_gaussian,
+    rts_smoother,
+)
+from jaxtrack.smc._model import StateSpaceModel
+from jaxtrack.smc._resampling import (
+    Multinomial,
+    Resampler,
+    Residual,
+    SoftResampling,
+    StopGradient,
+    Stratified,
+    Systematic,
+    effective_sample_size,
+    multinomial_ancestors,
+    residual_ancestors,
+    stratified_ancestors,
+    systematic_ancestors,
+)
+from jaxtrack.smc._smoothing import SmoothedPaths, discrete_marginals, ffbsi, trace_ancestry
+
+__all__ = [
+    "FilterResult", "FilterState", "KalmanResult", "LinearGaussian", "Multinomial", "Resampler",
+    "Residual", "SmoothedPaths", "SoftResampling", "StateSpaceModel", "StepInfo", "StopGradient",
+    "Stratified", "Systematic", "best_particle", "discrete_marginals", "effective_sample_size",
+    "ffbsi", "filter_sequence", "initialize", "kalman_filter", "multinomial_ancestors",
+    "random_linear_gaussian", "residual_ancestors", "rts_smoother", "run", "run_batch", "step",
+    "stratified_ancestors", "systematic_ancestors", "trace_ancestry", "weighted_mean",
+]
