@@ -1,0 +1,243 @@
+"""Rendered sequences with exact ground truth, and their versioned `.npz` file format.
+
+A file holds the arrays of a :class:`RenderedSequence` plus one JSON string, `metadata`, with the
+format name and version, image size, fps, marker names, camera, source clip, seed and render
+settings. Silhouettes are stored bit-packed along the width. Files are written atomically (a
+temporary file in the same folder, then `os.replace`), so a reader never sees half a file and a
+failed write leaves nothing behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+
+from jaxtrack.body.camera import Camera
+
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "RenderedSequence", "SequenceFormatError",
+           "load_sequence", "save_sequence", "write_video"]
+
+FORMAT_NAME = "jaxtrack.sequence"
+FORMAT_VERSION = 1
+_ARRAYS = ("images", "silhouettes", "markers_2d", "joints_3d", "visibility")
+_CAMERA_FIELDS = ("focal_length", "principal_point", "rotation", "translation", "distortion")
+
+
+class SequenceFormatError(ValueError):
+    """A sequence file is missing, damaged or of another format; the message names the file."""
+
+
+@dataclass(frozen=True, eq=False)
+class RenderedSequence:
+    """Frames rendered from real motion, with exact ground truth per frame.
+
+    Attributes:
+        images: `(time, height, width, 3)` uint8 RGB.
+        silhouettes: `(time, height, width)` bool, the figure's own pixels minus occluders.
+        markers_2d: `(time, markers, 2)` float pixels (OpenCV: pixel centres at integers).
+        joints_3d: `(time, markers, 3)` float world metres, Y up.
+        visibility: `(time, markers)` bool: in the image, not behind a nearer body part, not under
+            an occluder.
+        marker_names: `(markers,)` names.
+        camera: the camera the frames were rendered with (its `image_size` is the frames' size).
+        fps: frames per second.
+        source: the motion clip the frames come from.
+        seed: the render's random seed.
+        settings: JSON-able render settings (background, noise, blur, lighting, occluders, ...).
+    """
+
+    images: np.ndarray
+    silhouettes: np.ndarray
+    markers_2d: np.ndarray
+    joints_3d: np.ndarray
+    visibility: np.ndarray
+    marker_names: tuple[str, ...]
+    camera: Camera
+    fps: float
+    source: str
+    seed: int
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def num_frames(self) -> int:
+        return self.images.shape[0]
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """`(width, height)`."""
+        return self.images.shape[2], self.images.shape[1]
+
+
+def _camera_to_json(camera: Camera) -> dict:
+    values = {name: np.asarray(getattr(camera, name), dtype=np.float64).tolist()
+              for name in _CAMERA_FIELDS}
+    return {**values, "image_size": list(camera.image_size), "name": camera.name}
+
+
+def _camera_from_json(values: dict) -> Camera:
+    return Camera(**{name: jnp.asarray(np.array(values[name], dtype=np.float64))
+                     for name in _CAMERA_FIELDS},
+                  image_size=tuple(int(v) for v in values["image_size"]), name=values["name"])
+
+
+def _write_atomically(path: Path, write, suffix: str = ".tmp") -> None:
+    """Call `write(temporary_path)`, then move the result onto `path`; on any failure remove the
+    temporary file and leave `path` as it was."""
+    path = Path(path)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
+                                         suffix=suffix)
+    os.close(handle)
+    try:
+        write(Path(temporary))
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes it private; a plain file is not
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def save_sequence(path: str | os.PathLike, sequence: RenderedSequence, *,
+                  compress: bool = False) -> Path:
+    """Write `sequence` to `path` (`.npz`, written as named, atomically). Returns the path.
+
+    Args:
+        compress: zlib-compress the arrays (about 3x smaller images, several times slower).
+    """
+    path = Path(path)
+    metadata = {
+        "format": FORMAT_NAME, "format_version": FORMAT_VERSION,
+        "image_size": list(sequence.image_size), "num_frames": sequence.num_frames,
+        "fps": float(sequence.fps), "marker_names": list(sequence.marker_names),
+        "camera": _camera_to_json(sequence.camera), "source": sequence.source,
+        "seed": int(sequence.seed), "settings": sequence.settings,
+    }
+    arrays = {
+        "images": np.asarray(sequence.images, np.uint8),
+        "silhouettes": np.packbits(np.asarray(sequence.silhouettes, bool), axis=-1),
+        "markers_2d": np.asarray(sequence.markers_2d, np.float64),
+        "joints_3d": np.asarray(sequence.joints_3d, np.float64),
+        "visibility": np.asarray(sequence.visibility, bool),
+        "metadata": np.array(json.dumps(metadata)),
+    }
+    saver = np.savez_compressed if compress else np.savez
+
+    def write(temporary: Path) -> None:
+        with open(temporary, "wb") as file:
+            saver(file, **arrays)
+            file.flush()
+            os.fsync(file.fileno())
+
+    _write_atomically(path, write)
+    return path
+
+
+def load_sequence(path: str | os.PathLike) -> RenderedSequence:
+    """Read a file written by :func:`save_sequence`.
+
+    Raises:
+        SequenceFormatError: the file is missing, truncated or corrupt, of another format or
+            version, or lacks an array; the message names the file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SequenceFormatError(f"{path}: no such sequence file")
+    try:
+        with np.load(path, allow_pickle=False) as contents:
+            if "metadata" not in contents.files:
+                raise SequenceFormatError(f"{path}: not a jaxtrack sequence (no metadata)")
+            metadata = json.loads(str(contents["metadata"]))
+            if metadata.get("format") != FORMAT_NAME:
+                raise SequenceFormatError(f"{path}: format is {metadata.get('format')!r}, "
+                                          f"expected {FORMAT_NAME!r}")
+            if metadata.get("format_version") != FORMAT_VERSION:
+                raise SequenceFormatError(
+                    f"{path}: format version {metadata.get('format_version')!r} is not supported "
+                    f"(this jaxtrack reads version {FORMAT_VERSION}); re-render the sequence")
+            missing = [name for name in _ARRAYS if name not in contents.files]
+            if missing:
+                raise SequenceFormatError(f"{path}: missing arrays {missing}")
+            arrays = {name: contents[name] for name in _ARRAYS}
+    except SequenceFormatError:
+        raise
+    except (OSError, EOFError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as error:
+        raise SequenceFormatError(f"{path}: damaged or not an .npz sequence file "
+                                  f"({type(error).__name__}: {error})") from error
+    try:
+        width, height = metadata["image_size"]
+        silhouettes = np.unpackbits(arrays["silhouettes"], axis=-1, count=width).astype(bool)
+        sequence = RenderedSequence(
+            images=arrays["images"], silhouettes=silhouettes, markers_2d=arrays["markers_2d"],
+            joints_3d=arrays["joints_3d"], visibility=arrays["visibility"],
+            marker_names=tuple(metadata["marker_names"]),
+            camera=_camera_from_json(metadata["camera"]), fps=float(metadata["fps"]),
+            source=str(metadata["source"]), seed=int(metadata["seed"]),
+            settings=dict(metadata.get("settings", {})),
+        )
+    except (KeyError, TypeError, ValueError) as error:
+        raise SequenceFormatError(f"{path}: inconsistent metadata or arrays ({error})") from error
+    expected = (sequence.num_frames, height, width)
+    if sequence.images.shape != (*expected, 3) or sequence.silhouettes.shape != expected:
+        raise SequenceFormatError(f"{path}: images {sequence.images.shape} do not match the "
+                                  f"metadata's {sequence.num_frames} frames of {width}x{height}")
+    return sequence
+
+
+def draw_overlay(image: np.ndarray, markers: np.ndarray, visible: np.ndarray,
+                 marker_names: tuple[str, ...], *, skeleton: bool = True) -> np.ndarray:
+    """A copy of `image` (RGB) with the markers `(markers, 2)` as dots (hollow where not visible)
+    and the stick figure `MARKER_EDGES` between them."""
+    import cv2
+
+    from jaxtrack.body.markers import marker_edges
+
+    image = np.ascontiguousarray(image).copy()
+    points = [tuple(int(v) for v in np.round(p)) for p in np.nan_to_num(markers, nan=-1e4)]
+    if skeleton:
+        for a, b in marker_edges(tuple(marker_names)):
+            cv2.line(image, points[a], points[b], (255, 255, 0), 1, cv2.LINE_AA)
+    for point, seen in zip(points, visible, strict=True):
+        cv2.circle(image, point, 3, (255, 0, 0) if seen else (0, 200, 255), -1 if seen else 1,
+                   cv2.LINE_AA)
+    return image
+
+
+def write_video(sequence: RenderedSequence, path: str | os.PathLike, fps: float | None = None, *,
+                overlay: bool = False) -> Path:
+    """Write the frames as an `.mp4` (OpenCV `mp4v`), atomically; with `overlay`, markers and
+    skeleton are drawn on top. Returns the path.
+
+    Raises:
+        OSError: OpenCV cannot open a writer for the file.
+    """
+    import cv2
+
+    path = Path(path)
+    fps = float(sequence.fps if fps is None else fps)
+    width, height = sequence.image_size
+
+    def write(temporary: Path) -> None:
+        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), fps,
+                                 (width, height))
+        if not writer.isOpened():
+            raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
+        try:
+            for t, image in enumerate(sequence.images):
+                if overlay:
+                    image = draw_overlay(image, sequence.markers_2d[t], sequence.visibility[t],
+                                         sequence.marker_names)
+                writer.write(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        finally:
+            writer.release()
+
+    # the temporary name ends in .mp4 because OpenCV picks the container from the extension
+    _write_atomically(path, write, suffix=".mp4")
+    return path
