@@ -172,3 +172,15 @@ def test_renderer_modules_import_without_opencv():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                             timeout=120)
     assert result.stdout.strip() == "ok", result.stderr
+
+
+def test_an_image_array_is_fitted_as_the_background():
+    motion = clip(WAVE).select(0, 2)
+    backdrop = np.zeros((60, 200, 3), np.uint8)
+    backdrop[:, 40:160] = (10, 200, 30)  # the centred 4:3 crop is all green
+    sequence = render_motion(motion, frontal_camera(motion, (80, 60)), background=backdrop,
+                             progress=False)
+    outside = ~sequence.silhouettes[0]
+    assert (sequence.images[0][outside] == (10, 200, 30)).all()
+    with pytest.raises(ValueError, match="uint8"):
+        render_motion(motion, frontal_camera(motion, (80, 60)), background=backdrop * 1.0)
