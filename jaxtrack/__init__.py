@@ -2,7 +2,7 @@
 
 Subpackages (data flows down the list; lower layers never import higher ones):
 
-- ``jaxtrack.smc``          generic SMC engine: ``run``, ``step``, resamplers, smoothers, Kalman reference
+- ``jaxtrack.smc``          generic SMC engine: ``run``, ``step``, resamplers, smoothers, Kalman
 - ``jaxtrack.body``         motion capture, skeletons, marker sets, cameras, pose models, renderer
 - ``jaxtrack.priors``       learned pose spaces (GPLVM, linear combinations) and dynamics
 - ``jaxtrack.vision``       OpenCV image preprocessing (the only place cv2/kornia are imported)

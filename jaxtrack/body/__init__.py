@@ -27,6 +27,23 @@ from jaxtrack.body.markers import (
     marker_positions,
 )
 from jaxtrack.body.motion import MocapFormatError, Motion, load_motion
+from jaxtrack.body.render import (
+    BACKGROUNDS,
+    Lighting,
+    fit_camera,
+    frontal_camera,
+    random_camera,
+    render_motion,
+    scale_camera,
+    stage_for_cameras,
+)
+from jaxtrack.body.sequence import (
+    RenderedSequence,
+    SequenceFormatError,
+    load_sequence,
+    save_sequence,
+    write_video,
+)
 from jaxtrack.body.spm import (
     SPM_LINKS,
     SPM_MARKERS,
@@ -48,6 +65,9 @@ from jaxtrack.body.viewpoints import (
 )
 
 __all__ = [
+    "BACKGROUNDS", "Lighting", "RenderedSequence", "SequenceFormatError", "fit_camera",
+    "frontal_camera", "load_sequence", "random_camera", "render_motion", "save_sequence",
+    "scale_camera", "stage_for_cameras", "write_video",
     "HUMANEVA_15", "MARKER_EDGES", "RIG_MARKER_MAPS", "SPM_LINKS", "SPM_MARKERS",
     "SPM_STATE_NAMES", "SPM_STATE_SIZE", "UPPER_BODY_12", "Camera", "HybridLayout", "HybridParts",
     "MarkerMapError", "MocapFormatError", "Motion", "SPMFitInfo", "SPMTemplate", "Viewpoint",

@@ -24,6 +24,7 @@ from jaxtrack.smc._linear_gaussian import (
     rts_smoother,
 )
 from jaxtrack.smc._model import StateSpaceModel
+from jaxtrack.smc._random import fast_normal
 from jaxtrack.smc._resampling import (
     Multinomial,
     Resampler,
@@ -44,7 +45,8 @@ __all__ = [
     "FilterResult", "FilterState", "KalmanResult", "LinearGaussian", "Multinomial", "Resampler",
     "Residual", "SmoothedPaths", "SoftResampling", "StateSpaceModel", "StepInfo", "StopGradient",
     "Stratified", "Systematic", "best_particle", "discrete_marginals", "effective_sample_size",
-    "ffbsi", "filter_sequence", "initialize", "kalman_filter", "multinomial_ancestors",
+    "fast_normal", "ffbsi", "filter_sequence", "initialize", "kalman_filter",
+    "multinomial_ancestors",
     "random_linear_gaussian", "residual_ancestors", "rts_smoother", "run", "run_batch", "step",
     "stratified_ancestors", "systematic_ancestors", "trace_ancestry", "weighted_mean",
 ]

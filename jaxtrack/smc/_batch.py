@@ -97,7 +97,7 @@ def run_batch(
     for start in range(0, size, chunk_size):
         part = slice(start, min(start + chunk_size, size))
         results.append(_run_chunk(
-            keys[part], model, jax.tree.map(lambda leaf: leaf[part], observations),
+            keys[part], model, jax.tree.map(lambda leaf, part=part: leaf[part], observations),
             num_particles, options,
         ))
     return jax.tree.map(lambda *parts: jnp.concatenate(parts), *results)

@@ -122,7 +122,10 @@ def _measure(key, model, particles, prior_log_weights, observation, axis_name):
 
     # Under vmap over sequences the predicate is made unbatched (any sequence degenerate), so
     # the re-seeding is computed only on frames that need it instead of on every frame.
-    any_degenerate = degenerate if axis_name is None else lax.psum(degenerate.astype(jnp.int32), axis_name) > 0
+    if axis_name is None:
+        any_degenerate = degenerate
+    else:
+        any_degenerate = lax.psum(degenerate.astype(jnp.int32), axis_name) > 0
     particles, log_weights = lax.cond(any_degenerate, reseed, keep_going, None)
     return particles, log_weights, increment, degenerate, num_invalid
 

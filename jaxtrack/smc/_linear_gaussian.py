@@ -17,18 +17,28 @@ from jax import lax
 from jaxtyping import Array, Float, PRNGKeyArray
 
 from jaxtrack.smc._model import StateSpaceModel
+from jaxtrack.smc._random import fast_normal
 
 
 def _mvn_log_density(residual, cholesky):
-    """log N(residual; 0, L Lᵀ) for one vector."""
-    solved = jsl.solve_triangular(cholesky, residual, lower=True)
+    """log N(residual; 0, L Lᵀ) for one vector.
+
+    L⁻¹ is formed explicitly: it depends only on the model, so under the engine's vmap over
+    particles it is computed once per frame and each particle costs one matvec; a batched
+    triangular solve per particle was 3x slower on CPU.
+    """
+    identity = jnp.eye(cholesky.shape[0], dtype=cholesky.dtype)
+    solved = jsl.solve_triangular(cholesky, identity, lower=True) @ residual
     log_det = 2.0 * jnp.sum(jnp.log(jnp.diagonal(cholesky)))
     dim = residual.shape[-1]
     return -0.5 * (jnp.dot(solved, solved) + log_det + dim * math.log(2.0 * math.pi))
 
 
 class LinearGaussian(StateSpaceModel):
-    """Linear-Gaussian model with dense matrices; all fields are differentiable arrays."""
+    """Linear-Gaussian model with dense matrices; all fields are differentiable arrays.
+
+    Noise comes from ``fast_normal`` (threefry ``jax.random.normal`` for float64).
+    """
 
     transition_matrix: Float[Array, "state state"]
     transition_covariance: Float[Array, "state state"]
@@ -60,11 +70,11 @@ class LinearGaussian(StateSpaceModel):
         return self.transition_matrix.shape[0]
 
     def init(self, key):
-        noise = jr.normal(key, (self.state_dim,), self.initial_mean.dtype)
+        noise = fast_normal(key, (self.state_dim,), self.initial_mean.dtype)
         return self.initial_mean + jnp.linalg.cholesky(self.initial_covariance) @ noise
 
     def propagate(self, key, particle, time):
-        noise = jr.normal(key, particle.shape, particle.dtype)
+        noise = fast_normal(key, particle.shape, particle.dtype)
         cholesky = jnp.linalg.cholesky(self.transition_covariance)
         return self.transition_matrix @ particle + cholesky @ noise
 
@@ -83,7 +93,7 @@ class LinearGaussian(StateSpaceModel):
         obs_cholesky = jnp.linalg.cholesky(self.observation_covariance)
 
         def observe(key, state):
-            noise = jr.normal(key, (obs_dim,), state.dtype)
+            noise = fast_normal(key, (obs_dim,), state.dtype)
             return self.observation_matrix @ state + obs_cholesky @ noise
 
         def body(state, key):

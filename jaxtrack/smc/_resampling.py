@@ -62,7 +62,7 @@ def _cumulative_weights(log_weights: LogWeights) -> tuple[Array, Array]:
 
 
 def _search(weights: Array, cumulative: Array, positions: Array) -> Ancestors:
-    """Parents for ``positions`` in ``[0, total)``: index i with cumulative[i-1] <= u < cumulative[i].
+    """Parents of ``positions`` in [0, total): the i with cumulative[i-1] <= u < cumulative[i].
 
     ``side='right'`` skips empty (zero-weight) intervals; rounding of ``u * total`` up to the
     total is mapped to the last particle of positive weight, never past it.

@@ -21,8 +21,8 @@ def problem(request):
 
 def _runs(model, observations, num_particles, seed=0):
     keys = jr.split(jr.key(seed), NUM_RUNS)
-    return smc.run_batch(keys, model, jnp.broadcast_to(observations, (NUM_RUNS, *observations.shape)),
-                         num_particles)
+    batch = jnp.broadcast_to(observations, (NUM_RUNS, *observations.shape))
+    return smc.run_batch(keys, model, batch, num_particles)
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +81,8 @@ def test_kalman_filter_matches_dense_gaussian_evidence():
     joint += np.kron(np.eye(num), R)
     flat = np.asarray(observations).reshape(-1)
     sign, log_det = np.linalg.slogdet(joint)
-    expected = -0.5 * (flat @ np.linalg.solve(joint, flat) + log_det + flat.size * np.log(2 * np.pi))
+    quadratic = flat @ np.linalg.solve(joint, flat)
+    expected = -0.5 * (quadratic + log_det + flat.size * np.log(2 * np.pi))
     assert sign > 0
     np.testing.assert_allclose(float(smc.kalman_filter(model, observations).log_evidence), expected,
                                rtol=1e-9)

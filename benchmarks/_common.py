@@ -1,0 +1,67 @@
+"""Shared helpers for the benchmark scripts: timing, memory, device name, table and JSON output."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import resource
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import jax
+
+
+def device_description() -> str:
+    device = jax.devices()[0]
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as handle:
+            names = [line.split(":", 1)[1].strip() for line in handle if "model name" in line]
+        cpu = names[0] if names else cpu
+    except OSError:
+        pass
+    cores = os.cpu_count()
+    return f"{device.platform}:{device.device_kind} ({cores} cores, {cpu}), jax {jax.__version__}"
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far (MB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def time_call(function, *args, repeats: int = 3):
+    """(compile+first-run seconds, median seconds of ``repeats`` further runs, last output)."""
+    start = time.perf_counter()
+    output = jax.block_until_ready(function(*args))
+    first = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        output = jax.block_until_ready(function(*args))
+        times.append(time.perf_counter() - start)
+    median = statistics.median(times) if times else first
+    return max(first - median, 0.0), median, output
+
+
+def print_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> None:
+    """columns: (key, header, format)."""
+    headers = [header for _, header, _ in columns]
+    cells = [[format(row[key], fmt) if row.get(key) is not None else "-" for key, _, fmt in columns]
+             for row in rows]
+    widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(headers)]
+    print("  ".join(h.rjust(w) for h, w in zip(headers, widths, strict=True)))
+    for line in cells:
+        print("  ".join(c.rjust(w) for c, w in zip(line, widths, strict=True)))
+
+
+def write_json(path: str | Path, payload: dict) -> None:
+    """Write JSON atomically (temp file + rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False, suffix=".tmp") as handle:
+        json.dump(payload, handle, indent=2)
+        temp = handle.name
+    os.replace(temp, path)
