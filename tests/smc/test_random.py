@@ -1,0 +1,39 @@
+"""fast_normal: distribution, independence across keys, extreme bit patterns, float64 fallback."""
+
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+from scipy import stats
+
+from jaxtrack import smc
+from jaxtrack.smc._random import bits_to_normal
+
+
+def test_extreme_bits_give_finite_symmetric_draws():
+    bits = jnp.array([0, 0xFF, 0x7FFFFF00, 0x80000000, 0xFFFFFF00, 0xFFFFFFFF], jnp.uint32)
+    draws = np.asarray(bits_to_normal(bits))
+    assert np.all(np.isfinite(draws))
+    assert draws[0] == -draws[-1] and 5.0 < draws[-1] < 5.6
+    assert abs(draws[2]) < 1e-6 and abs(draws[3]) < 1e-6
+
+
+def test_per_particle_draws_are_standard_normal_and_independent():
+    keys = jr.split(jr.key(0), 40_000)
+    draws = np.asarray(jax.vmap(lambda key: smc.fast_normal(key, (25,)))(keys))
+    assert draws.dtype == np.float32 and np.all(np.isfinite(draws))
+    flat = draws.ravel()
+    assert stats.kstest(flat, "norm").pvalue > 1e-3
+    assert abs(flat.mean()) < 5 / np.sqrt(flat.size)
+    assert abs(flat.var() - 1) < 5 * np.sqrt(2 / flat.size)
+    # Neither across coordinates of one key nor across neighbouring keys correlated.
+    assert abs(np.corrcoef(draws[:, 0], draws[:, 1])[0, 1]) < 0.03
+    assert abs(np.corrcoef(draws[:-1, 0], draws[1:, 0])[0, 1]) < 0.03
+    # No two particles share a stream.
+    assert len(np.unique(draws[:, 0])) > 0.99 * len(keys)
+
+
+def test_float64_falls_back_to_threefry():
+    key = jr.key(3)
+    np.testing.assert_array_equal(smc.fast_normal(key, (5,), jnp.float64),
+                                  jr.normal(key, (5,), jnp.float64))
