@@ -78,8 +78,8 @@ def learn_process_noise(key, detections, fps, steps: int = 30, learning_rate: fl
 
     value_and_grad = jax.jit(jax.value_and_grad(objective))
     log_std, trace = jnp.asarray(math.log(50.0), jnp.float32), []
-    for key in jr.split(key, steps):
-        value, gradient = value_and_grad(log_std, key)
+    for step_key in jr.split(key, steps):
+        value, gradient = value_and_grad(log_std, step_key)
         trace.append((float(log_std), float(value)))
         log_std = log_std + learning_rate * jnp.clip(gradient, -5.0, 5.0)
     return log_std, trace
