@@ -194,21 +194,21 @@ def step(
     time = state.time + 1
     identity = jnp.arange(num, dtype=jnp.int32)
 
+    def select(key, log_weights):
+        """(ancestors, carried log weights, resampled?) for the three threshold regimes."""
+        if ess_threshold <= 0.0:
+            return identity, log_weights, jnp.asarray(False)
+        ancestors, carried = resampler(key, log_weights)
+        if ess_threshold >= 1.0:
+            return ancestors, carried, jnp.asarray(True)
+        resample = effective_sample_size(log_weights) < ess_threshold * num
+        return (jnp.where(resample, ancestors, identity), jnp.where(resample, carried, log_weights),
+                resample)
+
     def cycle(carry, key):
         particles, log_weights, ancestors_so_far, resampled_so_far = carry
         key_select, key_propagate, key_reseed = jr.split(key, 3)
-        if ess_threshold >= 1.0:
-            resample = jnp.asarray(True)
-        elif ess_threshold <= 0.0:
-            resample = jnp.asarray(False)
-        else:
-            resample = effective_sample_size(log_weights) < ess_threshold * num
-        if ess_threshold <= 0.0:
-            ancestors, carried = identity, log_weights
-        else:
-            ancestors, carried = resampler(key_select, log_weights)
-            ancestors = jnp.where(resample, ancestors, identity)
-            carried = jnp.where(resample, carried, log_weights)
+        ancestors, carried, resample = select(key_select, log_weights)
         parents = _gather(particles, ancestors)
         children = jax.vmap(model.propagate, in_axes=(0, 0, None))(
             jr.split(key_propagate, num), parents, time

@@ -41,11 +41,10 @@ def _key_words(key: PRNGKeyArray) -> tuple[Array, Array]:
     if data.shape[0] < 2:
         raise ValueError("fast_normal needs a key with at least two 32-bit words")
     # Fold extra words (rbg keys have four) into the two used ones.
-    first, second = data[0], data[1]
+    words = [data[0], data[1]]
     for index in range(2, data.shape[0]):
-        first = _lowbias32(first ^ data[index]) if index % 2 == 0 else first
-        second = _lowbias32(second ^ data[index]) if index % 2 else second
-    return first, second
+        words[index % 2] = _lowbias32(words[index % 2] ^ data[index])
+    return words[0], words[1]
 
 
 def fast_uniform_bits(key: PRNGKeyArray, shape: tuple[int, ...]) -> Array:

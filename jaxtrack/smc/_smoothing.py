@@ -75,8 +75,7 @@ def ffbsi(
     def pick(particles, indices):
         return jax.tree.map(lambda leaf: leaf[indices], particles)
 
-    def back(carry, inputs):
-        following, = carry
+    def back(following, inputs):
         key, particles_t, log_weights_t, time = inputs
 
         def one_path(key, following_particle):
@@ -87,7 +86,7 @@ def ffbsi(
 
         indices = jax.vmap(one_path)(jr.split(key, num_paths), following)
         chosen = pick(particles_t, indices)
-        return (chosen,), chosen
+        return chosen, chosen
 
     final_particles = jax.tree.map(lambda leaf: leaf[-1], result.particles)
     following = pick(final_particles, last)
@@ -97,7 +96,7 @@ def ffbsi(
         result.log_weights[:-1],
         jnp.arange(num_frames - 1),
     )
-    _, earlier = lax.scan(back, (following,), inputs, reverse=True)
+    _, earlier = lax.scan(back, following, inputs, reverse=True)
     paths = jax.tree.map(lambda head, tail: jnp.concatenate([head, tail[None]]), earlier, following)
     log_weights = jnp.full((num_paths,), -jnp.log(num_paths), dtype=result.log_weights.dtype)
     mean = jax.vmap(weighted_mean, in_axes=(0, None))(paths, log_weights)
