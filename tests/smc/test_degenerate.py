@@ -7,6 +7,8 @@ import pytest
 
 from jaxtrack import smc
 
+from .helpers import rebuild
+
 
 class GatedModel(smc.LinearGaussian):
     """Observations above 100 are impossible under every state; NaN observations give NaN."""
@@ -19,9 +21,7 @@ class GatedModel(smc.LinearGaussian):
 @pytest.fixture(scope="module")
 def model():
     base = smc.random_linear_gaussian(jr.key(0), 2, 1)
-    return GatedModel(base.transition_matrix, base.transition_covariance,
-                      base.observation_matrix, base.observation_covariance, base.initial_mean,
-                      base.initial_covariance)
+    return rebuild(GatedModel, base)
 
 
 @pytest.mark.parametrize("impossible_frame", [0, 3])
@@ -48,9 +48,7 @@ def test_nan_likelihoods_are_counted_and_dropped(model):
             value = super().log_likelihood(particle, observation)
             return jnp.where(particle[0] > 0, jnp.nan, value)
 
-    nan_model = HalfNaN(*(getattr(model, f) for f in (
-        "transition_matrix", "transition_covariance", "observation_matrix",
-        "observation_covariance", "initial_mean", "initial_covariance")))
+    nan_model = rebuild(HalfNaN, model)
     result = smc.run(jr.key(4), nan_model, observations, 100)
     assert np.all(result.num_invalid > 0)
     assert np.all(np.isfinite(result.mean)) and np.isfinite(float(result.log_evidence))

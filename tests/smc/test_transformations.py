@@ -14,6 +14,8 @@ import pytest
 
 from jaxtrack import smc
 
+from .helpers import rebuild
+
 
 @pytest.fixture(scope="module")
 def problem():
@@ -62,9 +64,7 @@ TRACES: list[str] = []
 
 def test_no_retracing_across_frames_or_calls(problem):
     base, observations = problem
-    model = CountingModel(*(getattr(base, f) for f in (
-        "transition_matrix", "transition_covariance", "observation_matrix",
-        "observation_covariance", "initial_mean", "initial_covariance")))
+    model = rebuild(CountingModel, base)
     TRACES.clear()
     smc.run(jr.key(4), model, observations, 32)
     traced_once = len(TRACES)
