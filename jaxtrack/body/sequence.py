@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,6 +18,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
+from jaxtrack._files import write_atomically
 from jaxtrack.body.camera import Camera
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "RenderedSequence", "SequenceFormatError",
@@ -87,24 +87,6 @@ def _camera_from_json(values: dict) -> Camera:
                   image_size=tuple(int(v) for v in values["image_size"]), name=values["name"])
 
 
-def _write_atomically(path: Path, write, suffix: str = ".tmp") -> None:
-    """Call `write(temporary_path)`, then move the result onto `path`; on any failure remove the
-    temporary file and leave `path` as it was."""
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
-                                         suffix=suffix)
-    os.close(handle)
-    try:
-        write(Path(temporary))
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes it private; a plain file is not
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-
-
 def save_sequence(path: str | os.PathLike, sequence: RenderedSequence, *,
                   compress: bool = False) -> Path:
     """Write `sequence` to `path` (`.npz`, written as named, atomically). Returns the path.
@@ -136,7 +118,7 @@ def save_sequence(path: str | os.PathLike, sequence: RenderedSequence, *,
             file.flush()
             os.fsync(file.fileno())
 
-    _write_atomically(path, write)
+    write_atomically(path, write)
     return path
 
 
@@ -239,5 +221,5 @@ def write_video(sequence: RenderedSequence, path: str | os.PathLike, fps: float 
             writer.release()
 
     # the temporary name ends in .mp4 because OpenCV picks the container from the extension
-    _write_atomically(path, write, suffix=".mp4")
+    write_atomically(path, write, suffix=".mp4")
     return path
