@@ -1,0 +1,181 @@
+"""Videos of several trackers' estimates drawn over the frames, for looking at what the numbers say.
+
+Each method's stick figure gets its own colour; the ground truth, when given, is drawn thin and
+white underneath; a legend names the colours and a counter shows the frame. The video is written
+like :func:`jaxtrack.body.sequence.write_video`: OpenCV `mp4v`, atomically (a failed write leaves
+no file). cv2 is imported inside the functions.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from jaxtrack._files import write_atomically
+from jaxtrack.body.markers import marker_edges
+
+__all__ = ["METHOD_COLOURS", "TRUTH_COLOUR", "draw_tracks", "write_overlay_video"]
+
+METHOD_COLOURS = (
+    (255, 64, 64), (64, 160, 255), (64, 224, 64), (255, 208, 0), (224, 64, 255), (0, 224, 224),
+    (255, 140, 0), (160, 96, 255),
+)
+"""RGB colours given to methods in order (cycled when there are more methods)."""
+
+TRUTH_COLOUR = (255, 255, 255)
+
+
+def _point(xy) -> tuple[int, int] | None:
+    if not np.isfinite(xy).all() or np.abs(xy).max() > 1e5:
+        return None
+    return int(round(float(xy[0]))), int(round(float(xy[1])))
+
+
+def _draw_figure(cv2, image: np.ndarray, markers: np.ndarray, edges, colour, thickness: int,
+                 radius: int) -> None:
+    points = [_point(p) for p in markers]
+    for a, b in edges:
+        if points[a] is not None and points[b] is not None:
+            cv2.line(image, points[a], points[b], colour, thickness, cv2.LINE_AA)
+    for point in points:
+        if point is not None:
+            cv2.circle(image, point, radius, colour, -1, cv2.LINE_AA)
+
+
+def _text(cv2, image: np.ndarray, text: str, origin: tuple[int, int], colour, scale: float
+          ) -> None:
+    # a dark outline keeps the label readable on any background
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    cv2.putText(image, text, origin, font, scale, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(image, text, origin, font, scale, colour, 1, cv2.LINE_AA)
+
+
+def _colours(tracks: Mapping, colours: Mapping | None) -> dict:
+    chosen = {method: METHOD_COLOURS[i % len(METHOD_COLOURS)] for i, method in enumerate(tracks)}
+    if colours:
+        chosen.update({method: tuple(int(c) for c in colour)
+                       for method, colour in colours.items() if method in chosen})
+    return chosen
+
+
+def draw_tracks(image: np.ndarray, tracks: Mapping[str, np.ndarray], marker_names: Sequence[str],
+                *, truth: np.ndarray | None = None, label: str | None = None,
+                colours: Mapping[str, tuple[int, int, int]] | None = None) -> np.ndarray:
+    """A copy of one frame with each method's markers and skeleton in its colour.
+
+    Args:
+        image: `(height, width, 3)` uint8 RGB.
+        tracks: method -> `(markers, 2)` pixels; non-finite points are not drawn.
+        marker_names: `(markers,)` names (the skeleton is `jaxtrack.body.marker_edges`).
+        truth: optional `(markers, 2)` true markers, drawn thin and white under the methods.
+        label: text for the bottom-left corner (the frame counter).
+        colours: method -> RGB; defaults to :data:`METHOD_COLOURS` in the order of `tracks`.
+
+    Returns:
+        `(height, width, 3)` uint8 RGB.
+    """
+    import cv2
+
+    image = np.ascontiguousarray(image, dtype=np.uint8).copy()
+    height = image.shape[0]
+    edges = marker_edges(tuple(marker_names))
+    thickness = max(1, round(height / 240))
+    scale = max(0.3, height / 720)
+    line_height = max(10, round(28 * scale))
+    expected = (len(marker_names), 2)
+
+    def checked(name: str, markers) -> np.ndarray:
+        markers = np.asarray(markers, dtype=np.float64)
+        if markers.shape != expected:
+            raise ValueError(f"{name} has shape {markers.shape}, expected {expected} for "
+                             f"{len(marker_names)} marker names")
+        return markers
+
+    figures = {method: checked(f"tracks[{method!r}]", markers)
+               for method, markers in tracks.items()}
+    colours = _colours(tracks, colours)
+    if truth is not None:
+        _draw_figure(cv2, image, checked("truth", truth), edges, TRUTH_COLOUR, 1, thickness)
+    for method, markers in figures.items():
+        _draw_figure(cv2, image, markers, edges, colours[method], thickness, thickness + 2)
+    legend = [(str(method), colours[method]) for method in tracks]
+    if truth is not None:
+        legend.append(("truth", TRUTH_COLOUR))
+    for row, (text, colour) in enumerate(legend):
+        _text(cv2, image, text, (4, line_height * (row + 1)), colour, scale)
+    if label:
+        _text(cv2, image, label, (4, height - 6), TRUTH_COLOUR, scale)
+    return image
+
+
+def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
+                        path: str | os.PathLike, *, fps: float, marker_names: Sequence[str],
+                        truth: np.ndarray | None = None,
+                        colours: Mapping[str, tuple[int, int, int]] | None = None) -> Path:
+    """Write an `.mp4` (OpenCV `mp4v`) of the frames with every method's estimate drawn on top.
+
+    Args:
+        images: `(time, height, width, 3)` uint8 RGB frames.
+        tracks: method -> `(time, markers, 2)` estimated markers, pixels.
+        path: the video file, written atomically.
+        fps: frames per second of the video.
+        marker_names: `(markers,)` names.
+        truth: optional `(time, markers, 2)` true markers, drawn thin and white.
+        colours: method -> RGB; defaults to :data:`METHOD_COLOURS`.
+
+    Returns:
+        The path.
+
+    Raises:
+        ValueError: no tracks, or shapes that disagree (frames, markers); the message names the
+            argument.
+        OSError: OpenCV cannot open a writer for the file.
+    """
+    import cv2
+
+    images = np.asarray(images)
+    if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
+        raise ValueError(f"images must be (time, height, width, 3) uint8 RGB, got shape "
+                         f"{images.shape} dtype {images.dtype}")
+    num_frames, height, width = images.shape[:3]
+    if num_frames == 0:
+        raise ValueError("images has no frames")
+    if not tracks:
+        raise ValueError("tracks is empty; give at least one method's (time, markers, 2) track")
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    expected = (num_frames, len(marker_names), 2)
+    arrays = {}
+    for method, track in tracks.items():
+        track = np.asarray(track, dtype=np.float64)
+        if track.shape != expected:
+            raise ValueError(f"tracks[{method!r}] has shape {track.shape} but images has "
+                             f"{num_frames} frames and marker_names names "
+                             f"{len(marker_names)} markers: expected {expected}")
+        arrays[method] = track
+    if truth is not None:
+        truth = np.asarray(truth, dtype=np.float64)
+        if truth.shape != expected:
+            raise ValueError(f"truth has shape {truth.shape}, expected {expected}")
+    path = Path(path)
+
+    def write(temporary: Path) -> None:
+        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), float(fps),
+                                 (width, height))
+        if not writer.isOpened():
+            raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
+        try:
+            for t in range(num_frames):
+                frame = draw_tracks(images[t], {m: track[t] for m, track in arrays.items()},
+                                    marker_names, truth=None if truth is None else truth[t],
+                                    label=f"frame {t + 1}/{num_frames}", colours=colours)
+                writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
+        finally:
+            writer.release()
+
+    # the temporary name ends in .mp4 because OpenCV picks the container from the extension
+    write_atomically(path, write, suffix=".mp4")
+    return path

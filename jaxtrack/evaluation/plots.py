@@ -1,0 +1,188 @@
+"""Figures of tracking results: error over time, fraction of frames within ε, particle sweeps.
+
+matplotlib is imported inside the functions, so `import jaxtrack` works without it. Figures are
+built with the object-oriented API on an Agg canvas — no pyplot, so no global backend switch and
+no figure left registered (nothing to leak in a long benchmark) — and written atomically through
+:func:`jaxtrack._files.write_atomically`: a failed save leaves no partial file and keeps any
+earlier file at that path.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from jaxtrack._files import write_atomically
+
+__all__ = ["plot_errors_over_time", "plot_fraction_within", "plot_particle_sweep"]
+
+
+def _figure(width: float, height: float, columns: int = 1):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(1, columns)
+    return figure, axes
+
+
+def _save(figure, path: str | os.PathLike, dpi: int) -> Path:
+    path = Path(path)
+    # the temporary file's name does not end in the real suffix, so name the format explicitly
+    file_format = path.suffix.lstrip(".").lower() or "png"
+
+    def write(temporary: Path) -> None:
+        with open(temporary, "wb") as file:
+            figure.savefig(file, format=file_format, dpi=dpi)
+            file.flush()
+            os.fsync(file.fileno())
+
+    try:
+        write_atomically(path, write)
+    finally:
+        figure.clear()
+    return path
+
+
+def _check_methods(name: str, values: Mapping) -> None:
+    if not values:
+        raise ValueError(f"{name} is empty; give at least one method")
+
+
+def plot_errors_over_time(errors_torso: Mapping[str, Sequence[float]], path: str | os.PathLike,
+                          *, title: str | None = None, fps: float | None = None,
+                          failure_threshold: float = 0.25, dpi: int = 120) -> Path:
+    """Error per frame, as a fraction of the torso length, one line per method.
+
+    Args:
+        errors_torso: method -> `(time,)` errors (`evaluate_track(...)['errors_torso']`).
+        path: the image file (format from its suffix; `.png` if none).
+        title: figure title.
+        fps: label the x axis in seconds at this frame rate instead of frames.
+        failure_threshold: drawn as a dashed line (the failure criterion's threshold).
+
+    Returns:
+        The path.
+    """
+    _check_methods("errors_torso", errors_torso)
+    curves = {}
+    for method, errors in errors_torso.items():
+        errors = np.asarray(errors, dtype=np.float64)
+        if errors.ndim != 1 or errors.size == 0:
+            raise ValueError(f"errors_torso[{method!r}] must be a non-empty (time,) array, got "
+                             f"shape {errors.shape}")
+        curves[str(method)] = errors
+    if fps is not None and not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+
+    figure, axes = _figure(7.0, 3.5)
+    for method, errors in curves.items():
+        time = np.arange(errors.size) / (1.0 if fps is None else float(fps))
+        axes.plot(time, errors, label=method, linewidth=1.2)
+    axes.axhline(failure_threshold, color="black", linestyle="--", linewidth=1,
+                 label=f"failure ({failure_threshold:.0%} torso)")
+    axes.set_xlabel("time (s)" if fps is not None else "frame")
+    axes.set_ylabel("error / torso length")
+    axes.set_ylim(bottom=0)
+    axes.grid(True, alpha=0.3)
+    axes.legend(fontsize="small")
+    if title:
+        axes.set_title(title)
+    return _save(figure, path, dpi)
+
+
+def _fraction_curve(method: str, curve: Mapping) -> tuple[np.ndarray, np.ndarray]:
+    # accept a whole evaluate_track / summarise result as well as its 'fraction_within' dict
+    if "fraction_within" in curve and isinstance(curve["fraction_within"], Mapping):
+        curve = curve["fraction_within"]
+    if not curve:
+        raise ValueError(f"curves[{method!r}] has no points")
+    try:
+        points = sorted((float(eps), float(fraction)) for eps, fraction in curve.items())
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"curves[{method!r}] must map ε (a number or numeric string) to a "
+                         f"fraction: {error}") from error
+    epsilons, fractions = (np.array(values) for values in zip(*points, strict=True))
+    return epsilons, fractions
+
+
+def plot_fraction_within(curves: Mapping[str, Mapping], path: str | os.PathLike, *,
+                         title: str | None = None, dpi: int = 120) -> Path:
+    """The fraction of frames whose error is within ε torso lengths, against ε, per method.
+
+    Args:
+        curves: method -> {ε: fraction} (`evaluate_track(...)['fraction_within']`, keys may be
+            strings), or method -> a whole result holding `fraction_within`.
+        path: the image file.
+
+    Returns:
+        The path.
+    """
+    _check_methods("curves", curves)
+    points = {str(method): _fraction_curve(str(method), curve) for method, curve in curves.items()}
+    figure, axes = _figure(5.0, 4.0)
+    for method, (epsilons, fractions) in points.items():
+        axes.plot(epsilons, fractions, marker="o", markersize=3, label=method)
+    axes.set_xlabel("ε (fraction of torso length)")
+    axes.set_ylabel("fraction of frames with error ≤ ε")
+    axes.set_xlim(left=0)
+    axes.set_ylim(0, 1.02)
+    axes.grid(True, alpha=0.3)
+    axes.legend(fontsize="small", loc="lower right")
+    if title:
+        axes.set_title(title)
+    return _save(figure, path, dpi)
+
+
+_SWEEP_KEYS = ("method", "particles", "mean_error_torso", "ms_per_frame")
+
+
+def plot_particle_sweep(rows: Sequence[Mapping], path: str | os.PathLike, *,
+                        title: str | None = None, dpi: int = 120) -> Path:
+    """Accuracy and cost against the number of particles: two panels, log-x.
+
+    Args:
+        rows: dicts `{method, particles, mean_error_torso, ms_per_frame}`, one per run;
+            `ms_per_frame` may be None (that point is left out of the time panel).
+        path: the image file.
+
+    Returns:
+        The path.
+    """
+    rows = list(rows)
+    if not rows:
+        raise ValueError("rows is empty; give at least one {method, particles, ...} row")
+    series: dict[str, list[tuple[int, float, float]]] = {}
+    for i, row in enumerate(rows):
+        missing = [key for key in _SWEEP_KEYS if key not in row]
+        if missing:
+            raise ValueError(f"rows[{i}] lacks {missing}; each row needs {list(_SWEEP_KEYS)}")
+        particles = int(row["particles"])
+        if particles < 1:
+            raise ValueError(f"rows[{i}] has {particles} particles; the count must be positive")
+        milliseconds = row["ms_per_frame"]
+        series.setdefault(str(row["method"]), []).append(
+            (particles, float(row["mean_error_torso"]),
+             np.nan if milliseconds is None else float(milliseconds)))
+
+    figure, (error_axes, time_axes) = _figure(9.0, 3.5, columns=2)
+    for method, points in series.items():
+        particles, errors, milliseconds = (np.array(v) for v in zip(*sorted(points), strict=True))
+        error_axes.plot(particles, errors, marker="o", markersize=3, label=method)
+        timed = np.isfinite(milliseconds)
+        time_axes.plot(particles[timed], milliseconds[timed], marker="o", markersize=3,
+                       label=method)
+    for axes, label in ((error_axes, "mean error / torso length"), (time_axes, "ms per frame")):
+        axes.set_xscale("log")
+        axes.set_xlabel("particles")
+        axes.set_ylabel(label)
+        axes.set_ylim(bottom=0)
+        axes.grid(True, which="both", alpha=0.3)
+    error_axes.legend(fontsize="small")
+    if title:
+        figure.suptitle(title)
+    return _save(figure, path, dpi)
