@@ -1,1 +1,16 @@
-"""jaxtrack.likelihoods."""
+"""Likelihoods: one particle's fit to one frame's observations, pure JAX (the engine vmaps)."""
+
+from jaxtrack.likelihoods.ncc import (
+    DEFAULT_NCC_SHARPNESS,
+    NCCTemplates,
+    make_templates,
+    ncc_log_likelihood,
+    ncc_scores,
+    patch_half_size,
+    sample_patches,
+)
+
+__all__ = [
+    "DEFAULT_NCC_SHARPNESS", "NCCTemplates", "make_templates", "ncc_log_likelihood", "ncc_scores",
+    "patch_half_size", "sample_patches",
+]

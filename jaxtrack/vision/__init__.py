@@ -5,5 +5,16 @@ package does not need them.
 """
 
 from jaxtrack.vision.contours import resample_closed_curve, signed_area, silhouette_contour
+from jaxtrack.vision.faces import (
+    FaceDetectorUnavailableError,
+    detect_face,
+    detect_faces,
+    face_detector_available,
+)
+from jaxtrack.vision.video import VideoError, VideoFrames, iter_video_chunks, read_video, to_grey
 
-__all__ = ["resample_closed_curve", "signed_area", "silhouette_contour"]
+__all__ = [
+    "FaceDetectorUnavailableError", "VideoError", "VideoFrames", "detect_face", "detect_faces",
+    "face_detector_available", "iter_video_chunks", "read_video", "resample_closed_curve",
+    "signed_area", "silhouette_contour", "to_grey",
+]

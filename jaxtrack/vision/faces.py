@@ -1,0 +1,130 @@
+"""Frontal faces with OpenCV's Haar cascade (Viola & Jones), to find the head in a frame.
+
+A tracker can seed its first pose (or check the head marker) from a face box. The detector is
+OpenCV's ``CascadeClassifier`` with the frontal-face cascade that the ``opencv-python`` wheels
+ship in ``cv2.data.haarcascades``.
+
+OpenCV 5 removed ``CascadeClassifier`` from its main modules and its wheels no longer ship the
+cascade files; with it (or any build without them) :func:`face_detector_available` is False and
+the detectors raise :class:`FaceDetectorUnavailableError`, which says what to install. A cascade
+XML file elsewhere can be named with the ``cascade`` argument or the ``JAXTRACK_FACE_CASCADE``
+environment variable, as long as ``cv2.CascadeClassifier`` exists.
+
+OpenCV is imported inside the functions, so importing this module needs no cv2.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["FaceDetectorUnavailableError", "detect_face", "detect_faces",
+           "face_detector_available"]
+
+CASCADE_FILE = "haarcascade_frontalface_default.xml"
+_ENVIRONMENT = "JAXTRACK_FACE_CASCADE"
+
+
+class FaceDetectorUnavailableError(RuntimeError):
+    """This OpenCV has no Haar cascade face detector (or its cascade file is missing)."""
+
+
+def _cascade_path(cascade: str | os.PathLike | None) -> Path:
+    import cv2
+
+    if cascade is None:
+        cascade = os.environ.get(_ENVIRONMENT)
+    if cascade is not None:
+        path = Path(cascade).expanduser()
+        if not path.is_file():
+            raise FaceDetectorUnavailableError(f"{path}: no such Haar cascade file")
+        return path
+    folder = getattr(getattr(cv2, "data", None), "haarcascades", None)
+    path = Path(folder or ".") / CASCADE_FILE
+    if folder is None or not path.is_file():
+        raise FaceDetectorUnavailableError(
+            f"OpenCV {cv2.__version__} ships no {CASCADE_FILE} (looked in {folder}); install "
+            f"opencv-python-headless<5 (OpenCV 4 wheels include it), or name a cascade file "
+            f"with cascade=... or ${_ENVIRONMENT}")
+    return path
+
+
+@functools.cache
+def _classifier(path: Path):
+    import cv2
+
+    if not hasattr(cv2, "CascadeClassifier"):
+        raise FaceDetectorUnavailableError(
+            f"OpenCV {cv2.__version__} has no cv2.CascadeClassifier (OpenCV 5 moved the Haar "
+            f"cascade detector out of its main modules); install opencv-python-headless<5 "
+            f"for face detection")
+    classifier = cv2.CascadeClassifier(str(path))
+    if classifier.empty():
+        raise FaceDetectorUnavailableError(f"{path}: OpenCV cannot load it as a Haar cascade")
+    return classifier
+
+
+def face_detector_available(cascade: str | os.PathLike | None = None) -> bool:
+    """Whether :func:`detect_faces` can run here (OpenCV importable, cascade found and loaded)."""
+    try:
+        _classifier(_cascade_path(cascade))
+    except (FaceDetectorUnavailableError, ImportError):
+        return False
+    return True
+
+
+def detect_faces(image_rgb: np.ndarray, *, scale_factor: float = 1.1, min_neighbors: int = 5,
+                 min_size: tuple[int, int] = (24, 24),
+                 cascade: str | os.PathLike | None = None) -> np.ndarray:
+    """Frontal faces in an RGB image, largest first.
+
+    Args:
+        image_rgb: ``(height, width, 3)`` uint8 RGB (or ``(height, width)`` grey) image.
+        scale_factor: image pyramid step of the sliding-window search (> 1; smaller finds more
+            sizes, slower).
+        min_neighbors: overlapping detections needed to keep a face (higher: fewer false
+            positives, more misses).
+        min_size: smallest face ``(width, height)`` in pixels searched for.
+        cascade: a Haar cascade XML file; None uses ``$JAXTRACK_FACE_CASCADE`` or OpenCV's
+            bundled frontal-face cascade.
+
+    Returns:
+        ``(faces, 4)`` int64 boxes ``(x, y, width, height)`` in pixels, sorted by area, largest
+        first; ``(0, 4)`` when there is none.
+
+    Raises:
+        FaceDetectorUnavailableError: this OpenCV has no Haar cascade detector or file.
+        ValueError: the image is not ``(height, width, 3)`` or ``(height, width)``.
+    """
+    import cv2
+
+    image = np.asarray(image_rgb)
+    if image.dtype != np.uint8:
+        raise ValueError(f"detect_faces expects a uint8 image, got {image.dtype}")
+    if image.ndim == 3 and image.shape[-1] == 3:
+        grey = cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY)
+    elif image.ndim == 2:
+        grey = np.ascontiguousarray(image)
+    else:
+        raise ValueError(f"detect_faces expects an RGB (height, width, 3) or grey image, got "
+                         f"shape {image.shape}")
+    classifier = _classifier(_cascade_path(cascade))
+    # equalising makes the cascade's fixed thresholds work in dim or washed-out frames
+    grey = cv2.equalizeHist(grey)
+    boxes = classifier.detectMultiScale(grey, scaleFactor=scale_factor,
+                                        minNeighbors=min_neighbors, minSize=tuple(min_size))
+    boxes = np.asarray(boxes, np.int64).reshape(-1, 4)
+    order = np.argsort(-(boxes[:, 2] * boxes[:, 3]), kind="stable")
+    return boxes[order]
+
+
+def detect_face(image_rgb: np.ndarray, **options) -> np.ndarray | None:
+    """The largest frontal face ``(x, y, width, height)`` (int64, shape ``(4,)``), or None.
+
+    Options are those of :func:`detect_faces`.
+    """
+    boxes = detect_faces(image_rgb, **options)
+    return boxes[0] if len(boxes) else None
