@@ -89,17 +89,22 @@ def _distance(joints: np.ndarray, distance: float) -> float:
 
 
 def frontal_camera(motion: Motion, image_size: tuple[int, int] = (640, 480), *,
-                   distance: float = 4.0, elevation: float = 0.0, margin: float = 0.1) -> Camera:
+                   distance: float = 4.0, elevation: float = 0.0, azimuth: float = 0.0,
+                   margin: float = 0.1) -> Camera:
     """A camera in front of the subject (its mean facing direction from hips and shoulders),
     framing the whole motion; the subject's left appears on the image's right.
 
     Args:
+        azimuth: radians turned about the vertical from straight in front (positive moves the
+            camera toward the subject's left).
         distance: metres from the motion's centre (raised to clear the motion's extent).
         elevation: radians above the horizontal.
         margin: empty border as a fraction of the image, see `frame_subject`.
     """
     joints = marker_positions(motion, HUMANEVA_15)
     forward = _facing(joints)
+    # turn about +y: the subject's left is up × forward
+    forward = np.cos(azimuth) * forward + np.sin(azimuth) * np.cross(_UP, forward)
     centre = 0.5 * (joints.min(axis=(0, 1)) + joints.max(axis=(0, 1)))
     direction = np.cos(elevation) * forward + np.sin(elevation) * _UP
     eye = centre + _distance(joints, distance) * direction

@@ -15,37 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack._files import write_atomically
+from jaxtrack._plotting import new_figure as _figure
+from jaxtrack._plotting import save_figure as _save
 
 __all__ = ["plot_errors_over_time", "plot_fraction_within", "plot_particle_sweep"]
-
-
-def _figure(width: float, height: float, columns: int = 1):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(figure)
-    axes = figure.subplots(1, columns)
-    return figure, axes
-
-
-def _save(figure, path: str | os.PathLike, dpi: int) -> Path:
-    path = Path(path)
-    # the temporary file's name does not end in the real suffix, so name the format explicitly
-    file_format = path.suffix.lstrip(".").lower() or "png"
-
-    def write(temporary: Path) -> None:
-        with open(temporary, "wb") as file:
-            figure.savefig(file, format=file_format, dpi=dpi)
-            file.flush()
-            os.fsync(file.fileno())
-
-    try:
-        write_atomically(path, write)
-    finally:
-        figure.clear()
-    return path
 
 
 def _check_methods(name: str, values: Mapping) -> None:

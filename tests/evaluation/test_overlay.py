@@ -52,7 +52,8 @@ def test_each_method_gets_its_colour_and_truth_is_white():
     x, y = (int(v) for v in np.round(truth[0, wrist]))
     assert tuple(frame[y, x]) == METHOD_COLOURS[0]
     assert tuple(frame[y, x + 20]) == METHOD_COLOURS[1]
-    assert tuple(frame[y, x - 20]) == TRUTH_COLOUR
+    # the thin anti-aliased truth dot is blended at its centre by some OpenCV versions
+    assert np.abs(frame[y, x - 20].astype(int) - TRUTH_COLOUR).max() <= 10
     recoloured = draw_tracks(images[0], tracks, UPPER_BODY_12,
                              colours={"baseline": (1, 2, 3)})
     assert tuple(recoloured[y, x + 20]) == (1, 2, 3)
