@@ -1,0 +1,201 @@
+"""Training a GPLVM as Algorithm 1 of Tian, Li & Sclaroff (2005), with jax.grad + optimistix.
+
+    X ← Isomap(Y)
+    for t = 1..T:
+        I ← IVM(X)                       active set by the information criterion
+        α, β, γ, X_I ← argmin L          eq. 1 on the active set, BFGS
+        I ← IVM(X)                       reselect with the new kernel
+        x_j ← argmin L′(x_j, y_j)        eq. 2, every non-active point alone, one vmapped BFGS
+
+Every stage is jitted for its shapes, so the outer loop compiles once. Training runs in float64
+(``jax.enable_x64`` inside): the objective holds ln|K| of a matrix whose noise is a small
+fraction of its signal.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import ArrayLike, Float
+from tqdm.auto import tqdm
+
+from jaxtrack.priors.gplvm._init import initial_latents
+from jaxtrack.priors.gplvm._ivm import select_active_set
+from jaxtrack.priors.gplvm._kernel import KernelParameters, active_objective
+from jaxtrack.priors.gplvm._model import GPLVM
+
+__all__ = ["GPLVMFit", "fit_gplvm", "estimate_dynamics"]
+
+
+@dataclass(frozen=True)
+class GPLVMFit:
+    """What :func:`fit_gplvm` returns.
+
+    Attributes:
+        model: the trained :class:`GPLVM` (float64; ``model.astype(jnp.float32)`` to track).
+        trace: one dict per outer iteration: ``iteration``, ``objective`` (eq. 1 on the active
+            set after its optimisation), ``mean_point_objective`` (mean L′ of the non-active
+            points after theirs), ``active_size``, ``active_steps``, ``unconverged_points``,
+            ``alpha``, ``beta``, ``gamma``, ``seconds``, ``stage_seconds`` (ivm, active,
+            inactive). The objective is not monotone: the active set changes between iterations.
+        init: how X was initialised (``"isomap (k = 10)"``, ``"pca (isomap failed: ...)"``).
+        init_seconds: time spent on that.
+        seconds: total wall time.
+    """
+
+    model: GPLVM
+    trace: list[dict] = field(default_factory=list)
+    init: str = ""
+    init_seconds: float = 0.0
+    seconds: float = 0.0
+
+
+@eqx.filter_jit
+def _optimise_active(kernel: KernelParameters, latents, poses, *, max_steps: int, tolerance):
+    solver = optx.BFGS(rtol=tolerance, atol=tolerance)
+    solution = optx.minimise(
+        lambda parameters, data: active_objective(parameters[0], parameters[1], data),
+        solver, (kernel, latents), args=poses, max_steps=max_steps, throw=False)
+    kernel, latents = solution.value
+    return kernel, latents, active_objective(kernel, latents, poses), solution.result, \
+        solution.stats["num_steps"]
+
+
+@eqx.filter_jit
+def _optimise_inactive(model: GPLVM, current_latents, poses, *, max_steps: int):
+    # start each point at the better of where it is and the best nearby active point
+    nearby = model.initial_latents(poses)
+    point_objective = jax.vmap(model.point_objective)
+    keep = point_objective(current_latents, poses) <= point_objective(nearby, poses)
+    starts = jnp.where(keep[:, None], current_latents, nearby)
+    inverse = model.inverse(poses, max_steps=max_steps, initial_latents=starts, tolerance=1e-6)
+    return inverse.latents, inverse.objective, inverse.result != optx.RESULTS.successful
+
+
+def _check_poses(poses: np.ndarray, latent_dim: int, active_size: int) -> None:
+    if poses.ndim != 2:
+        raise ValueError(f"poses must be a (num_poses, dims) array, got shape {poses.shape}")
+    if not np.all(np.isfinite(poses)):
+        raise ValueError(f"poses contain {np.sum(~np.isfinite(poses))} non-finite values")
+    if not 1 <= latent_dim < poses.shape[1]:
+        raise ValueError(f"latent_dim must be in [1, {poses.shape[1] - 1}], got {latent_dim}")
+    if not latent_dim < active_size <= poses.shape[0]:
+        raise ValueError(f"active_size must be in ({latent_dim}, {poses.shape[0]}] "
+                         f"(latent_dim, num_poses], got {active_size}")
+
+
+def fit_gplvm(
+    poses: Float[ArrayLike, "n dims"],
+    *,
+    latent_dim: int = 2,
+    active_size: int = 200,
+    iterations: int = 4,
+    init: str = "isomap",
+    neighbours: int = 10,
+    active_steps: int = 300,
+    inactive_steps: int = 40,
+    sequence_ids: ArrayLike | None = None,
+    fps: float | None = None,
+    seed: int = 0,
+    progress: bool = True,
+) -> GPLVMFit:
+    """Learn a GPLVM from poses (Algorithm 1 of Tian et al., see the module docstring).
+
+    Args:
+        poses: ``(n, dims)`` training poses (e.g. SPM states); centred inside.
+        latent_dim: latent dimension q (2 in the paper).
+        active_size: size d of the IVM active set (capped at n).
+        iterations: outer iterations T.
+        init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
+        neighbours: k of Isomap's nearest-neighbour graph.
+        active_steps, inactive_steps: BFGS step caps for eq. 1 and for each eq. 2 solve.
+        sequence_ids: ``(n,)`` which sequence each pose belongs to (consecutive rows of one id
+            are consecutive frames); with it the random-walk ν is estimated
+            (:func:`estimate_dynamics`).
+        fps: frame rate of those sequences, stored with ν.
+        progress: show a bar with the objective and active-set size per outer iteration.
+    """
+    poses = np.asarray(poses, np.float64)
+    active_size = min(int(active_size), poses.shape[0])
+    _check_poses(poses, latent_dim, active_size)
+    if iterations < 1:
+        raise ValueError(f"iterations must be at least 1, got {iterations}")
+    start = time.perf_counter()
+    mean = poses.mean(axis=0)
+    centred = poses - mean
+    tick = time.perf_counter()
+    latents, description = initial_latents(centred, latent_dim, init, neighbours=neighbours,
+                                           seed=seed)
+    init_seconds = time.perf_counter() - tick
+    with jax.enable_x64(True):
+        centred_jax = jnp.asarray(centred)
+        latents = jnp.asarray(latents)
+        signal = float(np.mean(np.var(centred, axis=0)))
+        kernel = KernelParameters.create(alpha=signal, beta=100.0 / signal, gamma=1.0)
+        trace: list[dict] = []
+        bar = tqdm(range(iterations), desc="GPLVM", unit="iter", disable=not progress,
+                   dynamic_ncols=True)
+        for iteration in bar:
+            tick = time.perf_counter()
+            active = select_active_set(kernel, latents, active_size)
+            timings = {"ivm": time.perf_counter() - tick}
+            kernel, active_latents, objective, _, steps = _optimise_active(
+                kernel, latents[active], centred_jax[active], max_steps=active_steps,
+                tolerance=1e-6)
+            latents = latents.at[active].set(active_latents)
+            timings["active"] = time.perf_counter() - tick - sum(timings.values())
+            active = select_active_set(kernel, latents, active_size)
+            inactive = np.setdiff1d(np.arange(poses.shape[0]), np.asarray(active))
+            model = GPLVM.from_active_set(kernel, centred_jax, jnp.zeros_like(centred_jax[0]),
+                                          latents, active)
+            point_objective, unconverged = jnp.nan, 0
+            if inactive.size:
+                moved, values, failed = _optimise_inactive(
+                    model, latents[inactive], centred_jax[inactive], max_steps=inactive_steps)
+                latents = latents.at[inactive].set(moved)
+                point_objective, unconverged = float(jnp.mean(values)), int(jnp.sum(failed))
+            timings["inactive"] = time.perf_counter() - tick - sum(timings.values())
+            trace.append({
+                "iteration": iteration, "objective": float(objective),
+                "mean_point_objective": float(point_objective), "active_size": active_size,
+                "active_steps": int(steps), "unconverged_points": unconverged,
+                "alpha": float(kernel.alpha), "beta": float(kernel.beta),
+                "gamma": float(kernel.gamma), "seconds": time.perf_counter() - tick,
+                "stage_seconds": timings,
+            })
+            bar.set_postfix(L=f"{float(objective):.1f}", active=active_size,
+                            Lp=f"{float(point_objective):.2f}")
+        bar.close()
+        model = GPLVM.from_active_set(kernel, centred_jax, jnp.asarray(mean), latents, active)
+        if sequence_ids is not None:
+            std = estimate_dynamics(model, poses, sequence_ids)
+            model = eqx.tree_at(lambda m: (m.dynamics_std, m.dynamics_fps), model,
+                                (jnp.asarray(std), jnp.asarray(float(fps or np.nan))))
+    return GPLVMFit(model=model, trace=trace, init=description, init_seconds=init_seconds,
+                    seconds=time.perf_counter() - start)
+
+
+def estimate_dynamics(model: GPLVM, poses: Float[ArrayLike, "n dims"], sequence_ids: ArrayLike,
+                      *, max_steps: int = 64) -> np.ndarray:
+    """ν of the random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) (§4 of Tian et al.).
+
+    The poses are projected with μ⁻¹ and ν² is the variance of the frame-to-frame latent steps
+    within each sequence (rows with the same id, in order).
+    """
+    poses = np.asarray(poses, np.float64)
+    ids = np.asarray(sequence_ids)
+    if ids.shape != (poses.shape[0],):
+        raise ValueError(f"sequence_ids must have shape ({poses.shape[0]},), got {ids.shape}")
+    same = ids[1:] == ids[:-1]
+    if not np.any(same):
+        raise ValueError("sequence_ids has no two consecutive frames of one sequence")
+    with jax.enable_x64(True):
+        latents = np.asarray(model.inverse(jnp.asarray(poses), max_steps=max_steps).latents)
+    steps = np.diff(latents, axis=0)[same]
+    return np.std(steps, axis=0)

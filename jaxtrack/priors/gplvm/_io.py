@@ -1,0 +1,156 @@
+"""Saving and loading trained GPLVMs: ``.npz`` arrays plus JSON metadata, written atomically."""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxtrack._files import write_atomically
+from jaxtrack.priors.gplvm._kernel import KernelParameters
+from jaxtrack.priors.gplvm._model import GPLVM
+
+__all__ = ["GPLVMFormatError", "SavedGPLVM", "load_gplvm", "save_gplvm"]
+
+FORMAT_NAME = "jaxtrack.gplvm"
+FORMAT_VERSION = 1
+_KERNEL_FIELDS = ("log_alpha", "log_beta", "log_gamma")
+_MODEL_FIELDS = ("pose_mean", "latents", "poses", "active_indices", "active_latents",
+                 "active_poses", "weights", "inverse_gram", "dynamics_std", "dynamics_fps")
+
+
+class GPLVMFormatError(ValueError):
+    """A file is not a readable jaxtrack GPLVM (wrong kind, damaged, or a newer version)."""
+
+
+@dataclass(frozen=True)
+class SavedGPLVM:
+    """A loaded model with what was saved beside it.
+
+    Attributes:
+        model: the :class:`GPLVM` (float64 arrays).
+        description: the training-data description given to :func:`save_gplvm`.
+        arrays: extra named arrays given to :func:`save_gplvm` (e.g. an SPM template).
+        trace: the training trace, if saved.
+    """
+
+    model: GPLVM
+    description: dict = field(default_factory=dict)
+    arrays: dict = field(default_factory=dict)
+    trace: list = field(default_factory=list)
+
+
+def save_gplvm(path: str | os.PathLike, model: GPLVM, *, description: dict | None = None,
+               arrays: dict | None = None, trace: list | None = None) -> Path:
+    """Write ``model`` to ``path`` (``.npz``), atomically. Returns the path.
+
+    Args:
+        description: JSON-serialisable description of the training data (clips, views, fps,
+            pose representation), stored in the metadata.
+        arrays: extra arrays to keep with the model, stored as ``extra/<name>``.
+        trace: the training trace (:attr:`GPLVMFit.trace`).
+    """
+    path = Path(path)
+    metadata = {
+        "format": FORMAT_NAME, "format_version": FORMAT_VERSION,
+        "latent_dim": model.latent_dim, "pose_dim": model.pose_dim,
+        "active_size": model.active_size,
+        "kernel": {"alpha": float(model.kernel.alpha), "beta": float(model.kernel.beta),
+                   "gamma": float(model.kernel.gamma)},
+        "active_indices": np.asarray(model.active_indices).tolist(),
+        "description": description or {}, "trace": trace or [],
+        "extra_arrays": sorted(arrays or {}),
+    }
+    try:
+        metadata_text = json.dumps(metadata)
+    except TypeError as error:
+        raise ValueError(f"description and trace must be JSON-serialisable: {error}") from None
+    contents = {name: np.asarray(getattr(model.kernel, name)) for name in _KERNEL_FIELDS}
+    contents |= {name: np.asarray(getattr(model, name)) for name in _MODEL_FIELDS}
+    contents |= {f"extra/{name}": np.asarray(value) for name, value in (arrays or {}).items()}
+    contents["metadata"] = np.array(metadata_text)
+
+    def write(temporary: Path) -> None:
+        with open(temporary, "wb") as file:
+            np.savez(file, **contents)
+            file.flush()
+            os.fsync(file.fileno())
+
+    write_atomically(path, write)
+    return path
+
+
+def _fail(path: Path, reason: str) -> GPLVMFormatError:
+    return GPLVMFormatError(f"{path}: {reason}")
+
+
+def load_gplvm(path: str | os.PathLike) -> SavedGPLVM:
+    """Read a file written by :func:`save_gplvm`.
+
+    Raises:
+        FileNotFoundError: no such file.
+        GPLVMFormatError: the file is damaged or truncated, is not a jaxtrack GPLVM (e.g. a
+            rendered sequence), is a newer format version, or its arrays disagree in shape.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such GPLVM file")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if "metadata" not in archive.files:
+                raise _fail(path, "not a jaxtrack GPLVM file (no metadata)")
+            metadata = json.loads(str(archive["metadata"]))
+            if metadata.get("format") != FORMAT_NAME:
+                raise _fail(path, f"not a jaxtrack GPLVM file (format "
+                                  f"{metadata.get('format')!r}, expected {FORMAT_NAME!r})")
+            if metadata.get("format_version", 0) > FORMAT_VERSION:
+                raise _fail(path, f"format version {metadata['format_version']} is newer than "
+                                  f"this jaxtrack reads ({FORMAT_VERSION}); upgrade jaxtrack")
+            missing = [n for n in _KERNEL_FIELDS + _MODEL_FIELDS if n not in archive.files]
+            if missing:
+                raise _fail(path, f"missing arrays {missing}")
+            values = {name: np.array(archive[name]) for name in _KERNEL_FIELDS + _MODEL_FIELDS}
+            extra = {name: np.array(archive[f"extra/{name}"])
+                     for name in metadata.get("extra_arrays", [])}
+    except GPLVMFormatError:
+        raise
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as error:
+        raise _fail(path, f"damaged or truncated GPLVM file ({type(error).__name__}: "
+                          f"{error})") from None
+    _check_shapes(path, values, metadata)
+    with jax.enable_x64(True):
+        kernel = KernelParameters(*(jnp.asarray(values[name]) for name in _KERNEL_FIELDS))
+        model = GPLVM(kernel=kernel, **{name: jnp.asarray(values[name])
+                                        for name in _MODEL_FIELDS})
+    return SavedGPLVM(model=model, description=metadata.get("description", {}), arrays=extra,
+                      trace=metadata.get("trace", []))
+
+
+def _check_shapes(path: Path, values: dict, metadata: dict) -> None:
+    n, latent = values["latents"].shape if values["latents"].ndim == 2 else (-1, -1)
+    active = values["active_indices"].shape[0] if values["active_indices"].ndim == 1 else -1
+    dims = values["pose_mean"].shape[0] if values["pose_mean"].ndim == 1 else -1
+    expected = {
+        "latents": (n, latent), "poses": (n, dims), "active_latents": (active, latent),
+        "active_poses": (active, dims), "weights": (active, dims),
+        "inverse_gram": (active, active), "dynamics_std": (latent,), "dynamics_fps": (),
+    }
+    for name, shape in expected.items():
+        if min(shape, default=0) < 0 or values[name].shape != shape:
+            raise _fail(path, f"array {name!r} has shape {values[name].shape}, expected {shape}")
+    if (latent, dims, active) != (metadata.get("latent_dim"), metadata.get("pose_dim"),
+                                   metadata.get("active_size")):
+        raise _fail(path, "arrays disagree with the metadata's latent_dim/pose_dim/active_size")
+    indices = values["active_indices"]
+    if indices.size and (indices.min() < 0 or indices.max() >= n):
+        raise _fail(path, f"active indices out of range for {n} training points")
+    for name in ("latents", "poses", "active_latents", "active_poses", "weights", "inverse_gram",
+                 "pose_mean", *_KERNEL_FIELDS):
+        if not np.all(np.isfinite(values[name])):
+            raise _fail(path, f"array {name!r} holds non-finite values")

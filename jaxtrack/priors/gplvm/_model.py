@@ -1,0 +1,184 @@
+"""A trained GPLVM: the pose mean μ(x), its variance σ²(x), the objective L′ and μ⁻¹(y).
+
+Tian, Li & Sclaroff (2005), eqs. 2–5, with the active set I chosen by the IVM:
+
+    μ(x)  = ȳ + Y_Iᵀ K_II⁻¹ k_I(x)                                   (eq. 3)
+    σ²(x) = k(x, x) − k_I(x)ᵀ K_II⁻¹ k_I(x),  k(x, x) = α + β⁻¹        (eq. 4)
+    L′(x, y) = |y − μ(x)|² / 2σ²(x) + D/2 ln σ²(x) + ½ |x|²          (eq. 2)
+    μ⁻¹(y) = argmin_x L′(x, y)                                         (eq. 5)
+
+μ and σ² are written for ONE latent point so that trackers vmap them over particles.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from jax.scipy.linalg import cho_solve
+from jaxtyping import Array, ArrayLike, Float, Int
+
+from jaxtrack.priors.gplvm._kernel import KernelParameters, kernel_matrix, rbf
+
+__all__ = ["GPLVM", "InverseResult"]
+
+
+class InverseResult(eqx.Module):
+    """μ⁻¹ of a batch of poses: latents, L′ at the solution and the solver status."""
+
+    latents: Float[Array, "poses latent"]
+    objective: Float[Array, " poses"]
+    result: optx.RESULTS
+
+
+class GPLVM(eqx.Module):
+    """A Gaussian Process Latent Variable Model with an active set (see the module docstring).
+
+    Attributes:
+        kernel: α, β, γ (log-parametrised).
+        pose_mean: ``(dims,)`` ȳ, subtracted from the training poses.
+        latents: ``(n, latent)`` latent position of every training pose.
+        poses: ``(n, dims)`` the centred training poses (μ⁻¹ starts from their latents).
+        active_indices: ``(active,)`` rows of ``latents`` in the active set I.
+        active_latents, active_poses: X_I ``(active, latent)`` and centred Y_I ``(active, dims)``.
+        weights: ``K_II⁻¹ Y_I`` ``(active, dims)``; ``inverse_gram``: ``K_II⁻¹``.
+        dynamics_std: ``(latent,)`` ν, the random-walk step std of the latent dynamics per frame
+            at ``dynamics_fps`` frames per second (NaN until estimated).
+    """
+
+    kernel: KernelParameters
+    pose_mean: Float[Array, " dims"]
+    latents: Float[Array, "n latent"]
+    poses: Float[Array, "n dims"]
+    active_indices: Int[Array, " active"]
+    active_latents: Float[Array, "active latent"]
+    active_poses: Float[Array, "active dims"]
+    weights: Float[Array, "active dims"]
+    inverse_gram: Float[Array, "active active"]
+    dynamics_std: Float[Array, " latent"]
+    dynamics_fps: Float[Array, ""]
+
+    @classmethod
+    def from_active_set(cls, kernel: KernelParameters, poses: Float[ArrayLike, "n dims"],
+                        pose_mean: Float[ArrayLike, " dims"], latents: Float[ArrayLike, "n latent"],
+                        active_indices: Int[ArrayLike, " active"],
+                        dynamics_std=None, dynamics_fps=float("nan")) -> GPLVM:
+        """Precompute K_II⁻¹ and K_II⁻¹ Y_I for centred ``poses`` and latent positions."""
+        latents, poses = jnp.asarray(latents), jnp.asarray(poses)
+        active_indices = jnp.asarray(active_indices)
+        active_latents = latents[active_indices]
+        active_poses = poses[active_indices]
+        factor = jnp.linalg.cholesky(kernel_matrix(kernel, active_latents))
+        identity = jnp.eye(active_latents.shape[0], dtype=active_latents.dtype)
+        if dynamics_std is None:
+            dynamics_std = jnp.full((latents.shape[1],), jnp.nan, latents.dtype)
+        return cls(
+            kernel=kernel, pose_mean=jnp.asarray(pose_mean), latents=latents, poses=poses,
+            active_indices=active_indices, active_latents=active_latents,
+            active_poses=active_poses, weights=cho_solve((factor, True), active_poses),
+            inverse_gram=cho_solve((factor, True), identity),
+            dynamics_std=jnp.asarray(dynamics_std, latents.dtype),
+            dynamics_fps=jnp.asarray(dynamics_fps, latents.dtype),
+        )
+
+    @property
+    def latent_dim(self) -> int:
+        return self.latents.shape[1]
+
+    @property
+    def pose_dim(self) -> int:
+        return self.pose_mean.shape[0]
+
+    @property
+    def active_size(self) -> int:
+        return self.active_indices.shape[0]
+
+    def astype(self, dtype) -> GPLVM:
+        """The same model with every float array cast to ``dtype`` (e.g. float32 for tracking)."""
+        return jax.tree.map(
+            lambda leaf: leaf.astype(dtype) if jnp.issubdtype(leaf.dtype, jnp.floating) else leaf,
+            self)
+
+    def _cross(self, latent: Array) -> Array:
+        return rbf(self.kernel, self.active_latents, latent[None, :])
+
+    def mean(self, latent: Float[ArrayLike, " latent"]) -> Float[Array, " dims"]:
+        """Eq. 3: μ(x) for one latent point (vmap over particles)."""
+        return self.pose_mean + self._cross(jnp.asarray(latent)) @ self.weights
+
+    def variance(self, latent: Float[ArrayLike, " latent"]) -> Float[Array, ""]:
+        """Eq. 4: σ²(x) = α + β⁻¹ − k_Iᵀ K_II⁻¹ k_I, never below the noise β⁻¹."""
+        cross = self._cross(jnp.asarray(latent))
+        explained = cross @ self.inverse_gram @ cross
+        return self.kernel.noise_variance + jnp.maximum(self.kernel.alpha - explained, 0.0)
+
+    def mean_and_variance(self, latent: Float[ArrayLike, " latent"]) -> tuple[Array, Array]:
+        """μ(x) and σ²(x) sharing one kernel row."""
+        cross = self._cross(jnp.asarray(latent))
+        explained = cross @ self.inverse_gram @ cross
+        variance = self.kernel.noise_variance + jnp.maximum(self.kernel.alpha - explained, 0.0)
+        return self.pose_mean + cross @ self.weights, variance
+
+    def point_objective(self, latent: Float[ArrayLike, " latent"],
+                        pose: Float[ArrayLike, " dims"]) -> Float[Array, ""]:
+        """Eq. 2: L′(x, y), the negative log-posterior of one latent point given its pose."""
+        latent = jnp.asarray(latent)
+        mean, variance = self.mean_and_variance(latent)
+        residual = jnp.asarray(pose) - mean
+        return (0.5 * jnp.sum(residual**2) / variance + 0.5 * self.pose_dim * jnp.log(variance)
+                + 0.5 * jnp.sum(latent**2))
+
+    def initial_latents(self, poses: Float[ArrayLike, "poses dims"], candidates: int = 8
+                        ) -> Float[Array, "poses latent"]:
+        """Start points for μ⁻¹: of the latents of the ``candidates`` training poses nearest each
+        pose, the one with the lowest L′.
+
+        L′ is rugged (σ² is tiny near active points and large between them), so where BFGS
+        starts decides which minimum it finds; the training poses' own latents are the best
+        guesses the model has.
+        """
+        poses = jnp.asarray(poses, self.active_poses.dtype)
+        centred = poses - self.pose_mean
+        distances = (jnp.sum(centred**2, axis=1)[:, None] - 2.0 * centred @ self.poses.T
+                     + jnp.sum(self.poses**2, axis=1)[None, :])
+        count = min(candidates, self.poses.shape[0])
+        _, nearest = jax.lax.top_k(-distances, count)
+        starts = self.latents[nearest]  # (poses, count, latent)
+        values = jax.vmap(jax.vmap(self.point_objective, in_axes=(0, None)))(starts, poses)
+        return starts[jnp.arange(poses.shape[0]), jnp.argmin(values, axis=1)]
+
+    def inverse(self, poses: Float[ArrayLike, "poses dims"], *, max_steps: int = 64,
+                initial_latents: Float[ArrayLike, "poses latent"] | None = None,
+                tolerance: float | None = None) -> InverseResult:
+        """Eq. 5: μ⁻¹(y) = argmin_x L′(x, y) for a batch of poses, one vmapped BFGS solve.
+
+        The solve runs with ``throw=False`` and at most ``max_steps`` steps (a vmapped solve
+        lasts as long as its slowest member); ``result`` says which poses did not converge.
+        Differentiable with respect to the poses and the model by the implicit function theorem
+        (optimistix's ``ImplicitAdjoint``).
+        """
+        poses = jnp.asarray(poses, self.active_poses.dtype)
+        if poses.ndim != 2 or poses.shape[1] != self.pose_dim:
+            raise ValueError(
+                f"poses must have shape (num_poses, {self.pose_dim}), got {poses.shape}")
+        if initial_latents is None:
+            initial_latents = self.initial_latents(jax.lax.stop_gradient(poses))
+        initial_latents = jnp.asarray(initial_latents, poses.dtype)
+        if tolerance is None:
+            tolerance = 1e-8 if poses.dtype == jnp.float64 else 1e-4
+        solver = optx.BFGS(rtol=tolerance, atol=tolerance)
+
+        def solve(start: Array, pose: Array):
+            solution = optx.minimise(
+                lambda latent, args: args[0].point_objective(latent, args[1]), solver, start,
+                args=(self, pose), max_steps=max_steps, throw=False)
+            return solution.value, solution.result
+
+        latents, results = jax.vmap(solve)(initial_latents, poses)
+        objective = jax.vmap(self.point_objective)(latents, poses)
+        return InverseResult(latents=latents, objective=objective, result=results)
+
+    def reconstruct(self, poses: Float[ArrayLike, "poses dims"], **options) -> Array:
+        """μ(μ⁻¹(y)) for a batch of poses."""
+        return jax.vmap(self.mean)(self.inverse(poses, **options).latents)

@@ -1,0 +1,215 @@
+"""GPLVM: objective and gradients against NumPy, IVM, training on a known GP, μ⁻¹, files."""
+
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.linalg import cho_factor, cho_solve
+
+from jaxtrack.priors.gplvm import (
+    GPLVM,
+    GPLVMFormatError,
+    KernelParameters,
+    active_objective,
+    entropy_reductions,
+    fit_gplvm,
+    initial_latents,
+    load_gplvm,
+    pca,
+    save_gplvm,
+    select_active_set,
+)
+
+
+def numpy_objective(alpha, beta, gamma, latents, poses):
+    """Eq. 1 written out independently with NumPy/SciPy."""
+    squared = ((latents[:, None, :] - latents[None, :, :]) ** 2).sum(-1)
+    gram = alpha * np.exp(-0.5 * gamma * squared) + (1 / beta + 1e-8 * alpha) * np.eye(len(latents))
+    factor = cho_factor(gram, lower=True)
+    log_determinant = 2 * np.log(np.diag(factor[0])).sum()
+    trace = np.sum(poses * cho_solve(factor, poses))
+    return 0.5 * poses.shape[1] * log_determinant + 0.5 * trace + 0.5 * np.sum(latents**2)
+
+
+def sample_gp_data(seed, n, dims=6, noise=0.02):
+    """Poses drawn from a GP over a known 2-D latent space (ring-shaped, so PCA folds it)."""
+    rng = np.random.default_rng(seed)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    radius = rng.uniform(0.8, 1.6, n)
+    latents = np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    squared = ((latents[:, None] - latents[None]) ** 2).sum(-1)
+    gram = np.exp(-0.5 * 4.0 * squared) + 1e-8 * np.eye(n)
+    poses = np.linalg.cholesky(gram) @ rng.normal(size=(n, dims))
+    return latents, poses + noise * rng.normal(size=poses.shape)
+
+
+def test_objective_and_gradient_match_numpy_and_finite_differences():
+    rng = np.random.default_rng(0)
+    latents, poses = rng.normal(size=(9, 2)), rng.normal(size=(9, 3))
+    alpha, beta, gamma = 1.3, 20.0, 0.7
+    kernel = KernelParameters.create(alpha, beta, gamma)
+    value = active_objective(kernel, jnp.asarray(latents), jnp.asarray(poses))
+    assert value == pytest.approx(numpy_objective(alpha, beta, gamma, latents, poses), rel=1e-10)
+
+    gradient_kernel, gradient_latents = jax.grad(active_objective, argnums=(0, 1))(
+        kernel, jnp.asarray(latents), jnp.asarray(poses))
+    step = 1e-6
+    for i, j in [(0, 0), (4, 1), (8, 0)]:
+        up, down = latents.copy(), latents.copy()
+        up[i, j] += step
+        down[i, j] -= step
+        numeric = (numpy_objective(alpha, beta, gamma, up, poses)
+                   - numpy_objective(alpha, beta, gamma, down, poses)) / (2 * step)
+        assert gradient_latents[i, j] == pytest.approx(numeric, rel=1e-6, abs=1e-7)
+    for name, index in (("log_alpha", 0), ("log_beta", 1), ("log_gamma", 2)):
+        logs = np.log([alpha, beta, gamma])
+        up, down = logs.copy(), logs.copy()
+        up[index] += step
+        down[index] -= step
+        numeric = (numpy_objective(*np.exp(up), latents, poses)
+                   - numpy_objective(*np.exp(down), latents, poses)) / (2 * step)
+        assert getattr(gradient_kernel, name) == pytest.approx(numeric, rel=1e-6, abs=1e-7)
+
+
+def test_ivm_beats_random_active_sets_on_held_out_point_objective():
+    latents, poses = sample_gp_data(1, 500, noise=0.1)
+    kernel = KernelParameters.create(1.0, 1 / 0.1**2, 4.0)
+    train, held_out = slice(0, 200), slice(200, None)
+    X, Y = jnp.asarray(latents[train]), jnp.asarray(poses[train])
+
+    def held_out_objective(active):
+        model = GPLVM.from_active_set(kernel, Y, jnp.zeros(Y.shape[1]), X, active)
+        values = jax.vmap(model.point_objective)(jnp.asarray(latents[held_out]),
+                                                 jnp.asarray(poses[held_out]))
+        return float(jnp.mean(values))
+
+    chosen = select_active_set(kernel, X, 25)
+    assert len(set(np.asarray(chosen).tolist())) == 25
+    gains = np.asarray(entropy_reductions(kernel, X, 25))
+    assert np.all(np.diff(gains) <= 1e-12)  # greedy: each point is worth less than the last
+    rng = np.random.default_rng(0)
+    random_values = np.array([held_out_objective(jnp.asarray(rng.choice(200, 25, replace=False)))
+                              for _ in range(20)])
+    # lower is better; an occasional lucky random set may win, a typical one must not
+    ivm_value = held_out_objective(chosen)
+    assert ivm_value < np.median(random_values) and np.mean(ivm_value < random_values) >= 0.8, (
+        ivm_value, np.sort(random_values))
+
+
+def test_isomap_unrolls_a_curve_that_pca_folds_and_falls_back_when_disconnected():
+    t = np.linspace(0.0, 3 * np.pi, 300)
+    spiral = np.stack([t * np.cos(t), t * np.sin(t), 0.1 * np.sin(5 * t)], axis=1)
+    latents, how = initial_latents(spiral, 1, "isomap", neighbours=8)
+    assert how.startswith("isomap")
+    rank = lambda v: np.argsort(np.argsort(v))  # noqa: E731
+    assert abs(np.corrcoef(rank(latents[:, 0]), rank(t))[0, 1]) > 0.99
+    assert abs(np.corrcoef(rank(pca(spiral, 1)[:, 0]), rank(t))[0, 1]) < 0.9
+
+    two_blobs = np.concatenate([np.random.default_rng(0).normal(size=(40, 3)),
+                                np.random.default_rng(1).normal(size=(40, 3)) + 1e3])
+    latents, how = initial_latents(two_blobs, 2, "isomap", neighbours=5)
+    assert how.startswith("pca (isomap failed") and "components" in how
+    assert latents.shape == (80, 2)
+
+
+@pytest.fixture(scope="module")
+def trained():
+    latents, poses = sample_gp_data(2, 200)
+    train, test = poses[:160], poses[160:]
+    ids = np.repeat(np.arange(4), 40)
+    fit = fit_gplvm(train, active_size=50, iterations=2, active_steps=150, inactive_steps=30,
+                    sequence_ids=ids, fps=30.0, progress=False)
+    return fit, train, test
+
+
+def test_training_reproduces_held_out_gp_data_better_than_pca(trained):
+    fit, train, test = trained
+    model = fit.model
+    assert len(fit.trace) == 2 and all(np.isfinite(r["objective"]) for r in fit.trace)
+    reconstruction = np.asarray(model.reconstruct(jnp.asarray(test)))
+    gplvm_error = np.sqrt(np.mean((reconstruction - test) ** 2))
+    mean = train.mean(0)
+    _, _, components = np.linalg.svd(train - mean, full_matrices=False)
+    projector = components[:2].T @ components[:2]
+    pca_error = np.sqrt(np.mean(((test - mean) @ projector + mean - test) ** 2))
+    assert gplvm_error < 0.8 * pca_error, (gplvm_error, pca_error)
+
+    # μ⁻¹ finds the training poses' own latents (or better ones): μ(μ⁻¹(y)) ≈ y as well as
+    # the model fits its training data at all
+    inverse = model.inverse(jnp.asarray(train))
+    at_training = jax.vmap(model.point_objective)(model.latents, jnp.asarray(train))
+    assert np.mean(np.asarray(inverse.objective) <= np.asarray(at_training) + 1e-6) > 0.95
+    train_reconstruction = np.asarray(jax.vmap(model.mean)(inverse.latents))
+    relative = np.linalg.norm(train_reconstruction - train) / np.linalg.norm(train - mean)
+    pca_relative = np.linalg.norm((train - mean) @ projector + mean - train) / np.linalg.norm(
+        train - mean)
+    assert relative < 0.3 and relative < 0.7 * pca_relative, (relative, pca_relative)
+    assert np.all(np.isfinite(np.asarray(model.dynamics_std)))
+    assert float(model.dynamics_fps) == 30.0
+
+
+def test_variance_small_at_active_points_and_grows_away(trained):
+    model = trained[0].model
+    at_active = np.asarray(jax.vmap(model.variance)(model.active_latents))
+    prior = float(model.kernel.alpha + model.kernel.noise_variance)
+    far = float(model.variance(jnp.array([50.0, 50.0])))
+    assert far == pytest.approx(prior, rel=1e-9)
+    assert np.median(at_active) < 0.2 * prior
+    direction = jnp.array([1.0, 0.0])
+    start = model.active_latents[0]
+    along = [float(model.variance(start + r * direction)) for r in (0.0, 2.0, 8.0)]
+    assert along[0] < along[1] < along[2] + 1e-12
+
+
+def test_inverse_gradient_matches_finite_differences(trained):
+    model, _, test = trained[0].model, trained[1], trained[2]
+    pose = jnp.asarray(test[3])
+    start = model.initial_latents(pose[None])
+
+    def latent_sum(y):
+        return jnp.sum(model.inverse(y[None], initial_latents=start, max_steps=200,
+                                     tolerance=1e-12).latents)
+
+    gradient = np.asarray(jax.grad(latent_sum)(pose))
+    step = 1e-3  # smaller steps drown in the solver's own tolerance
+    for i in range(3):
+        bump = jnp.zeros_like(pose).at[i].set(step)
+        numeric = (latent_sum(pose + bump) - latent_sum(pose - bump)) / (2 * step)
+        assert gradient[i] == pytest.approx(float(numeric), rel=2e-3, abs=1e-5)
+
+
+def test_save_load_round_trip_and_damaged_files(trained, tmp_path):
+    fit, _, test = trained
+    path = save_gplvm(tmp_path / "model.npz", fit.model, description={"clips": ["a", "b"]},
+                      arrays={"template": np.arange(3.0)}, trace=fit.trace)
+    saved = load_gplvm(path)
+    poses = jnp.asarray(test[:5])
+    assert np.array_equal(np.asarray(saved.model.reconstruct(poses)),
+                          np.asarray(fit.model.reconstruct(poses)))
+    assert saved.description == {"clips": ["a", "b"]}
+    assert np.array_equal(saved.arrays["template"], np.arange(3.0))
+    assert len(saved.trace) == 2
+
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    with pytest.raises(GPLVMFormatError, match="truncated.npz: damaged or truncated"):
+        load_gplvm(truncated)
+    other = tmp_path / "other.npz"
+    np.savez(other, metadata=np.array(json.dumps({"format": "jaxtrack.sequence"})))
+    with pytest.raises(GPLVMFormatError, match="not a jaxtrack GPLVM"):
+        load_gplvm(other)
+    with pytest.raises(FileNotFoundError, match="missing.npz"):
+        load_gplvm(tmp_path / "missing.npz")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.npz", "other.npz",
+                                                          "truncated.npz"]
+
+
+def test_bad_training_input_is_named():
+    with pytest.raises(ValueError, match="non-finite"):
+        fit_gplvm(np.full((30, 4), np.nan), active_size=10, progress=False)
+    with pytest.raises(ValueError, match="active_size"):
+        fit_gplvm(np.ones((30, 4)), active_size=2, progress=False)
+    with pytest.raises(ValueError, match="init must be"):
+        initial_latents(np.ones((30, 4)), 2, "tsne")
