@@ -1,0 +1,183 @@
+"""Running any tracker over a video: chunks of one compiled scan, a progress bar, timings.
+
+A tracker is an ``equinox.Module`` with two pure methods,
+
+    start(key, frame)         -> state                  (frame 0; the tracker was initialised on it)
+    update(key, state, frame) -> (state, FrameEstimate)  (every later frame)
+
+:class:`ParticleTracker` builds both from a ``jaxtrack.smc`` state-space model, so CONDENSATION
+trackers only say how a particle moves, how it is scored and how it becomes markers.
+:func:`track` scans ``update`` over a chunk of frames inside one ``jit`` (compiled once for the
+chunk shape, the last chunk padded), so memory is bounded by the chunk, not the video.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+from jaxtyping import Array, Float, PRNGKeyArray
+from tqdm.auto import tqdm
+
+from jaxtrack import smc
+
+__all__ = ["FrameEstimate", "ParticleTracker", "TrackResult", "track"]
+
+
+class FrameEstimate(eqx.Module):
+    """What a tracker reports for one frame.
+
+    Attributes:
+        markers: ``(markers, 2)`` the tracker's estimate (pixels).
+        best_markers: ``(markers, 2)`` the single best hypothesis.
+        ess: effective sample size (number of modes for MHT).
+        log_likelihood: the frame's log evidence increment log p(z_t | z_<t) for particle
+            filters; the best hypothesis's log-likelihood for MHT.
+        degenerate: every hypothesis had zero likelihood (the tracker re-seeded).
+    """
+
+    markers: Float[Array, "markers 2"]
+    best_markers: Float[Array, "markers 2"]
+    ess: Float[Array, ""]
+    log_likelihood: Float[Array, ""]
+    degenerate: Array
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """A tracked sequence (NumPy arrays, frame 0 included).
+
+    Attributes:
+        markers, best_markers: ``(time, markers, 2)`` estimates per frame.
+        ess, log_likelihood, degenerate: ``(time,)`` per-frame diagnostics.
+        seconds_per_frame: run time per frame, compilation excluded.
+        compile_seconds: time to compile the chunk scan.
+        num_particles: particles (modes) used.
+    """
+
+    markers: np.ndarray
+    best_markers: np.ndarray
+    ess: np.ndarray
+    log_likelihood: np.ndarray
+    degenerate: np.ndarray
+    seconds_per_frame: float
+    compile_seconds: float
+    num_particles: int
+
+
+class ParticleTracker(eqx.Module):
+    """CONDENSATION on a ``jaxtrack.smc`` model: subclasses give ``model``, ``num_particles`` and
+    ``markers_of(particle)``; the estimate is the markers of the weighted mean particle unless
+    ``estimate_markers`` is overridden."""
+
+    def markers_of(self, particle) -> Float[Array, "markers 2"]:
+        raise NotImplementedError
+
+    @property
+    def model(self) -> smc.StateSpaceModel:
+        raise NotImplementedError
+
+    @property
+    def num_particles(self) -> int:
+        raise NotImplementedError
+
+    def estimate_markers(self, particles, log_weights) -> Float[Array, "markers 2"]:
+        return self.markers_of(smc.weighted_mean(particles, log_weights))
+
+    def _estimate(self, state: smc.FilterState, info: smc.StepInfo) -> FrameEstimate:
+        best = smc.best_particle(state.particles, state.log_weights)
+        return FrameEstimate(
+            markers=self.estimate_markers(state.particles, state.log_weights),
+            best_markers=self.markers_of(best),
+            ess=info.ess,
+            log_likelihood=info.log_evidence_increment,
+            degenerate=info.degenerate,
+        )
+
+    def start(self, key: PRNGKeyArray, frame) -> smc.FilterState:
+        state, _ = smc.initialize(key, self.model, frame, self.num_particles)
+        return state
+
+    def update(self, key: PRNGKeyArray, state: smc.FilterState, frame
+               ) -> tuple[smc.FilterState, FrameEstimate]:
+        state, info = smc.step(key, state, frame, self.model)
+        return state, self._estimate(state, info)
+
+    def first_estimate(self, state: smc.FilterState) -> FrameEstimate:
+        ess = smc.effective_sample_size(state.log_weights)
+        info = smc.StepInfo(state.log_evidence, ess, jnp.asarray(False), jnp.asarray(False),
+                            jnp.asarray(0), jnp.arange(self.num_particles))
+        return self._estimate(state, info)
+
+
+@eqx.filter_jit
+def _start(tracker, key, frame):
+    state = tracker.start(key, frame)
+    return state, tracker.first_estimate(state)
+
+
+@eqx.filter_jit
+def _chunk(tracker, state, keys, frames):
+    def body(state, inputs):
+        key, frame = inputs
+        return tracker.update(key, state, frame)
+
+    return jax.lax.scan(body, state, (keys, frames))
+
+
+def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"], *,
+          chunk_size: int = 64, progress: bool = True, description: str = "tracking"
+          ) -> TrackResult:
+    """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on).
+
+    Frames after the first run in chunks of ``chunk_size`` through one compiled scan; the last
+    chunk is padded by repeating its final frame and the padding's output is dropped.
+    """
+    frames = np.asarray(frames)
+    if frames.ndim != 3:
+        raise ValueError(f"frames must be (time, height, width) grey images, got {frames.shape}")
+    if not np.all(np.isfinite(frames[:1])):
+        raise ValueError("frames hold non-finite values")
+    num_frames = frames.shape[0]
+    key_start, key_frames = jr.split(key)
+    state, first = _start(tracker, key_start, jnp.asarray(frames[0]))
+    outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
+    chunk_size = max(1, min(chunk_size, num_frames - 1)) if num_frames > 1 else 1
+    keys = jr.split(key_frames, max(num_frames - 1, 1))
+    compiled, compile_seconds, run_seconds = None, 0.0, 0.0
+    bar = tqdm(total=num_frames, desc=description, unit="frame", disable=not progress,
+               dynamic_ncols=True)
+    bar.update(1)
+    for begin in range(1, num_frames, chunk_size):
+        count = min(chunk_size, num_frames - begin)
+        chunk = frames[begin:begin + count]
+        chunk_keys = keys[begin - 1:begin - 1 + count]
+        if count < chunk_size:  # pad to the compiled shape
+            chunk = np.concatenate([chunk, np.repeat(chunk[-1:], chunk_size - count, axis=0)])
+            chunk_keys = jnp.concatenate([chunk_keys, jr.split(chunk_keys[-1], chunk_size - count)])
+        arguments = (tracker, state, chunk_keys, jnp.asarray(chunk))
+        if compiled is None:  # compile ahead of time, so that compilation is timed apart
+            tick = time.perf_counter()
+            compiled = _chunk.lower(*arguments).compile()
+            compile_seconds = time.perf_counter() - tick
+        tick = time.perf_counter()
+        new_state, estimates = compiled(*arguments)
+        estimates = jax.tree.map(lambda leaf, n=count: np.asarray(leaf)[:n], estimates)
+        run_seconds += time.perf_counter() - tick
+        if count == chunk_size:
+            state = new_state
+        outputs.append(estimates)
+        bar.update(count)
+    bar.close()
+    merged = jax.tree.map(lambda *leaves: np.concatenate(leaves), *outputs)
+    return TrackResult(
+        markers=merged.markers, best_markers=merged.best_markers, ess=merged.ess,
+        log_likelihood=merged.log_likelihood, degenerate=merged.degenerate,
+        seconds_per_frame=run_seconds / max(num_frames - 1, 1), compile_seconds=compile_seconds,
+        num_particles=int(tracker.num_particles),
+    )
