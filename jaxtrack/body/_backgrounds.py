@@ -134,20 +134,32 @@ def make_background(background, image_size: tuple[int, int],
     return _fit(image, image_size), "image"
 
 
-def material_textures(colours: np.ndarray, image_size: tuple[int, int],
-                      rng: np.random.Generator) -> np.ndarray:
-    """Per-material colour images `(materials, height, width, 3)` uint8: base colour times fabric
-    noise (a fine weave for cloth, faint mottling for skin)."""
+def texture_tile(image_size: tuple[int, int]) -> int:
+    """Side of the square texture tiles for a render of `image_size`: a power of two (so wrapping
+    is a bit mask) of at least half the image's longer side, larger than any one body part."""
+    return max(64, 1 << (max(image_size) - 1).bit_length() - 1)
+
+
+def material_textures(colours: np.ndarray, tile: int, rng: np.random.Generator) -> np.ndarray:
+    """Per-material colour tiles `(materials, tile, tile, 3)` uint8: base colour times fabric noise
+    (a fine weave for cloth, faint mottling for skin), periodic so they wrap without seams.
+
+    The renderer looks them up in each body part's own frame (see `FigureDrawer.texture_maps`),
+    one texel per pixel at the subject's usual depth, so the fabric moves with the body.
+    """
     import cv2
 
-    width, height = image_size
-    textures = np.zeros((len(MATERIALS), height, width, 3), np.uint8)
+    textures = np.zeros((len(MATERIALS), tile, tile, 3), np.uint8)
     amplitude = {SKIN: 0.04, SHIRT: 0.12, STRIPE: 0.1, TROUSERS: 0.15, SHOES: 0.1, HAIR: 0.2}
-    rows, columns = np.mgrid[0:height, 0:width]
-    weave = np.sin(0.9 * (rows + columns)).astype(np.float32)  # diagonal twill of denim
+    rows, columns = np.mgrid[0:tile, 0:tile]
+    # diagonal twill of denim, about 7 texels a cycle, a whole number of cycles per tile
+    weave = np.sin(2 * np.pi * round(0.9 * tile / (2 * np.pi)) / tile * (rows + columns))
+    weave = weave.astype(np.float32)
+    pad = 8  # beyond the blur kernel's reach: blurring the wrapped noise keeps it periodic
     for material, strength in amplitude.items():
-        noise = cv2.GaussianBlur(rng.standard_normal((height, width)).astype(np.float32),
-                                 (0, 0), 1.0 if material != HAIR else 0.7) * 2.0
+        noise = np.pad(rng.standard_normal((tile, tile)).astype(np.float32), pad, mode="wrap")
+        noise = cv2.GaussianBlur(noise, (0, 0), 1.0 if material != HAIR else 0.7)
+        noise = noise[pad:-pad, pad:-pad] * 2.0
         if material == TROUSERS:
             noise = 0.6 * noise + 0.6 * weave
         factor = 1.0 + strength * noise

@@ -5,7 +5,9 @@ plus the thorax, which every rig supplies, and a few points derived from them in
 hand tips, toes, the torso's front and back surfaces), so it looks right from any viewpoint. Each
 frame is drawn with OpenCV into one `(height, width, 3)` uint8 buffer holding, per pixel, the part
 index (0 = not the figure), the material and the shade; the renderer turns that into colour with
-per-material textures. cv2 is imported inside the functions so `import jaxtrack` never needs it.
+per-material textures, looked up through per-part affine maps (`FigureDrawer.texture_maps`) so
+the texture moves with each part. cv2 is imported inside the functions so `import jaxtrack` never
+needs it.
 """
 
 from __future__ import annotations
@@ -170,6 +172,37 @@ def _fixed(values: np.ndarray) -> np.ndarray:
     return np.round(values * _ONE).astype(np.int32)
 
 
+def _texture_map(origin: np.ndarray, axis: np.ndarray, depth: np.ndarray,
+                 depth_change: np.ndarray, focal_length: float,
+                 reference_depth: float) -> np.ndarray:
+    """Affine maps from pixels to a body part's texture coordinates, `(time, 2, 3)` float32.
+
+    The coordinates are texels along `axis` (the part's long axis in the image) and across it,
+    measured from `origin` (a point fixed on the part), one texel per pixel at `reference_depth`:
+    a texel is a fixed size on the body, so the texture moves, turns and scales with the part.
+    Along the axis the texels are compressed as the part turns towards the camera (from the
+    depth change over its length, at most 4 times).
+
+    Args:
+        origin: `(time, 2)` pixels.
+        axis: `(time, 2)` pixels, the part's long axis (any length; zero leaves it upright).
+        depth: `(time,)` the part's depth, metres.
+        depth_change: `(time,)` the depth change along `axis`, metres.
+    """
+    length = np.linalg.norm(axis, axis=-1)
+    along = np.where(length[:, None] > 1e-6, axis / np.maximum(length, 1e-6)[:, None],
+                     np.array([0.0, -1.0]))
+    across = np.stack([-along[:, 1], along[:, 0]], -1)
+    depth = np.maximum(depth, 1e-3)
+    texels_per_pixel = depth / reference_depth
+    # the fraction of the part's length that the image shows (pinhole camera)
+    visible = length / np.maximum(np.hypot(length, depth_change * focal_length / depth), 1e-9)
+    rows = np.stack([along * (texels_per_pixel / np.maximum(visible, 0.25))[:, None],
+                     across * texels_per_pixel[:, None]], axis=1)  # (time, 2, 2)
+    offset = -np.einsum("tij,tj->ti", rows, origin)
+    return np.concatenate([rows, offset[..., None]], axis=-1).astype(np.float32)
+
+
 class FigureDrawer:
     """Plans every frame's drawing at once (vectorised over time), then draws one frame at a time
     into a `(height, width, 3)` uint8 buffer whose channels are part index, material and shade.
@@ -183,6 +216,11 @@ class FigureDrawer:
         depths: `(time, points)` their camera depths, metres.
         faces_camera: `(time,)` whether the subject's front is towards the camera.
         min_depth: points nearer than this (or behind the camera) are not drawn.
+
+    Attributes:
+        texture_maps: `(time, parts, 2, 3)` float32 affine maps from pixel `(x, y, 1)` to each
+            part's texture coordinates (texels along and across the part, see `_texture_map`),
+            so that clothing texture is carried along by the part it is on.
     """
 
     def __init__(self, index: dict[str, int], appearance: Appearance, scale: float,
@@ -267,6 +305,22 @@ class FigureDrawer:
         self.job_ok = np.isfinite(job_depths)
         torso_radius = self.radius(0.085, depths[:, torso_joints])
         self.widest = np.where(depths[:, torso_joints] > min_depth, torso_radius, 0.0).max(axis=1)
+
+        # texture coordinates in each part's own frame: capsules along their bone, torso and hips
+        # along the spine (pelvis to neck), the head along its long axis
+        usual = torso_depth[self.torso_ok]
+        reference = float(np.median(usual)) if usual.size else 1.0
+        self.texture_maps = np.zeros((num_frames, len(PARTS), 2, 3), np.float32)
+        for job, part in enumerate(self.capsule_parts):
+            self.texture_maps[:, part] = _texture_map(
+                ends[:, job, 0], direction[:, job], end_depths[:, job].mean(axis=1),
+                end_depths[:, job, 1] - end_depths[:, job, 0], focal_length, reference)
+        pelvis, neck = index["pelvis"], index["neck"]
+        spine = _texture_map(pixels[:, pelvis], pixels[:, neck] - pixels[:, pelvis], torso_depth,
+                             depths[:, neck] - depths[:, pelvis], focal_length, reference)
+        self.texture_maps[:, _PART["torso"]] = self.texture_maps[:, _PART["hips"]] = spine
+        self.texture_maps[:, _PART["head"]] = _texture_map(
+            centre, upward, head_depth, np.zeros(num_frames), focal_length, reference)
 
     def radius(self, metres, depth):
         """Pixels spanned by `metres` at `depth` metres (scaled with the subject)."""

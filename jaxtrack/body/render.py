@@ -6,6 +6,10 @@ painter's order by depth, over a plain, photographic or cluttered background, wi
 blur, lighting changes and moving occluders. Every frame comes with exact ground truth: the 2-D
 markers, their 3-D positions, whether each is visible, and the figure's silhouette.
 
+The fabric is fixed to the body, as real clothes are: each part looks its texture up in its own
+frame (along and across the part), so the pattern moves, turns and scales with the part it is on,
+and a template taken around a joint stays on the joint.
+
 Limb widths are physical (metres, scaled with the subject's leg length) and become pixels through
 the camera's focal length and each joint's depth. Visibility is approximate where body parts
 overlap: each part has one depth (the mean of its end points), and a marker is hidden when the
@@ -70,14 +74,18 @@ def _progress(iterable, total: int, enabled: bool):
     return tqdm(iterable, total=total, desc="rendering", unit="frame", leave=False)
 
 
-def _compose(image, region, textures, pixel_index, background, widest) -> np.ndarray:
+def _compose(image, region, textures, texture_maps, origin, background, widest) -> np.ndarray:
     """Colour the figure's pixels in one frame's region of interest.
 
     Args:
         image: `(h, w, 3)` uint8 region of the frame (not modified).
         region: `(h, w, 3)` uint8 part index, material, shade, as drawn by `FigureDrawer`.
-        textures: `(materials * height * width, 3)` uint8 colour per material and pixel, flat.
-        pixel_index: `(h, w)` int32 flat pixel index (`row * width + column`) of the region.
+        textures: `(materials * tile * tile, 3)` uint8 colour per material and texel, flat; `tile`
+            is a power of two.
+        texture_maps: `(parts, 2, 3)` float32 this frame's affine map per part from pixel
+            `(x, y, 1)` to texture coordinates (texels along and across the part), so the texture
+            moves with the part it is on.
+        origin: `(x, y)` pixel position of the region's top left corner in the frame.
         background: `(h, w, 3)` uint8 background under the region (for the anti-aliased rim).
         widest: the widest limb radius in pixels (sets how far shading is smoothed).
 
@@ -86,22 +94,41 @@ def _compose(image, region, textures, pixel_index, background, widest) -> np.nda
     """
     import cv2
 
-    mask = (region[..., 0] > 0).view(np.uint8)
-    num_pixels = textures.shape[0] // len(_figure.MATERIALS)
-    colour = np.take(textures, region[..., 1].astype(np.int32) * num_pixels + pixel_index, axis=0)
+    part = np.ascontiguousarray(region[..., 0])
+    inside = part.astype(bool)
+    tile_bits = (textures.shape[0] // len(_figure.MATERIALS)).bit_length() // 2
+    # everything per pixel is done only where the figure is (often a fifth of the region)
+    where = np.flatnonzero(inside)
+    parts = np.take(part, where)
+    row, column = np.divmod(where, part.shape[1])
+    x = (column + origin[0]).astype(np.float32)
+    y = (row + origin[1]).astype(np.float32)
+    # texture coordinates from each part's affine map, wrapped into the tiles
+    coefficients = texture_maps.reshape(len(texture_maps), 6).T  # (6, parts)
+    index = np.take(np.ascontiguousarray(region[..., 1]), where).astype(np.int32)
+    index <<= 2 * tile_bits
+    for axis in (0, 1):  # along the part (texture columns), across it (texture rows)
+        a, b, c = (np.take(coefficients[3 * axis + k], parts) for k in range(3))
+        texel = np.floor(a * x + b * y + c).astype(np.int32)
+        texel &= (1 << tile_bits) - 1
+        index |= texel << axis * tile_bits
+    colour = np.take(textures, index, axis=0).astype(np.float32)
     # soften the shade layers into a gradient across each limb; the zero shade outside the figure
     # darkens its rim, as the edge of a rounded limb looks
     kernel = 2 * int(0.4 * widest) + 1
     shade = np.ascontiguousarray(region[..., 2])
     if kernel > 1:
         shade = cv2.stackBlur(shade, (kernel, kernel))
-    lit = cv2.multiply(colour, cv2.merge((shade, shade, shade)), scale=1 / 255)
-    result = cv2.copyTo(lit, mask, np.ascontiguousarray(image))
+    colour *= np.take(shade, where)[:, None] * np.float32(1 / 255)
     # anti-alias the inner rim: blend figure pixels that touch the background
-    coverage = cv2.blur(mask * np.uint8(255), (3, 3))
-    rim = np.nonzero(mask.view(bool) & (coverage < 255))
-    alpha = coverage[rim].astype(np.float32)[:, None] * (1 / 255)
-    result[rim] = (alpha * lit[rim] + (1 - alpha) * background[rim] + 0.5).astype(np.uint8)
+    coverage = np.take(cv2.blur(inside.view(np.uint8) * np.uint8(255), (3, 3)), where)
+    rim = np.flatnonzero(coverage < 255)
+    alpha = coverage[rim, None] * np.float32(1 / 255)
+    colour[rim] = alpha * colour[rim] + (1 - alpha) * background[row[rim], column[rim]]
+    colour += 0.5
+    result = np.array(image)  # contiguous, so that whole pixels can be written by flat index
+    pixel = np.dtype((np.void, 3))
+    result.view(pixel).reshape(-1)[where] = colour.astype(np.uint8).view(pixel)[:, 0]
     return result
 
 
@@ -173,8 +200,12 @@ def render_motion(
 
     background_image, background_name = _backgrounds.make_background(
         background, (width, height), rng_background)
-    textures = _backgrounds.material_textures(appearance.colours(), (width, height),
-                                              rng_texture).reshape(-1, 3)
+    tile = _backgrounds.texture_tile((width, height))
+    textures = _backgrounds.material_textures(appearance.colours(), tile, rng_texture)
+    textures = textures.reshape(-1, 3)
+    # each part starts at its own place in the tiles, so e.g. the two thighs differ
+    texture_maps = drawer.texture_maps.copy()
+    texture_maps[..., 2] += rng_texture.integers(0, tile, size=(len(_figure.PARTS), 2))
     in_front = depths > _MIN_DEPTH
     boxes = np.stack([np.min(np.where(in_front, pixels[..., 0], np.inf), axis=1),
                       np.min(np.where(in_front, pixels[..., 1], np.inf), axis=1),
@@ -195,7 +226,6 @@ def render_motion(
     silhouettes = np.zeros((num_frames, height, width), bool)
     visibility = np.zeros((num_frames, len(markers)), bool)
     buffer = np.zeros((height, width, 3), np.uint8)
-    pixel_index = np.arange(height * width, dtype=np.int32).reshape(height, width)
     light_phase = rng_lighting.uniform(0.0, 2 * np.pi, 2)
     if noise_std > 0:
         noise_field = np.round(rng_noise.standard_normal((2 * height, 2 * width, 3)) * noise_std)
@@ -211,8 +241,8 @@ def render_motion(
         y1 = min(height, int(np.ceil(boxes[t, 3] + margin)) + 1)
         if x1 > x0 and y1 > y0:
             image[y0:y1, x0:x1] = _compose(
-                image[y0:y1, x0:x1], buffer[y0:y1, x0:x1], textures, pixel_index[y0:y1, x0:x1],
-                background_image[y0:y1, x0:x1], widest)
+                image[y0:y1, x0:x1], buffer[y0:y1, x0:x1], textures, texture_maps[t],
+                (x0, y0), background_image[y0:y1, x0:x1], widest)
             silhouettes[t, y0:y1, x0:x1] = buffer[y0:y1, x0:x1, 0] > 0
         part_depths = drawer.part_depths[t]
 

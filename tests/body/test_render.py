@@ -1,5 +1,6 @@
 """Renderer: ground truth agrees with the drawn pixels, on real clips from two rigs."""
 
+import dataclasses
 import subprocess
 import sys
 from functools import cache
@@ -109,6 +110,37 @@ def test_same_seed_same_bytes_other_seed_other_figure():
     other = rendered(WAVE, seed=4, background="clutter", noise_std=4.0, occluders=1)
     assert np.abs(first.images.astype(int) - other.images).mean() > 10
     assert np.array_equal(first.markers_2d, other.markers_2d)  # same motion, same camera
+
+
+def ncc(first: np.ndarray, second: np.ndarray) -> float:
+    first, second = first - first.mean(), second - second.mean()
+    return float((first * second).sum() / np.sqrt((first * first).sum() * (second * second).sum()))
+
+
+def test_clothing_texture_moves_with_the_body():
+    # the same pose twice, the second moved 5 pixels to the right: the fabric must come along,
+    # or a template tracker locks onto the pattern left behind on the screen
+    motion = clip(WAVE).select(0, 1)
+    camera = frontal_camera(motion, SIZE)
+    rotation, translation = np.asarray(camera.rotation), np.asarray(camera.translation)
+    depth = (motion.positions[0] @ rotation.T + translation)[:, 2].mean()
+    shift = rotation[0] * 5.0 * depth / float(camera.focal_length[0])
+    moved = dataclasses.replace(motion, positions=np.concatenate(
+        [motion.positions, motion.positions + shift]))
+    sequence = render_motion(moved, camera, background="photo", progress=False)
+    grey = sequence.images.astype(float).mean(axis=-1)
+
+    def patch(t, centre, half=4):
+        u, v = np.round(centre).astype(int)
+        return grey[t, v - half:v + half + 1, u - half:u + half + 1]
+
+    for joint in ("pelvis", "right_hip", "left_hip"):  # on the trousers, inside the silhouette
+        before, after = sequence.markers_2d[:, NAME[joint]]
+        np.testing.assert_allclose(after - before, (5.0, 0.0), atol=0.1)
+        template = patch(0, before)
+        following, staying = ncc(template, patch(1, after)), ncc(template, patch(1, before))
+        assert following > 0.95, (joint, following, staying)
+        assert staying < following - 0.15, (joint, following, staying)
 
 
 def test_photo_background_comes_from_the_bundled_jpeg():
