@@ -1,4 +1,4 @@
-"""Command line: ``jaxtrack demo | render | ...``.
+"""Command line: ``jaxtrack demo | render | evaluate``.
 
 Each subcommand lives in a ``_add_<name>`` function that registers its parser and handler; the
 handlers import their heavy dependencies lazily so ``jaxtrack --help`` stays fast.
@@ -212,7 +212,13 @@ def _run_render(args: argparse.Namespace) -> int:
     return 0
 
 
-_SUBCOMMANDS = [_add_demo, _add_render]
+def _add_evaluate(subparsers) -> None:
+    from jaxtrack._evaluate_cli import add_evaluate
+
+    add_evaluate(subparsers, UserError)
+
+
+_SUBCOMMANDS = [_add_demo, _add_render, _add_evaluate]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -146,12 +146,11 @@ def latent_tracker(
                          "sequence_ids so that ν is estimated")
     if fps is not None and np.isfinite(float(prior.dynamics_fps)):
         std = std * np.sqrt(float(prior.dynamics_fps) / fps)
-    with jax.enable_x64(True):
-        template64 = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64), template)
-        state = spm_initial_state(jnp.asarray(first_markers), template64)
-        features = pose_features(state, template64)
-        latent = prior.inverse(features[None]).latents[0]
-        state = np.asarray(state)
+    state = np.asarray(spm_initial_state(jnp.asarray(first_markers), template), np.float64)
+    with jax.enable_x64(True):  # μ⁻¹ in the prior's float64
+        features = pose_features(jnp.asarray(state), jax.tree.map(
+            lambda leaf: jnp.asarray(np.asarray(leaf), jnp.float64), template))
+        latent = np.asarray(prior.inverse(features[None]).latents[0])
     torso = float(np.exp(state[0]))
     if placement_std is None:
         placement_std = (0.01, 0.01 * torso, 0.01 * torso)

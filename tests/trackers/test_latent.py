@@ -1,0 +1,67 @@
+"""The latent-space tracker on a rendered held-out real clip (small: few frames, few particles)."""
+
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
+
+from jaxtrack.body import UPPER_BODY_12
+from jaxtrack.cli import main
+from jaxtrack.evaluation import evaluate_track
+from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
+from jaxtrack.trackers import latent_tracker, track
+
+HISTORY = "animateddrawings/history_c119d6b/"
+TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "cmu_1006_wave_hello_1")
+HELD_OUT = HISTORY + "cmu_1006_wave_hello_2"
+
+
+@pytest.fixture(scope="module")
+def prior():
+    return train_prior(TRAIN, views=2, fps=10.0, active_size=60, iterations=1, progress=False)
+
+
+@pytest.fixture(scope="module")
+def sequence():
+    return render_test_sequences(HELD_OUT, views=1, backgrounds=("photo",), fps=15.0,
+                                 image_size=(320, 240), max_frames=16)[0]
+
+
+def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
+    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                             num_particles=100, fps=sequence.fps)
+    result = track(tracker, jr.PRNGKey(0), sequence.frames, chunk_size=8, progress=False)
+    assert result.markers.shape == sequence.truth.shape
+    assert np.all(np.isfinite(result.markers))
+    metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
+    # the small prior reconstructs this take to ~10 % of the torso; tracking adds a little
+    assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
+    assert not metrics["failed"]
+    # frame 0 is the initialisation: close to the truth up to the prior's reconstruction
+    assert np.mean(np.linalg.norm(result.markers[0] - sequence.truth[0], axis=-1)) < 0.2 * float(
+        np.linalg.norm(sequence.truth[0, 3] - sequence.truth[0, 1]))
+
+
+def test_latent_tracker_rejects_bad_input(prior, sequence):
+    with pytest.raises(ValueError, match="12 finite"):
+        latent_tracker(prior.model, prior.template, sequence.frames[0],
+                       np.full((12, 2), np.nan))
+    no_dynamics = type(prior.model)(**{**prior.model.__dict__,
+                                       "dynamics_std": jnp.full((2,), jnp.nan)})
+    with pytest.raises(ValueError, match="no latent dynamics"):
+        latent_tracker(no_dynamics, prior.template, sequence.frames[0], sequence.truth[0])
+    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                             num_particles=8)
+    with pytest.raises(ValueError, match="grey images"):
+        track(tracker, jr.PRNGKey(0), sequence.images, progress=False)
+
+
+def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
+    out = str(tmp_path / "out.json")
+    assert main(["evaluate", "--method", "latent", "--train", "no/such", "--test", HELD_OUT,
+                 "--json", out]) == 2
+    assert "--train: unknown clip(s) no/such" in capsys.readouterr().err
+    assert main(["evaluate", "--method", "latent", "--train", HELD_OUT, "--test", HELD_OUT,
+                 "--json", out]) == 2
+    assert "must be held out" in capsys.readouterr().err
+    assert not (tmp_path / "out.json").exists()
