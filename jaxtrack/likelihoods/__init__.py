@@ -5,12 +5,16 @@ from jaxtrack.likelihoods.ncc import (
     NCCTemplates,
     make_templates,
     ncc_log_likelihood,
+    ncc_log_likelihood_nearest,
     ncc_scores,
+    ncc_scores_nearest,
     patch_half_size,
     sample_patches,
+    sample_patches_nearest,
 )
 
 __all__ = [
-    "DEFAULT_NCC_SHARPNESS", "NCCTemplates", "make_templates", "ncc_log_likelihood", "ncc_scores",
-    "patch_half_size", "sample_patches",
+    "DEFAULT_NCC_SHARPNESS", "NCCTemplates", "make_templates", "ncc_log_likelihood",
+    "ncc_log_likelihood_nearest", "ncc_scores", "ncc_scores_nearest", "patch_half_size",
+    "sample_patches", "sample_patches_nearest",
 ]

@@ -18,6 +18,29 @@ integer coordinates (OpenCV's convention, the renderer's too), x to the right, y
 
 Dtypes follow the inputs: float32 images and markers give float32 results; integer inputs
 are computed in float32; float64 only when a float64 array comes in.
+
+Two samplers, same model:
+
+* :func:`ncc_scores` / :func:`ncc_log_likelihood` sample the patches bilinearly at the exact
+  marker positions: smooth in the markers (useful gradients), four gathers per sample point.
+* :func:`ncc_scores_nearest` / :func:`ncc_log_likelihood_nearest` round each marker to the
+  nearest pixel and cut the patch as one contiguous block, in a single fused pass that also
+  forms the patch sums. For a particle filter, which only needs likelihood values, this is
+  10–70× faster on CPU (12 markers, 13² pixels, 640 × 480, 2 cores, jit + vmap: ~0.2–0.35 ms
+  per frame against ~3–10 ms for 200 particles, ~1 ms against ~40–75 ms for 1000) and equal
+  to the bilinear scores at integer marker positions (~1e-5 in float32). The price:
+  ±0.5-pixel quantisation of the markers, zero gradients with respect to them, and patches
+  near the border shifted inside the image instead of edge-replicated.
+
+The nearest-pixel version needs no per-frame preprocessing. Integral images of the frame and
+of its square (summed-area tables, which would give the patch sums with 4 lookups each) were
+measured and rejected: building them costs 6–13 ms per 640 × 480 frame on CPU (two cumulative
+sums each), 20–40× the whole likelihood, and in float32 the table of squares loses the
+variance of low-contrast patches to cancellation (on a rendered frame, one 13 × 13 patch in
+two had its variance off by over 1 %, one in six even with the frame's mean subtracted
+first). The sums are instead accumulated from the gathered
+patch itself, relative to its centre pixel (see :func:`ncc_scores_nearest`), which costs
+almost nothing on top of the gather and is exact for flat patches.
 """
 
 from __future__ import annotations
@@ -33,9 +56,12 @@ __all__ = [
     "NCCTemplates",
     "make_templates",
     "ncc_log_likelihood",
+    "ncc_log_likelihood_nearest",
     "ncc_scores",
+    "ncc_scores_nearest",
     "patch_half_size",
     "sample_patches",
+    "sample_patches_nearest",
 ]
 
 DEFAULT_NCC_SHARPNESS = 1.0
@@ -241,4 +267,151 @@ def ncc_log_likelihood(
     """
     scores = ncc_scores(markers_2d, image, templates)
     # Tian et al. (2005) eq. 7: likelihood ∝ exp(−Σ_m dissimilarity_m), dissimilarity 1 − NCC
+    return -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
+
+
+# ------------------------------------------------------------------------------------------
+# Nearest-pixel patches: one block gather and one fused pass per patch (particle filters)
+# ------------------------------------------------------------------------------------------
+
+
+def _check_image_and_centres(image: Array, centres: Array, half_size: int) -> None:
+    if image.ndim != 2:
+        raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
+                         f"convert colour frames with jaxtrack.vision.to_grey")
+    if centres.ndim != 2 or centres.shape[-1] != 2:
+        raise ValueError(f"centres must be (markers, 2) pixel positions, got {centres.shape}")
+    size = 2 * half_size + 1
+    if image.shape[0] < size or image.shape[1] < size:
+        raise ValueError(f"image {image.shape} is smaller than the {size} × {size} patches")
+
+
+def _patch_corners(centres: Array, shape: tuple[int, int], half_size: int,
+                   dtype: jnp.dtype) -> tuple[Array, Array]:
+    """Top-left ``(x, y)`` int32 pixel of each nearest-pixel patch, clamped inside the image."""
+    height, width = shape
+    size = 2 * half_size + 1
+    # nearest pixel, halves rounding up (as in patch_half_size); clamp in floating point so
+    # that huge or infinite coordinates cannot overflow the int32 conversion
+    corner = jnp.floor(centres.astype(dtype) + 0.5) - half_size
+    x = jnp.clip(corner[..., 0], 0, width - size).astype(jnp.int32)
+    y = jnp.clip(corner[..., 1], 0, height - size).astype(jnp.int32)
+    return x, y
+
+
+def _blocks(image: Array, x: Array, y: Array, size: int) -> Array:
+    """``(markers, size, size)`` blocks with top-left corners ``(x, y)`` (in bounds)."""
+    # vmapped dynamic_slice: XLA makes it one gather of (size, size) slices, which it fuses
+    # into the consumer; faster under vmap than a gather of flat pixel indices
+    return jax.vmap(lambda row, col: jax.lax.dynamic_slice(image, (row, col), (size, size)))(
+        y, x)
+
+
+def sample_patches_nearest(
+    image: Float[ArrayLike, "height width"],
+    centres: Float[ArrayLike, "markers 2"],
+    half_size: int,
+) -> Float[Array, "markers size size"]:
+    """Square patches of ``image`` at the pixel nearest each centre, kept inside the image.
+
+    The patch of centre ``(x, y)`` is the block of pixels centred on ``(⌊x + ½⌋, ⌊y + ½⌋)``;
+    a block that would cross the border is shifted inwards until it fits (so it no longer
+    centres on the marker), unlike :func:`sample_patches`, which replicates the edge pixels.
+    At integer centres at least ``half_size`` pixels from the border both give the same
+    patch.
+
+    Args:
+        image: ``(height, width)`` grey levels, at least ``size`` pixels each way.
+        centres: ``(markers, 2)`` ``(x, y)`` pixel positions (pixel centres at integers).
+        half_size: static; patches are ``size = 2 · half_size + 1`` pixels square.
+
+    Returns:
+        ``(markers, size, size)`` in the promoted floating dtype of the inputs.
+    """
+    image = jnp.asarray(image)
+    centres = jnp.asarray(centres)
+    _check_image_and_centres(image, centres, half_size)
+    dtype = _float_dtype(image, centres)
+    x, y = _patch_corners(centres, image.shape, half_size, dtype)
+    return _blocks(image.astype(dtype), x, y, 2 * half_size + 1)
+
+
+def _add3(a: tuple, b: tuple) -> tuple:
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2]
+
+
+def ncc_scores_nearest(
+    markers_2d: Float[ArrayLike, "markers 2"],
+    image: Float[ArrayLike, "height width"],
+    templates: NCCTemplates,
+) -> Float[Array, " markers"]:
+    """:func:`ncc_scores` with each marker rounded to the nearest pixel: fast, for filters.
+
+    The patch of each marker is :func:`sample_patches_nearest`'s block (one gather, shifted
+    inside the image near the border); markers anywhere, even far outside the image, are
+    accepted. With the zero-mean, unit-norm template ``t`` and the patch ``p`` taken
+    relative to its centre pixel ``c`` (``q = p − c``, which changes neither the correlation
+    nor the variance but keeps the sums small, so float32 does not lose low-contrast patches
+    to cancellation),
+
+        NCC = Σ q·t / sqrt(Σ q² − (Σ q)² / size²),
+
+    where ``Σ q·t`` needs no mean subtraction because ``Σ t = 0``. The three sums come from
+    one fused pass over each patch's rows (a variadic reduction, which XLA fuses with the
+    gather, so the patches are never written to memory). No per-frame preprocessing is
+    needed; the image is used as it is (converted to the compute dtype once, outside the
+    particle vmap, since it is not batched).
+
+    Same values as :func:`ncc_scores` at integer markers away from the border (to rounding:
+    ~1e-6 in float32); in [−1, 1], 0 for a flat patch or template, never NaN; invariant to
+    ``image → a · image + b`` for ``a > 0``. The gradient with respect to the markers is
+    zero (rounding); use :func:`ncc_scores` where it matters.
+
+    Args:
+        markers_2d: ``(markers, 2)`` pixel positions of one pose (vmap over particles).
+        image: ``(height, width)`` grey frame, any real dtype.
+        templates: from :func:`make_templates`, with as many markers.
+
+    Returns:
+        ``(markers,)`` scores in the promoted floating dtype of ``markers_2d`` and ``image``.
+    """
+    markers = jnp.asarray(markers_2d)
+    image = jnp.asarray(image)
+    half = templates.half_size
+    _check_image_and_centres(image, markers, half)
+    if markers.shape[0] != templates.num_markers:
+        raise ValueError(f"{markers.shape[0]} markers but {templates.num_markers} templates")
+    dtype = _float_dtype(image, markers)
+    image = image.astype(dtype)
+    size = 2 * half + 1
+    x, y = _patch_corners(markers, image.shape, half, dtype)
+    centre = image.at[y + half, x + half].get(mode="promise_in_bounds")  # (markers,)
+    patches = _blocks(image, x, y, size) - centre[:, None, None]
+    template = templates.patches.astype(dtype)
+    zero = jnp.zeros((), dtype)
+    # reducing the rows first (keeping the columns) is ~2× faster on CPU than summing each
+    # patch whole: short independent chains of additions instead of one long one
+    rows = jax.lax.reduce((patches * template, patches, patches * patches), (zero,) * 3,
+                          _add3, (1,))
+    cross, total, squares = jax.lax.reduce(rows, (zero,) * 3, _add3, (1,))
+    energy = squares - total * total / (size * size)
+    # the centre pixel has q = 0, so energy ≥ squares / (size² + 1) for any patch that is not
+    # flat, and exactly 0 (squares = 0) for a flat one: this test only separates those two
+    textured = energy > jnp.finfo(dtype).eps * squares
+    scores = jnp.where(textured, cross * jax.lax.rsqrt(jnp.where(textured, energy, 1)), 0)
+    return jnp.clip(scores, -1, 1)  # Cauchy–Schwarz, up to rounding
+
+
+def ncc_log_likelihood_nearest(
+    markers_2d: Float[ArrayLike, "markers 2"],
+    image: Float[ArrayLike, "height width"],
+    templates: NCCTemplates,
+    sharpness: float | Float[ArrayLike, ""] = DEFAULT_NCC_SHARPNESS,
+) -> Float[Array, ""]:
+    """:func:`ncc_log_likelihood` on :func:`ncc_scores_nearest`: ``−λ Σ_m (1 − NCC_m)``.
+
+    The drop-in fast likelihood for particle filters (vmap over particles, image unbatched);
+    markers are rounded to the nearest pixel, so it is piecewise constant in them.
+    """
+    scores = ncc_scores_nearest(markers_2d, image, templates)
     return -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
