@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench install clean
+.PHONY: demo test lint bench bench-gplvm bench-gpy-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,13 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.particle_counts
+
+# GPy (the GPLVM benchmark's reference) lives in its own venv so it never touches jaxtrack's
+bench-gpy-env:
+	$(PYTHON) -m venv .venv-gpy && .venv-gpy/bin/pip install -q -r benchmarks/requirements-gpy.txt
+
+bench-gplvm: $(STAMP)
+	$(BIN)/python -m benchmarks.gplvm
 
 clean:
 	rm -rf $(VENV) build *.egg-info
