@@ -27,6 +27,7 @@ from jaxtrack.likelihoods import (
     NCCTemplates,
     make_templates,
     ncc_log_likelihood,
+    ncc_log_likelihood_nearest,
 )
 from jaxtrack.priors.gplvm import GPLVM
 from jaxtrack.priors.poses import PLACEMENT_SIZE, pose_features, states_from_features
@@ -47,6 +48,7 @@ class LatentModel(smc.StateSpaceModel):
         placement_std: ``(3,)`` random-walk step of (log scale, x, y) per frame.
         initial_spread: std of the initial cloud around the initial latent, in units of ν.
         sharpness: λ of the NCC likelihood.
+        nearest: read patches at the nearest pixel (10–40× faster) instead of bilinearly.
     """
 
     prior: GPLVM
@@ -58,6 +60,7 @@ class LatentModel(smc.StateSpaceModel):
     placement_std: Float[Array, " 3"]
     initial_spread: Float[Array, ""]
     sharpness: Float[Array, ""]
+    nearest: bool = eqx.field(static=True, default=True)
 
     def init(self, key: PRNGKeyArray) -> dict:
         key_latent, key_placement = jr.split(key)
@@ -82,8 +85,8 @@ class LatentModel(smc.StateSpaceModel):
 
     def log_likelihood(self, particle: dict, observation) -> Float[Array, ""]:
         # Tian et al. eq. 7 on the markers of μ(x)
-        return ncc_log_likelihood(self.markers_of(particle), observation, self.templates,
-                                  self.sharpness)
+        score = ncc_log_likelihood_nearest if self.nearest else ncc_log_likelihood
+        return score(self.markers_of(particle), observation, self.templates, self.sharpness)
 
 
 class LatentTracker(ParticleTracker):
@@ -119,6 +122,7 @@ def latent_tracker(
     placement_std: tuple[float, float, float] | None = None,
     initial_spread: float = 1.0,
     sharpness: float = DEFAULT_NCC_SHARPNESS,
+    nearest: bool = True,
     dtype=jnp.float32,
 ) -> LatentTracker:
     """Initialise the latent tracker on a frame whose markers are known (ground truth, or an
@@ -135,6 +139,7 @@ def latent_tracker(
         placement_std: per-frame random-walk std of (log scale, x px, y px); default
             (0.01, 1 % of the torso, 1 % of the torso).
         sharpness: λ of the NCC likelihood.
+        nearest: nearest-pixel patches (fast) rather than bilinear ones.
     """
     first_markers = np.asarray(first_markers, np.float64)
     if first_markers.shape != (12, 2) or not np.all(np.isfinite(first_markers)):
@@ -161,6 +166,6 @@ def latent_tracker(
         templates=make_templates(cast(first_frame), cast(first_markers)),
         initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
         latent_std=cast(std), placement_std=cast(placement_std),
-        initial_spread=cast(initial_spread), sharpness=cast(sharpness),
+        initial_spread=cast(initial_spread), sharpness=cast(sharpness), nearest=bool(nearest),
     )
     return LatentTracker(latent_model=model, particles=int(num_particles))
