@@ -151,7 +151,7 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
         return trackers.condensation_tracker(prior.template, frame, markers, states,
                                              num_particles=particles)
     if method == "mht":
-        return trackers.mht_tracker(prior.template, frame, markers, num_modes=particles)
+        return trackers.mht_tracker(prior.template, frame, markers, states, num_modes=particles)
     raise ValueError(f"method must be one of {METHODS}, got {method!r}")
 
 
