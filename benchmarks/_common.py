@@ -46,6 +46,26 @@ def time_call(function, *args, repeats: int = 3):
     return max(first - median, 0.0), median, output
 
 
+def time_compiled(function, *args, repeats: int = 3):
+    """(lower+compile seconds, median seconds, median CPU seconds of ``repeats`` runs, last output).
+
+    ``jax.jit(function)`` is lowered and compiled explicitly, so compile time is measured on its
+    own rather than as first call minus median (which a loaded machine can swamp). CPU seconds
+    are this process's (all threads), less sensitive than wall time to other jobs on the
+    machine. Every argument must be a pytree of arrays.
+    """
+    start = time.perf_counter()
+    compiled = jax.jit(function).lower(*args).compile()
+    compile_seconds = time.perf_counter() - start
+    times, cpu_times, output = [], [], None
+    for _ in range(max(repeats, 1)):
+        start, cpu = time.perf_counter(), time.process_time()
+        output = jax.block_until_ready(compiled(*args))
+        times.append(time.perf_counter() - start)
+        cpu_times.append(time.process_time() - cpu)
+    return compile_seconds, statistics.median(times), statistics.median(cpu_times), output
+
+
 def print_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> None:
     """columns: (key, header, format)."""
     headers = [header for _, header, _ in columns]
