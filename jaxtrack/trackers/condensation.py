@@ -8,7 +8,8 @@ likelihood (eq. 7) as :mod:`jaxtrack.trackers.latent`:
     x_t = A₁ x_{t−1} + A₂ x_{t−2} + d + w_t,   w_t ~ N(0, Q),
 
 with diagonal A₁, A₂ and Q (:func:`fit_ar2`). A particle holds ``(x_t, x_{t−1})``. Its weight is
-the NCC of template patches at the markers ``spm_forward(x_t)``; the estimate is the markers of
+the NCC of template patches at the markers ``spm_forward(x_t)`` (nearest-pixel patches by
+default, as the latent tracker; ``nearest=False`` for bilinear); the estimate is the markers of
 the weighted mean state (SPM angles are measured from the template's directions, so ordinary
 poses sit near 0, far from the ±π wrap, and plain means are fine).
 
@@ -31,6 +32,7 @@ from jaxtrack.likelihoods import (
     NCCTemplates,
     make_templates,
     ncc_log_likelihood,
+    ncc_log_likelihood_nearest,
 )
 from jaxtrack.trackers._runner import ParticleTracker
 
@@ -217,6 +219,8 @@ class CondensationModel(smc.StateSpaceModel):
         initial_state: ``(25,)`` SPM state of frame 0.
         initial_std: ``(25,)`` spread of the initial particles around it.
         sharpness: λ of the NCC likelihood.
+        nearest: read patches at the nearest pixel (fast; the latent tracker's default) instead
+            of bilinearly.
     """
 
     dynamics: AR2Dynamics
@@ -225,6 +229,7 @@ class CondensationModel(smc.StateSpaceModel):
     initial_state: Float[Array, " state"]
     initial_std: Float[Array, " state"]
     sharpness: Float[Array, ""]
+    nearest: bool = eqx.field(static=True, default=True)
 
     def init(self, key: PRNGKeyArray) -> dict:
         noise = smc.fast_normal(key, self.initial_state.shape, self.initial_state.dtype)
@@ -241,8 +246,8 @@ class CondensationModel(smc.StateSpaceModel):
 
     def log_likelihood(self, particle: dict, observation) -> Float[Array, ""]:
         # Tian et al. eq. 7, the same likelihood as the latent tracker's
-        return ncc_log_likelihood(self.markers_of(particle), observation, self.templates,
-                                  self.sharpness)
+        score = ncc_log_likelihood_nearest if self.nearest else ncc_log_likelihood
+        return score(self.markers_of(particle), observation, self.templates, self.sharpness)
 
 
 class CondensationTracker(ParticleTracker):
@@ -264,7 +269,7 @@ class CondensationTracker(ParticleTracker):
 
 
 def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_markers,
-           num_particles: int, initial_spread: float, sharpness: float, dtype
+           num_particles: int, initial_spread: float, sharpness: float, nearest: bool, dtype
            ) -> CondensationTracker:
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     template = jax.tree.map(cast, template)
@@ -274,7 +279,7 @@ def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_mark
         dynamics=dynamics, template=template,
         templates=make_templates(cast(first_frame), cast(first_markers)),
         initial_state=initial, initial_std=jnp.asarray(initial_spread, dtype) * dynamics.noise_std,
-        sharpness=cast(sharpness),
+        sharpness=cast(sharpness), nearest=bool(nearest),
     )
     return CondensationTracker(condensation_model=model, particles=int(num_particles))
 
@@ -306,6 +311,7 @@ def condensation_tracker(
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     max_root: float = 1.0,
     initial_spread: float = 1.0,
+    nearest: bool = True,
     dtype=jnp.float32,
 ) -> CondensationTracker:
     """Tian et al.'s baseline: CONDENSATION in the 25-d SPM state with AR(2) dynamics learned
@@ -324,13 +330,14 @@ def condensation_tracker(
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:
             :func:`default_noise_floor` of the training torso length.
         initial_spread: initial particles spread by this many noise stds around frame 0's state.
+        nearest: nearest-pixel NCC patches (fast, as the latent tracker) rather than bilinear.
         dtype: the filter's float type.
     """
     first_markers, training_states, floor = _prepare(template, first_markers, training_states,
                                                      min_noise_std)
     dynamics = fit_ar2(training_states, ridge=ridge, min_noise_std=floor, max_root=max_root)
     return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  sharpness, dtype)
+                  sharpness, nearest, dtype)
 
 
 def random_walk_tracker(
@@ -344,6 +351,7 @@ def random_walk_tracker(
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     step_scale: float = 1.0,
     initial_spread: float = 1.0,
+    nearest: bool = True,
     dtype=jnp.float32,
 ) -> CondensationTracker:
     """CONDENSATION in the 25-d SPM state with a random walk: the ablation of the learned prior.
@@ -357,4 +365,4 @@ def random_walk_tracker(
     dynamics = random_walk_dynamics(training_states, min_noise_std=floor)
     dynamics = eqx.tree_at(lambda d: d.noise_std, dynamics, step_scale * dynamics.noise_std)
     return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  sharpness, dtype)
+                  sharpness, nearest, dtype)

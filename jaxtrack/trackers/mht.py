@@ -25,6 +25,9 @@ Li & Sclaroff (2005) compare with it using 10 modes. Here, per frame:
    **prune** modes more than ``prune_below`` nats under the best; the dropped slots are refilled
    at the next frame (step 1), so every slot is refined every frame.
 
+Patches are read bilinearly throughout (refinement and weights): Gauss–Newton needs patches that
+vary smoothly with the markers, and nearest-pixel ones are piecewise constant.
+
 σ (``step_std``) is the per-frame state step, by default the RMS frame-to-frame difference of the
 same 30 ground-truth frames the CONDENSATION baseline learns from. The estimate is the best mode;
 ``FrameEstimate.ess`` is the number of modes kept after merging and pruning. A frame where no
@@ -217,8 +220,10 @@ def _surviving(markers: Array, log_likelihoods: Array, radius: Array, prune_belo
     under the best one's."""
     num = markers.shape[0]
     distance = jnp.max(jnp.linalg.norm(markers[:, None] - markers[None], axis=-1), axis=-1)
+    log_likelihoods = jnp.where(jnp.isnan(log_likelihoods), -jnp.inf, log_likelihoods)
     order = jnp.argsort(-log_likelihoods)
-    plausible = log_likelihoods >= jnp.max(log_likelihoods) - prune_below
+    plausible = jnp.isfinite(log_likelihoods) & (
+        log_likelihoods >= jnp.max(log_likelihoods) - prune_below)
 
     def visit(rank, kept):
         mode = order[rank]

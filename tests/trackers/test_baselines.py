@@ -189,9 +189,10 @@ def test_condensation_follows_the_first_frames(wave, make):
     assert _errors(result.markers, truth).max() < 0.06 * wave["torso"]
 
 
-def test_condensation_model_jit_matches_eager(wave):
+@pytest.mark.parametrize("nearest", [True, False])
+def test_condensation_model_jit_matches_eager(wave, nearest):
     tracker = condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0],
-                                   wave["states"], num_particles=4)
+                                   wave["states"], num_particles=4, nearest=nearest)
     model, frame = tracker.model, jnp.asarray(wave["frames"][1])
 
     def one_particle(key):
