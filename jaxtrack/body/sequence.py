@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import zipfile
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -200,23 +201,33 @@ def write_video(sequence: RenderedSequence, path: str | os.PathLike, fps: float 
     Raises:
         OSError: OpenCV cannot open a writer for the file.
     """
+    frames = (draw_overlay(image, sequence.markers_2d[t], sequence.visibility[t],
+                           sequence.marker_names) if overlay else image
+              for t, image in enumerate(sequence.images))
+    return write_frames(frames, path, float(sequence.fps if fps is None else fps),
+                        sequence.image_size)
+
+
+def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike, fps: float,
+                 image_size: tuple[int, int]) -> Path:
+    """Encode RGB uint8 frames of ``image_size`` ``(width, height)`` as an mp4 (mp4v) at
+    ``path``, atomically: a failure leaves no partial file.
+
+    Raises:
+        OSError: OpenCV cannot open a writer for the file.
+    """
     import cv2
 
     path = Path(path)
-    fps = float(sequence.fps if fps is None else fps)
-    width, height = sequence.image_size
 
     def write(temporary: Path) -> None:
-        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), fps,
-                                 (width, height))
+        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), float(fps),
+                                 tuple(image_size))
         if not writer.isOpened():
             raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
         try:
-            for t, image in enumerate(sequence.images):
-                if overlay:
-                    image = draw_overlay(image, sequence.markers_2d[t], sequence.visibility[t],
-                                         sequence.marker_names)
-                writer.write(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+            for frame in frames:
+                writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
         finally:
             writer.release()
 

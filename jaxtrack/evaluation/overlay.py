@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack._files import write_atomically
 from jaxtrack.body.markers import marker_edges
+from jaxtrack.body.sequence import write_frames
 
 __all__ = ["METHOD_COLOURS", "TRUTH_COLOUR", "draw_tracks", "write_overlay_video"]
 
@@ -134,7 +134,6 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
             argument.
         OSError: OpenCV cannot open a writer for the file.
     """
-    import cv2
 
     images = np.asarray(images)
     if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
@@ -160,22 +159,8 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
         truth = np.asarray(truth, dtype=np.float64)
         if truth.shape != expected:
             raise ValueError(f"truth has shape {truth.shape}, expected {expected}")
-    path = Path(path)
-
-    def write(temporary: Path) -> None:
-        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), float(fps),
-                                 (width, height))
-        if not writer.isOpened():
-            raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
-        try:
-            for t in range(num_frames):
-                frame = draw_tracks(images[t], {m: track[t] for m, track in arrays.items()},
-                                    marker_names, truth=None if truth is None else truth[t],
-                                    label=f"frame {t + 1}/{num_frames}", colours=colours)
-                writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
-        finally:
-            writer.release()
-
-    # the temporary name ends in .mp4 because OpenCV picks the container from the extension
-    write_atomically(path, write, suffix=".mp4")
-    return path
+    frames = (draw_tracks(images[t], {m: track[t] for m, track in arrays.items()},
+                          marker_names, truth=None if truth is None else truth[t],
+                          label=f"frame {t + 1}/{num_frames}", colours=colours)
+              for t in range(num_frames))
+    return write_frames(frames, path, fps, (width, height))
