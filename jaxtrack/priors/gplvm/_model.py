@@ -109,9 +109,7 @@ class GPLVM(eqx.Module):
 
     def variance(self, latent: Float[ArrayLike, " latent"]) -> Float[Array, ""]:
         """Eq. 4: σ²(x) = α + β⁻¹ − k_Iᵀ K_II⁻¹ k_I, never below the noise β⁻¹."""
-        cross = self._cross(jnp.asarray(latent))
-        explained = cross @ self.inverse_gram @ cross
-        return self.kernel.noise_variance + jnp.maximum(self.kernel.alpha - explained, 0.0)
+        return self.mean_and_variance(latent)[1]  # under jit the unused mean is dropped
 
     def mean_and_variance(self, latent: Float[ArrayLike, " latent"]) -> tuple[Array, Array]:
         """μ(x) and σ²(x) sharing one kernel row."""
