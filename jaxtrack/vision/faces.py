@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FaceDetectorUnavailableError", "detect_face", "detect_faces",
-           "face_detector_available"]
+__all__ = ["CANDIDATE_CASCADES", "FaceDetectorUnavailableError", "detect_face", "detect_faces",
+           "face_candidates", "face_detector_available"]
 
 CASCADE_FILE = "haarcascade_frontalface_default.xml"
 _ENVIRONMENT = "JAXTRACK_FACE_CASCADE"
@@ -128,3 +128,73 @@ def detect_face(image_rgb: np.ndarray, **options) -> np.ndarray | None:
     """
     boxes = detect_faces(image_rgb, **options)
     return boxes[0] if len(boxes) else None
+
+
+#: the bundled cascades :func:`face_candidates` runs by default: two frontal and one profile
+CANDIDATE_CASCADES = ("haarcascade_frontalface_default.xml", "haarcascade_frontalface_alt2.xml",
+                      "haarcascade_profileface.xml")
+
+
+def _bundled_cascade(name: str) -> Path:
+    import cv2
+
+    folder = getattr(getattr(cv2, "data", None), "haarcascades", None)
+    path = Path(folder or ".") / name
+    if folder is None or not path.is_file():
+        raise FaceDetectorUnavailableError(
+            f"OpenCV {cv2.__version__} ships no {name} (looked in {folder}); install "
+            f"opencv-python-headless<5 (OpenCV 4 wheels include it)")
+    return path
+
+
+def _overlap(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Intersection over the smaller box's area, of ``box`` with each of ``boxes``."""
+    x0 = np.maximum(box[0], boxes[:, 0])
+    y0 = np.maximum(box[1], boxes[:, 1])
+    x1 = np.minimum(box[0] + box[2], boxes[:, 0] + boxes[:, 2])
+    y1 = np.minimum(box[1] + box[3], boxes[:, 1] + boxes[:, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    return inter / np.minimum(box[2] * box[3], boxes[:, 2] * boxes[:, 3])
+
+
+def face_candidates(image_rgb: np.ndarray, *, cascades: tuple[str, ...] = CANDIDATE_CASCADES,
+                    min_neighbors: int = 3, max_faces: int = 8,
+                    min_size: tuple[int, int] = (16, 16)) -> np.ndarray:
+    """Every plausible face box from several bundled cascades, for a caller that checks them.
+
+    A frontal cascade alone misses turned, small, blurred or pixelated faces; this runs each of
+    ``cascades`` (profile cascades also on the mirrored image, as they find one side only) with
+    a permissive ``min_neighbors``, merges boxes that overlap by more than half and keeps the
+    ``max_faces`` with the most detections behind them. It trades false positives for recall:
+    the automatic initialisation (``jaxtrack.trackers.autoinit``) scores a body pose under each
+    box and keeps the one a person explains.
+
+    Returns:
+        ``(faces, 4)`` int64 boxes ``(x, y, width, height)``, most-supported first.
+    """
+    image = np.asarray(image_rgb)
+    width = image.shape[1]
+    found = []
+    for name in cascades:
+        path = _bundled_cascade(name)
+        options = dict(min_neighbors=min_neighbors, min_size=min_size, cascade=path)
+        found.append(detect_faces(image, **options))
+        if "profile" in name:  # the profile cascade finds faces turned one way only
+            mirrored = detect_faces(np.ascontiguousarray(image[:, ::-1]), **options)
+            mirrored[:, 0] = width - mirrored[:, 0] - mirrored[:, 2]
+            found.append(mirrored)
+    boxes = np.concatenate(found) if found else np.zeros((0, 4), np.int64)
+    merged, support = [], []
+    for box in boxes:
+        if merged:
+            overlap = _overlap(box, np.asarray(merged))
+            best = int(np.argmax(overlap))
+            if overlap[best] > 0.5:
+                support[best] += 1
+                continue
+        merged.append(box)
+        support.append(1)
+    if not merged:
+        return np.zeros((0, 4), np.int64)
+    order = np.argsort(-np.asarray(support), kind="stable")[:max_faces]
+    return np.asarray(merged, np.int64)[order]
