@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-__all__ = ["add_evaluate"]
+__all__ = ["add_evaluate", "check_clips"]
 
 
 
@@ -35,7 +35,7 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.set_defaults(handler=lambda args: _run(args, user_error))
 
 
-def _check_clips(names, option: str, user_error) -> None:
+def check_clips(names, option: str, user_error) -> None:
     from jaxtrack.data import list_clips
 
     known = set(list_clips())
@@ -62,8 +62,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
         train_prior,
     )
 
-    _check_clips(args.train, "--train", user_error)
-    _check_clips(args.test, "--test", user_error)
+    check_clips(args.train, "--train", user_error)
+    check_clips(args.test, "--test", user_error)
     overlap = sorted(set(args.train) & set(args.test))
     if overlap:
         raise user_error(f"--test clips must be held out, but {', '.join(overlap)} is also in "

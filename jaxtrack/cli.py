@@ -1,4 +1,4 @@
-"""Command line: ``jaxtrack demo | render | evaluate``.
+"""Command line: ``jaxtrack demo | render | evaluate | train | track``.
 
 Each subcommand lives in a ``_add_<name>`` function that registers its parser and handler; the
 handlers import their heavy dependencies lazily so ``jaxtrack --help`` stays fast.
@@ -218,7 +218,19 @@ def _add_evaluate(subparsers) -> None:
     add_evaluate(subparsers, UserError)
 
 
-_SUBCOMMANDS = [_add_demo, _add_render, _add_evaluate]
+def _add_train(subparsers) -> None:
+    from jaxtrack._track_cli import add_train
+
+    add_train(subparsers, UserError)
+
+
+def _add_track(subparsers) -> None:
+    from jaxtrack._track_cli import add_track
+
+    add_track(subparsers, UserError)
+
+
+_SUBCOMMANDS = [_add_demo, _add_render, _add_evaluate, _add_train, _add_track]
 
 
 def build_parser() -> argparse.ArgumentParser:

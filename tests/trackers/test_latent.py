@@ -8,23 +8,9 @@ import pytest
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.cli import main
 from jaxtrack.evaluation import evaluate_track
-from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
 from jaxtrack.trackers import latent_tracker, track
 
-HISTORY = "animateddrawings/history_c119d6b/"
-TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "cmu_1006_wave_hello_1")
-HELD_OUT = HISTORY + "cmu_1006_wave_hello_2"
-
-
-@pytest.fixture(scope="module")
-def prior():
-    return train_prior(TRAIN, views=2, fps=10.0, active_size=60, iterations=1, progress=False)
-
-
-@pytest.fixture(scope="module")
-def sequence():
-    return render_test_sequences(HELD_OUT, views=1, backgrounds=("photo",), fps=15.0,
-                                 image_size=(320, 240), max_frames=16)[0]
+HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 
 
 def test_latent_tracker_follows_a_held_out_clip(prior, sequence):

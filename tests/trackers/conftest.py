@@ -1,0 +1,20 @@
+"""A small GPLVM prior and a short rendered held-out clip, shared by the tracker tests."""
+
+import pytest
+
+from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
+
+HISTORY = "animateddrawings/history_c119d6b/"
+TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "cmu_1006_wave_hello_1")
+HELD_OUT = HISTORY + "cmu_1006_wave_hello_2"
+
+
+@pytest.fixture(scope="session")
+def prior():
+    return train_prior(TRAIN, views=2, fps=10.0, active_size=60, iterations=1, progress=False)
+
+
+@pytest.fixture(scope="session")
+def sequence():
+    return render_test_sequences(HELD_OUT, views=1, backgrounds=("photo",), fps=15.0,
+                                 image_size=(320, 240), max_frames=16)[0]

@@ -1,0 +1,142 @@
+"""Automatic initialisation: foreground, head boxes, the pose search, and `jaxtrack track`."""
+
+import json
+
+import numpy as np
+import pytest
+
+from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
+from jaxtrack.body.sequence import write_frames
+from jaxtrack.cli import main
+from jaxtrack.data import load_clip
+from jaxtrack.priors.gplvm import save_gplvm
+from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise, search_poses
+from jaxtrack.vision import foreground_mask, head_boxes, median_background
+
+HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
+
+
+def _torso(markers):
+    return float(np.linalg.norm(markers[1] - markers[3]))
+
+
+def test_median_background_and_foreground_find_a_moving_figure():
+    rng = np.random.default_rng(0)
+    background = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    frames = np.repeat(background[None], 9, axis=0)
+    for t in range(9):  # a dark upright "person" 20 × 60 px walking left to right
+        frames[t, 40:100, 10 + 15 * t:30 + 15 * t] = 20
+    estimate = median_background(frames)
+    assert np.mean(estimate != background) < 0.01
+    mask = foreground_mask(frames[0], estimate)
+    person = np.zeros(mask.shape, bool)
+    person[40:100, 10:30] = True
+    assert (mask & person).sum() / person.sum() > 0.9 and (mask & ~person).sum() < 20
+    (box,) = head_boxes(mask)
+    centre = box[:2] + box[2:] / 2
+    assert abs(centre[0] - 20) < 3 and 40 <= centre[1] < 50  # at the top of the figure
+    with pytest.raises(ValueError, match="at least 3 frames"):
+        median_background(frames[:2])
+    with pytest.raises(ValueError, match="differ in size"):
+        foreground_mask(frames[0], estimate[:60])
+
+
+@pytest.fixture(scope="module")
+def rendered_frame():
+    motion = load_clip(HELD_OUT).resample(15.0).select(20, 21)
+    rendered = render_motion(motion, frontal_camera(motion, (320, 240)), image_size=(320, 240),
+                             background="photo", markers=UPPER_BODY_12, progress=False)
+    return rendered.images[0], rendered.silhouettes[0], np.asarray(rendered.markers_2d[0])
+
+
+def test_pose_search_recovers_the_pose_under_the_face(prior, rendered_frame):
+    image, silhouette, truth = rendered_frame
+    torso = _torso(truth)
+    face = np.r_[truth[0] - 0.14 * torso, 0.28 * torso, 0.28 * torso]
+    decoy = np.array([10.0, 10.0, 0.28 * torso, 0.28 * torso])  # a "face" on the background
+    found = search_poses(prior.model, prior.template, silhouette, np.stack([decoy, face]))
+    assert np.array_equal(found.face, face.astype(np.int64))
+    assert found.face_scores[1] > found.face_scores[0] + 0.3
+    error = np.linalg.norm(found.markers - truth, axis=-1).mean() / torso
+    assert error < 0.25, error
+    assert 0.75 < found.torso / torso < 1.35
+    # the foreground blob's top gives the head when no face box is given
+    found = auto_initialise(prior.model, prior.template, image, silhouette,
+                            faces=np.zeros((0, 4)))
+    assert found.source == "foreground"
+    assert np.linalg.norm(found.markers - truth, axis=-1).mean() / torso < 0.4
+
+
+def test_auto_initialise_reports_no_person(prior, rendered_frame):
+    image, silhouette, _ = rendered_frame
+    with pytest.raises(AutoInitError, match="no foreground"):
+        auto_initialise(prior.model, prior.template, image, np.zeros_like(silhouette))
+    with pytest.raises(AutoInitError, match="no face .* and no person-sized foreground blob"):
+        speck = np.zeros_like(silhouette)
+        speck[5:7, 5:7] = True
+        auto_initialise(prior.model, prior.template, image, speck, faces=np.zeros((0, 4)))
+
+
+@pytest.fixture(scope="module")
+def model_file(prior, tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "prior.npz"
+    return save_gplvm(path, prior.model, arrays={
+        "reference_lengths": np.asarray(prior.template.reference_lengths),
+        "reference_angles": np.asarray(prior.template.reference_angles)})
+
+
+def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence, tmp_path,
+                                                            capsys):
+    video = write_frames(sequence.images[:10], tmp_path / "clip.mp4", sequence.fps, (320, 240))
+    numbers = ",".join(f"{value:.2f}" for value in sequence.truth[0].ravel())
+    out = tmp_path / "out"
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
+                 f"manual:{numbers}", "--out", str(out), "--particles", "50",
+                 "--max-size", "160"]) == 0
+    record = json.loads((out / "track.json").read_text())
+    assert len(record["frames"]) == 10 and record["tracked_size"] == [160, 120]
+    markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
+                        for frame in record["frames"]])
+    assert np.all(np.isfinite(markers))
+    # reported in the video's own pixels (tracked at half size)
+    torso = _torso(sequence.truth[0])
+    errors = np.linalg.norm(markers - sequence.truth[:10], axis=-1).mean(axis=-1) / torso
+    assert errors[0] < 0.25 and errors.mean() < 0.5, errors
+    assert (out / "overlay.mp4").stat().st_size > 0
+
+
+def model_file_prior(path):
+    from jaxtrack.priors.gplvm import load_gplvm
+
+    return load_gplvm(path).model
+
+
+def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, capsys):
+    def run(*arguments):
+        code = main(["track", *arguments])
+        return code, capsys.readouterr().err
+
+    still = write_frames([sequence.images[0] * 0 + 90] * 5, tmp_path / "empty.mp4", 15.0,
+                         (320, 240))
+    out = tmp_path / "out"
+    code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out))
+    assert code == 2 and "automatic initialisation failed" in error and str(still) in error
+    assert not out.exists()  # nothing written
+    code, error = run("--model", str(model_file), "--video", str(tmp_path / "none.mp4"),
+                      "--out", str(out))
+    assert code == 2 and "none.mp4" in error
+    corrupt = tmp_path / "corrupt.mp4"
+    corrupt.write_bytes(b"not a video" * 100)
+    code, error = run("--model", str(model_file), "--video", str(corrupt), "--out", str(out))
+    assert code == 2 and "corrupt.mp4" in error
+    wrong = tmp_path / "wrong.npz"
+    np.savez(wrong, x=np.zeros(3))
+    code, error = run("--model", str(wrong), "--video", str(still), "--out", str(out))
+    assert code == 2 and "wrong.npz" in error
+    bare = save_gplvm(tmp_path / "bare.npz", model_file_prior(model_file))
+    code, error = run("--model", str(bare), "--video", str(still), "--out", str(out))
+    assert code == 2 and "not a tracking prior" in error
+    code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                      "--init", "manual:1,2,3")
+    assert code == 2 and "24" in error
+    assert not out.exists()
