@@ -14,6 +14,8 @@ fraction of its signal.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import time
 from dataclasses import dataclass, field
 
@@ -54,6 +56,48 @@ class GPLVMFit:
     init: str = ""
     init_seconds: float = 0.0
     seconds: float = 0.0
+
+
+@contextlib.contextmanager
+def _single_threaded_blas():
+    """Run the block with every loaded OpenBLAS on one thread, then restore its thread count.
+
+    jaxlib's CPU Cholesky and triangular solves call SciPy's OpenBLAS, which splits even a 200 × 200
+    factorisation over its threads and waits for them at every call. Eq. 1 makes hundreds of
+    such calls per BFGS run: on 2 shared cores the waits cost 5–10× the arithmetic (300 steps,
+    active set 200: 0.5–1.5 s with the default threads, 0.12 s with one; under heavy load the
+    default took up to 35 s). A no-op where no OpenBLAS is found (threadpoolctl does the same
+    more generally; it is not a dependency).
+    """
+    import scipy.linalg.cython_lapack  # noqa: F401  (loads the OpenBLAS jaxlib's LAPACK calls)
+
+    restore = []
+    try:
+        with open("/proc/self/maps") as maps:
+            paths = {line.split()[-1] for line in maps if "openblas" in line.lower()}
+    except OSError:
+        paths = set()
+    for path in sorted(paths):
+        try:
+            library = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for prefix in ("scipy_openblas", "openblas"):
+            for suffix in ("64_", ""):
+                getter = getattr(library, f"{prefix}_get_num_threads{suffix}", None)
+                setter = getattr(library, f"{prefix}_set_num_threads{suffix}", None)
+                if getter is not None and setter is not None:
+                    break
+            else:
+                continue
+            restore.append((setter, getter()))
+            setter(1)
+            break
+    try:
+        yield
+    finally:
+        for setter, threads in restore:
+            setter(threads)
 
 
 @eqx.filter_jit
@@ -133,7 +177,7 @@ def fit_gplvm(
     latents, description = initial_latents(centred, latent_dim, init, neighbours=neighbours,
                                            seed=seed)
     init_seconds = time.perf_counter() - tick
-    with jax.enable_x64(True):
+    with jax.enable_x64(True), _single_threaded_blas():
         centred_jax = jnp.asarray(centred)
         latents = jnp.asarray(latents)
         signal = float(np.mean(np.var(centred, axis=0)))
@@ -145,9 +189,9 @@ def fit_gplvm(
             tick = time.perf_counter()
             active = select_active_set(kernel, latents, active_size)
             timings = {"ivm": time.perf_counter() - tick}
-            kernel, active_latents, objective, _, steps = _optimise_active(
+            kernel, active_latents, objective, _, steps = jax.block_until_ready(_optimise_active(
                 kernel, latents[active], centred_jax[active], max_steps=active_steps,
-                tolerance=1e-6)
+                tolerance=1e-6))
             latents = latents.at[active].set(active_latents)
             timings["active"] = time.perf_counter() - tick - sum(timings.values())
             active = select_active_set(kernel, latents, active_size)
