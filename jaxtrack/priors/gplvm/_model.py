@@ -137,9 +137,12 @@ class GPLVM(eqx.Module):
         guesses the model has.
         """
         poses = jnp.asarray(poses, self.active_poses.dtype)
-        centred = poses - self.pose_mean
-        distances = (jnp.sum(centred**2, axis=1)[:, None] - 2.0 * centred @ self.poses.T
-                     + jnp.sum(self.poses**2, axis=1)[None, :])
+        # The distances only rank neighbours, so float32 does: XLA on CPU has a fast top_k for
+        # float32 only and sorts whole float64 rows instead (4 800 × 5 000 poses: 13 s → 0.4 s).
+        centred = (poses - self.pose_mean).astype(jnp.float32)
+        training = self.poses.astype(jnp.float32)
+        distances = (jnp.sum(centred**2, axis=1)[:, None] - 2.0 * centred @ training.T
+                     + jnp.sum(training**2, axis=1)[None, :])
         count = min(candidates, self.poses.shape[0])
         _, nearest = jax.lax.top_k(-distances, count)
         starts = self.latents[nearest]  # (poses, count, latent)
