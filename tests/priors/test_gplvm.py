@@ -213,3 +213,23 @@ def test_bad_training_input_is_named():
         fit_gplvm(np.ones((30, 4)), active_size=2, progress=False)
     with pytest.raises(ValueError, match="init must be"):
         initial_latents(np.ones((30, 4)), 2, "tsne")
+
+
+def test_solver_objective_has_the_derivatives_of_point_objective(trained):
+    # μ⁻¹'s BFGS minimises a custom-JVP copy of L′ (gradient in x from the forward pass); its
+    # value, x-gradient, x-Hessian and model/pose gradients must be those of L′ itself
+    from jaxtrack.priors.gplvm._model import _solver_objective
+
+    model, _, test = trained[0].model, trained[1], trained[2]
+    latent, pose = model.latents[7] + 0.05, jnp.asarray(test[0])
+    plain = lambda x, m, y: m.point_objective(x, y)  # noqa: E731
+    assert _solver_objective(latent, model, pose) == pytest.approx(
+        float(plain(latent, model, pose)), rel=1e-12)
+    for argnums in (0, (0, 1, 2)):
+        ours = jax.grad(_solver_objective, argnums=argnums, allow_int=True)(latent, model, pose)
+        theirs = jax.grad(plain, argnums=argnums, allow_int=True)(latent, model, pose)
+        for a, b in zip(jax.tree.leaves(ours), jax.tree.leaves(theirs), strict=True):
+            if jnp.issubdtype(a.dtype, jnp.inexact):
+                np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(jax.hessian(_solver_objective)(latent, model, pose),
+                               jax.hessian(plain)(latent, model, pose), rtol=1e-9, atol=1e-9)

@@ -15,7 +15,10 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optimistix as optx
+from jax.custom_derivatives import SymbolicZero
+from jax.dtypes import float0
 from jax.scipy.linalg import cho_solve
 from jaxtyping import Array, ArrayLike, Float, Int
 
@@ -172,7 +175,7 @@ class GPLVM(eqx.Module):
 
         def solve(start: Array, pose: Array):
             solution = optx.minimise(
-                lambda latent, args: args[0].point_objective(latent, args[1]), solver, start,
+                lambda latent, args: _solver_objective(latent, *args), solver, start,
                 args=(self, pose), max_steps=max_steps, throw=False)
             return solution.value, solution.result
 
@@ -183,3 +186,47 @@ class GPLVM(eqx.Module):
     def reconstruct(self, poses: Float[ArrayLike, "poses dims"], **options) -> Array:
         """μ(μ⁻¹(y)) for a batch of poses."""
         return jax.vmap(self.mean)(self.inverse(poses, **options).latents)
+
+
+@jax.custom_jvp
+def _solver_objective(latent: Array, model: GPLVM, pose: Array) -> Array:
+    """L′(x, y) for μ⁻¹'s BFGS: the same value, its derivative in x computed in the forward pass.
+
+    optimistix linearises the objective and transposes the linear map inside a ``lax.cond``
+    (accepted step or not). Under ``vmap`` that cond becomes a select over all its operands, so
+    the model's constants in the linear map (K_II⁻¹, K_II⁻¹ Y_I) were broadcast to one copy per
+    pose every step: (poses, 200, 200) and (poses, 200, D) arrays, 8× the cost of the objective
+    itself. Here the linear map in x is only ``∇ₓL′ · ẋ``, whose residual is the (poses, latent)
+    gradient. Tangents of the model and pose (implicit-function gradients of μ⁻¹) still go
+    through the ordinary JVP of L′.
+    """
+    return model.point_objective(latent, pose)
+
+
+def _is_symbolic_zero(tangent) -> bool:
+    return isinstance(tangent, SymbolicZero)
+
+
+def _solver_objective_jvp(primals, tangents):
+    latent, model, pose = primals
+    latent_dot, model_dot, pose_dot = tangents
+    value, gradient = jax.value_and_grad(lambda x: model.point_objective(x, pose))(latent)
+    tangent = (jnp.zeros_like(value) if _is_symbolic_zero(latent_dot)
+               else jnp.dot(gradient, latent_dot))
+    others = jax.tree.leaves((model_dot, pose_dot), is_leaf=_is_symbolic_zero)
+    if not all(_is_symbolic_zero(leaf) for leaf in others):
+        def instantiate(primal, dot):
+            if not _is_symbolic_zero(dot):
+                return dot
+            dtype = primal.dtype if jnp.issubdtype(primal.dtype, jnp.inexact) else float0
+            return np.zeros(primal.shape, dtype) if dtype is float0 else jnp.zeros_like(primal)
+
+        model_dot = jax.tree.map(instantiate, model, model_dot, is_leaf=_is_symbolic_zero)
+        pose_dot = instantiate(pose, pose_dot)
+        _, other = jax.jvp(lambda m, y: m.point_objective(latent, y), (model, pose),
+                           (model_dot, pose_dot))
+        tangent = tangent + other
+    return value, tangent
+
+
+_solver_objective.defjvp(_solver_objective_jvp, symbolic_zeros=True)
