@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench bench-gplvm bench-gpy-env install clean
+.PHONY: demo test lint bench bench-gplvm bench-tracking bench-gpy-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,10 @@ bench-gpy-env:
 
 bench-gplvm: $(STAMP)
 	$(BIN)/python -m benchmarks.gplvm
+
+# tracking error and ms/frame of latent / CONDENSATION / MHT vs N (~15 minutes on 2 cores)
+bench-tracking: $(STAMP)
+	$(BIN)/python -m benchmarks.particle_counts --tracking
 
 clean:
 	rm -rf $(VENV) build *.egg-info
