@@ -66,8 +66,9 @@ def _single_threaded_blas():
     factorisation over its threads and waits for them at every call. Eq. 1 makes hundreds of
     such calls per BFGS run: on 2 shared cores the waits cost 5–10× the arithmetic (300 steps,
     active set 200: 0.5–1.5 s with the default threads, 0.12 s with one; under heavy load the
-    default took up to 35 s). A no-op where no OpenBLAS is found (threadpoolctl does the same
-    more generally; it is not a dependency).
+    default took up to 35 s). Isomap's eigendecomposition suffers the same (top 2 eigenpairs of
+    1 000 × 1 000 under load: 6.5 s, one thread 0.07 s). A no-op where no OpenBLAS is found
+    (threadpoolctl does the same more generally; it is not a dependency).
     """
     import scipy.linalg.cython_lapack  # noqa: F401  (loads the OpenBLAS jaxlib's LAPACK calls)
 
@@ -173,10 +174,11 @@ def fit_gplvm(
     start = time.perf_counter()
     mean = poses.mean(axis=0)
     centred = poses - mean
-    tick = time.perf_counter()
-    latents, description = initial_latents(centred, latent_dim, init, neighbours=neighbours,
-                                           seed=seed)
-    init_seconds = time.perf_counter() - tick
+    with _single_threaded_blas():
+        tick = time.perf_counter()
+        latents, description = initial_latents(centred, latent_dim, init,
+                                               neighbours=neighbours, seed=seed)
+        init_seconds = time.perf_counter() - tick
     with jax.enable_x64(True), _single_threaded_blas():
         centred_jax = jnp.asarray(centred)
         latents = jnp.asarray(latents)
