@@ -1,0 +1,194 @@
+"""Per-frame cost of the latent-space tracker (Tian, Li & Sclaroff 2005), component by component.
+
+The tracker is built as ``jaxtrack demo`` and ``jaxtrack evaluate`` build it: the GPLVM trained
+on the demo's three wave gestures (cached in ``benchmarks/results/gplvm_waves.npz``), frame 0 of
+the held-out wave rendered over a photo, 200 (and 1 000) particles. Each component runs on the
+particle cloud of a real tracking state (after a few tracked frames), jitted and compiled ahead
+(compile time apart), the median of many calls with ``block_until_ready``:
+
+    propagate   random walk of every particle (``model.propagate``, vmapped)
+    mu          the GPLVM mean μ(x) of every particle's latent point
+    features    link-vector features → 25-d SPM states (``states_from_features``)
+    spm         SPM states → 12 markers (``spm_forward``)
+    decode      latent + placement → markers, as the model does it (μ, states, markers)
+    ncc         nearest-pixel NCC log-likelihood of every particle's markers
+    resample    systematic resampling of the weights
+    step        one whole ``smc.step`` (select, propagate, decode, measure)
+    estimate    the tracker's per-frame estimate (μ of the weighted mean latent, best particle)
+    update      ``step`` + ``estimate``: one frame of the tracker
+    track       the per-frame cost inside ``track``'s compiled scan of 64-frame chunks
+
+Wall times on this shared machine move with other jobs: the load average is printed, and CPU
+seconds (all threads of the process) are reported beside the wall times.
+
+    python -m benchmarks.tracker_step                    # 200 and 1 000 particles
+    python -m benchmarks.tracker_step --particles 200 --repeats 50
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+
+from benchmarks._common import device_description, print_table, time_compiled, write_json
+from jaxtrack import smc
+from jaxtrack.body import spm_forward
+from jaxtrack.likelihoods import ncc_log_likelihood_nearest
+from jaxtrack.priors.poses import states_from_features
+
+RESULTS = Path(__file__).parent / "results"
+CHUNK = 64
+
+
+def _load_average() -> float:
+    return os.getloadavg()[0]
+
+
+def build(num_particles: int, frames: int, seed: int = 0):
+    """(tracker, grey frames) for the demo's held-out wave, ``frames`` frames of it."""
+    from jaxtrack import trackers
+    from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
+    from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
+
+    prior = train_prior(TRAIN_CLIPS, cache=RESULTS / "gplvm_waves.npz", seed=seed,
+                        progress=False)
+    sequence = render_test_sequences(HELD_OUT_CLIP, views=1, backgrounds=("photo",),
+                                     max_frames=frames, seed=seed)[0]
+    tracker = trackers.latent_tracker(prior.model, prior.template, sequence.frames[0],
+                                      sequence.truth[0], num_particles=num_particles,
+                                      fps=sequence.fps)
+    return tracker, np.asarray(sequence.frames, np.float32)
+
+
+def _tracked_state(tracker, frames, steps: int = 8):
+    """The filter state after ``steps`` tracked frames (a realistic, spread particle cloud)."""
+    from jaxtrack.trackers._runner import _chunk, _start
+
+    key_start, key_frames = jr.split(jr.PRNGKey(1))
+    state, _ = _start(tracker, key_start, jnp.asarray(frames[0]))
+    state, _ = _chunk(tracker, state, jr.split(key_frames, steps), jnp.asarray(frames[1:steps + 1]))
+    return state
+
+
+def components(tracker, frames, repeats: int) -> dict[str, dict]:
+    """Compile and time each component on the same tracked state; ``{name: timings}``."""
+    from jaxtrack.trackers._runner import _chunk
+
+    model = tracker.latent_model
+    state = _tracked_state(tracker, frames)
+    particles, log_weights = state.particles, state.log_weights
+    frame = jnp.asarray(frames[9])
+    key = jr.PRNGKey(2)
+    num = tracker.num_particles
+    latents, placements = particles["latent"], particles["placement"]
+    features = jax.vmap(model.prior.mean)(latents)
+    states = jax.vmap(states_from_features, in_axes=(0, 0, None))(features, placements,
+                                                                   model.template)
+    markers = jax.vmap(spm_forward, in_axes=(0, None))(states, model.template)
+
+    def propagate(key, particles):
+        return jax.vmap(model.propagate, in_axes=(0, 0, None))(jr.split(key, num), particles, 1)
+
+    def mean(latents):
+        return jax.vmap(model.prior.mean)(latents)
+
+    def to_states(features, placements):
+        return jax.vmap(states_from_features, in_axes=(0, 0, None))(features, placements,
+                                                                    model.template)
+
+    def forward(states):
+        return jax.vmap(spm_forward, in_axes=(0, None))(states, model.template)
+
+    def decode(particles):
+        return jax.vmap(model.markers_of)(particles)
+
+    def ncc(markers, frame):
+        return jax.vmap(ncc_log_likelihood_nearest, in_axes=(0, None, None, None))(
+            markers, frame, model.templates, model.sharpness)
+
+    def resample(key, log_weights):
+        return smc.Systematic()(key, log_weights)
+
+    def step(key, state, frame):
+        return smc.step(key, state, frame, model)
+
+    def estimate(state, info):
+        return tracker._estimate(state, info)
+
+    def update(key, state, frame):
+        return tracker.update(key, state, frame)
+
+    _, info = jax.jit(step)(key, state, frame)
+    cases = {
+        "propagate": (propagate, key, particles),
+        "mu": (mean, latents),
+        "features": (to_states, features, placements),
+        "spm": (forward, states),
+        "decode": (decode, particles),
+        "ncc": (ncc, markers, frame),
+        "resample": (resample, key, log_weights),
+        "step": (step, key, state, frame),
+        "estimate": (estimate, state, info),
+        "update": (update, key, state, frame),
+    }
+    rows = {}
+    for name, (function, *arguments) in cases.items():
+        compile_s, wall_s, cpu_s, _ = time_compiled(function, *arguments, repeats=repeats)
+        rows[name] = {"compile_s": compile_s, "ms": 1e3 * wall_s, "cpu_ms": 1e3 * cpu_s}
+
+    # the scan of track(): a compiled chunk of CHUNK frames, timed per frame
+    chunk_frames = jnp.asarray(frames[1:CHUNK + 1])
+    chunk_keys = jr.split(jr.PRNGKey(3), CHUNK)
+    arguments = (tracker, state, chunk_keys, chunk_frames)
+    tick = time.perf_counter()
+    compiled = _chunk.lower(*arguments).compile()
+    compile_s = time.perf_counter() - tick
+    times, cpu_times = [], []
+    for _ in range(max(repeats // 10, 5)):
+        tick, cpu = time.perf_counter(), time.process_time()
+        jax.block_until_ready(compiled(*arguments))
+        times.append(time.perf_counter() - tick)
+        cpu_times.append(time.process_time() - cpu)
+    rows["track"] = {"compile_s": compile_s, "ms": 1e3 * statistics.median(times) / CHUNK,
+                     "cpu_ms": 1e3 * statistics.median(cpu_times) / CHUNK}
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--particles", type=int, nargs="+", default=[200, 1000])
+    parser.add_argument("--repeats", type=int, default=200)
+    parser.add_argument("--output", default=str(RESULTS / "tracker_step.json"))
+    args = parser.parse_args()
+
+    device = device_description()
+    print(f"device: {device}")
+    frames_needed = CHUNK + 2
+    results = {}
+    for num_particles in args.particles:
+        tracker, frames = build(num_particles, frames_needed)
+        load_before = _load_average()
+        rows = components(tracker, frames, args.repeats)
+        load_after = _load_average()
+        print(f"\nlatent tracker, {num_particles} particles, {frames.shape[2]}x{frames.shape[1]} "
+              f"frames (load average {load_before:.2f} → {load_after:.2f})")
+        table = [{"component": name, **row} for name, row in rows.items()]
+        print_table(table, [("component", "component", "s"), ("ms", "wall ms", ".3f"),
+                            ("cpu_ms", "cpu ms", ".3f"), ("compile_s", "compile s", ".2f")])
+        results[str(num_particles)] = {"load_average": [load_before, load_after],
+                                       "components": rows}
+    write_json(args.output, {"device": device, "repeats": args.repeats, "chunk": CHUNK,
+                             "results": results})
+    print(f"\nwrote {args.output}")
+
+
+if __name__ == "__main__":
+    main()
