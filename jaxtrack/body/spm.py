@@ -176,7 +176,14 @@ def spm_forward(
     # Cham & Rehg (1999), eq. 1: each link is a prism of length s·L_k·e^ℓ_k at angle φ_k + θ_k.
     lengths = scale * template.reference_lengths.astype(dtype) * jnp.exp(state[4::2])
     vectors = lengths[:, None] * jnp.stack([jnp.cos(angles), jnp.sin(angles)], axis=-1)
-    return state[1:3] + jnp.asarray(_ANCESTRY, dtype) @ vectors
+    return spm_chain(state[1:3], vectors)
+
+
+def spm_chain(neck: Float[Array, "2"], link_vectors: Float[Array, "11 2"]
+              ) -> Float[Array, "markers 2"]:
+    """The 12 markers ``(12, 2)`` of a neck position and the 11 links' image vectors (pixels):
+    each marker is the neck plus the links on its path (the end of :func:`spm_forward`)."""
+    return neck + jnp.asarray(_ANCESTRY, link_vectors.dtype) @ link_vectors
 
 
 @eqx.filter_jit

@@ -21,7 +21,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from jaxtrack import smc
-from jaxtrack.body import SPMTemplate, spm_forward, spm_initial_state
+from jaxtrack.body import SPMTemplate, spm_initial_state
 from jaxtrack.likelihoods import (
     DEFAULT_NCC_SHARPNESS,
     NCCTemplates,
@@ -30,7 +30,7 @@ from jaxtrack.likelihoods import (
     ncc_log_likelihood_nearest,
 )
 from jaxtrack.priors.gplvm import GPLVM
-from jaxtrack.priors.poses import PLACEMENT_SIZE, pose_features, states_from_features
+from jaxtrack.priors.poses import PLACEMENT_SIZE, markers_from_features, pose_features
 from jaxtrack.trackers._runner import ParticleTracker
 
 __all__ = ["LatentModel", "LatentTracker", "latent_tracker"]
@@ -79,9 +79,8 @@ class LatentModel(smc.StateSpaceModel):
                 "placement": particle["placement"] + self.placement_std * noise[latent_dim:]}
 
     def markers_of(self, particle: dict) -> Float[Array, "markers 2"]:
-        state = states_from_features(self.prior.mean(particle["latent"]), particle["placement"],
-                                     self.template)
-        return spm_forward(state, self.template)
+        # spm_forward(states_from_features(μ(x), placement)) without the angles in between
+        return markers_from_features(self.prior.mean(particle["latent"]), particle["placement"])
 
     def log_likelihood(self, particle: dict, observation) -> Float[Array, ""]:
         # Tian et al. eq. 7 on the markers of μ(x)
