@@ -195,40 +195,56 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     num_chunks = max(1, math.ceil((num_frames - 1) / max(1, chunk_size)))
     chunk_size = max(1, math.ceil((num_frames - 1) / num_chunks))
     keys = jr.split(key_frames, max(num_frames - 1, 1))
-    compiled, compile_seconds, run_seconds = None, 0.0, 0.0
+    begins = list(range(1, num_frames, chunk_size))
+    counts = [min(chunk_size, num_frames - begin) for begin in begins]
+    chunk_keys = [keys[begin - 1:begin - 1 + count] for begin, count in zip(begins, counts,
+                                                                            strict=True)]
+    if begins and counts[-1] < chunk_size:  # pad to the compiled shape
+        chunk_keys[-1] = jnp.concatenate(
+            [chunk_keys[-1], jr.split(chunk_keys[-1][-1], chunk_size - counts[-1])])
+    # Frames reach the compiled scan through 64-byte aligned host buffers, reused from chunk
+    # to chunk, which jax.device_put hands to XLA on CPU without a copy: jnp.asarray(chunk)
+    # would copy each chunk into freshly allocated memory, ~1–2 ms per 640 × 480 frame (page
+    # faults), several times the latent tracker's step. Two buffers, so that the next chunk
+    # is copied in while the current one is tracked.
+    buffers = [_aligned_empty((chunk_size, *frames.shape[1:]),
+                              jax.dtypes.canonicalize_dtype(frames.dtype))
+               for _ in range(min(2, len(begins)))]
+
+    def stage(index: int) -> Array:
+        buffer, begin, count = buffers[index % 2], begins[index], counts[index]
+        buffer[:count] = frames[begin:begin + count]
+        buffer[count:] = frames[begin + count - 1]  # padding repeats the last frame
+        return jax.device_put(buffer)
+
+    def collect(estimates, count: int) -> None:
+        # converting the estimates waits for their chunk, after which its buffer may be reused
+        outputs.append(jax.tree.map(lambda leaf: np.asarray(leaf)[:count], estimates))
+        bar.update(count)
+
     bar = tqdm(total=num_frames, desc=description, unit="frame", disable=not progress,
                dynamic_ncols=True)
     bar.update(1)
-    # Frames reach the compiled scan through one reused, 64-byte aligned host buffer, which
-    # jax.device_put hands to XLA on CPU without a copy. jnp.asarray(chunk) would copy every
-    # chunk into freshly allocated memory instead, at ~1–2 ms per 640 × 480 frame (page
-    # faults), several times the latent tracker's whole step.
-    staging = _aligned_empty((chunk_size, *frames.shape[1:]),
-                             jax.dtypes.canonicalize_dtype(frames.dtype))
-    for begin in range(1, num_frames, chunk_size):
-        count = min(chunk_size, num_frames - begin)
-        chunk_keys = keys[begin - 1:begin - 1 + count]
-        if count < chunk_size:
-            chunk_keys = jnp.concatenate([chunk_keys, jr.split(chunk_keys[-1], chunk_size - count)])
-        tick = time.perf_counter()
-        staging[:count] = frames[begin:begin + count]
-        staging[count:] = frames[begin + count - 1]  # pad to the compiled shape
-        arguments = (tracker, state, chunk_keys, jax.device_put(staging))
-        copy_seconds = time.perf_counter() - tick
-        if compiled is None:  # compile ahead of time, so that compilation is timed apart
-            tick = time.perf_counter()
+    compile_seconds, pending = 0.0, None
+    tick = time.perf_counter()
+    chunk = stage(0) if begins else None
+    for index, count in enumerate(counts):
+        arguments = (tracker, state, chunk_keys[index], chunk)
+        if index == 0:  # compile ahead of time, so that compilation is timed apart
+            compile_tick = time.perf_counter()
             compiled = _chunk.lower(*arguments).compile()
-            compile_seconds = time.perf_counter() - tick
-        tick = time.perf_counter()
-        new_state, estimates = compiled(*arguments)
-        # converting the estimates waits for the chunk, so the staging buffer may be refilled
-        estimates = jax.tree.map(lambda leaf, n=count: np.asarray(leaf)[:n], estimates)
-        del arguments
-        run_seconds += copy_seconds + time.perf_counter() - tick
+            compile_seconds = time.perf_counter() - compile_tick
+        new_state, estimates = compiled(*arguments)  # runs asynchronously
         if count == chunk_size:
             state = new_state
-        outputs.append(estimates)
-        bar.update(count)
+        if pending is not None:
+            collect(*pending)  # the previous chunk, whose buffer the next one reuses
+        if index + 1 < len(begins):
+            chunk = stage(index + 1)
+        pending = (estimates, count)
+    if pending is not None:
+        collect(*pending)
+    run_seconds = time.perf_counter() - tick - compile_seconds
     bar.close()
     merged = jax.tree.map(lambda *leaves: np.concatenate(leaves), *outputs)
     return TrackResult(
