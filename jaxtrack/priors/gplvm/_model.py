@@ -19,7 +19,7 @@ import numpy as np
 import optimistix as optx
 from jax.custom_derivatives import SymbolicZero
 from jax.dtypes import float0
-from jax.scipy.linalg import cho_solve
+from jax.scipy.linalg import cho_solve, solve_triangular
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from jaxtrack.priors.gplvm._kernel import KernelParameters, kernel_matrix, rbf
@@ -45,7 +45,10 @@ class GPLVM(eqx.Module):
         poses: ``(n, dims)`` the centred training poses (μ⁻¹ starts from their latents).
         active_indices: ``(active,)`` rows of ``latents`` in the active set I.
         active_latents, active_poses: X_I ``(active, latent)`` and centred Y_I ``(active, dims)``.
-        weights: ``K_II⁻¹ Y_I`` ``(active, dims)``; ``inverse_gram``: ``K_II⁻¹``.
+        weights: ``(active, dims)`` W in μ(x) = ȳ + k_I(x)ᵀ W; ``inverse_gram``:
+            ``(active, active)`` S in σ²(x) = β⁻¹ + α − k_Iᵀ S k_I. K_II⁻¹ Y_I and K_II⁻¹ for the
+            active set alone, the projected-process matrices for all poses
+            (:meth:`from_active_set`).
         dynamics_std: ``(latent,)`` ν, the random-walk step std of the latent dynamics per frame
             at ``dynamics_fps`` frames per second (NaN until estimated).
     """
@@ -66,21 +69,57 @@ class GPLVM(eqx.Module):
     def from_active_set(cls, kernel: KernelParameters, poses: Float[ArrayLike, "n dims"],
                         pose_mean: Float[ArrayLike, " dims"], latents: Float[ArrayLike, "n latent"],
                         active_indices: Int[ArrayLike, " active"],
-                        dynamics_std=None, dynamics_fps=float("nan")) -> GPLVM:
-        """Precompute K_II⁻¹ and K_II⁻¹ Y_I for centred ``poses`` and latent positions."""
+                        dynamics_std=None, dynamics_fps=float("nan"), *,
+                        all_poses: bool = False) -> GPLVM:
+        """Precompute ``weights`` and ``inverse_gram`` for centred ``poses`` and their latents.
+
+        ``all_poses=False``: eqs. 3–4 on the active set, ``weights`` = K_II⁻¹ Y_I and
+        ``inverse_gram`` = K_II⁻¹ (K with the noise β⁻¹ on its diagonal).
+
+        ``all_poses=True``: the projected process (DTC; Seeger, Williams & Lawrence 2003,
+        Quiñonero-Candela & Rasmussen 2005): every one of the n poses informs μ through the
+        active set, at the same cost per evaluation. With K̃ the noise-free K_II and
+        Σ = (K̃ + β K_IN K_NI)⁻¹,
+
+            μ(x)  = ȳ + k_I(x)ᵀ β Σ K_IN Y
+            σ²(x) = β⁻¹ + α − k_I(x)ᵀ (K̃⁻¹ − Σ) k_I(x),
+
+        the same form as eqs. 3–4, so ``mean`` and ``variance`` are unchanged. Computed as
+        Σ = L⁻ᵀ B⁻¹ L⁻¹ with K̃ = L Lᵀ and B = I + β L⁻¹ K_IN K_NI L⁻ᵀ (eigenvalues ≥ 1).
+        """
         latents, poses = jnp.asarray(latents), jnp.asarray(poses)
         active_indices = jnp.asarray(active_indices)
         active_latents = latents[active_indices]
         active_poses = poses[active_indices]
-        factor = jnp.linalg.cholesky(kernel_matrix(kernel, active_latents))
         identity = jnp.eye(active_latents.shape[0], dtype=active_latents.dtype)
+        if all_poses:
+            # K̃ with a relative jitter of 1e-6 (GPy's for K_uu): near-duplicate active points
+            # make the noise-free K_II singular, and B amplifies L⁻¹'s errors by β
+            noise_free = (rbf(kernel, active_latents[:, None, :], active_latents[None, :, :])
+                          + 1e-6 * kernel.alpha * identity)
+            factor = jnp.linalg.cholesky(noise_free)
+            cross = solve_triangular(
+                factor, rbf(kernel, active_latents[:, None, :], latents[None, :, :]),
+                lower=True)  # L⁻¹ K_IN
+            inner = jnp.linalg.cholesky(identity + kernel.beta * cross @ cross.T)  # B
+            projected = solve_triangular(factor, cho_solve((inner, True), cross @ poses),
+                                         lower=True, trans=1)
+            weights = kernel.beta * projected  # β L⁻ᵀ B⁻¹ L⁻¹ K_IN Y
+            whitened = identity - cho_solve((inner, True), identity)  # I − B⁻¹
+            inverse_gram = solve_triangular(
+                factor, solve_triangular(factor, whitened, lower=True, trans=1).T,
+                lower=True, trans=1)  # L⁻ᵀ (I − B⁻¹) L⁻¹
+            inverse_gram = 0.5 * (inverse_gram + inverse_gram.T)
+        else:
+            factor = jnp.linalg.cholesky(kernel_matrix(kernel, active_latents))
+            weights = cho_solve((factor, True), active_poses)
+            inverse_gram = cho_solve((factor, True), identity)
         if dynamics_std is None:
             dynamics_std = jnp.full((latents.shape[1],), jnp.nan, latents.dtype)
         return cls(
             kernel=kernel, pose_mean=jnp.asarray(pose_mean), latents=latents, poses=poses,
             active_indices=active_indices, active_latents=active_latents,
-            active_poses=active_poses, weights=cho_solve((factor, True), active_poses),
-            inverse_gram=cho_solve((factor, True), identity),
+            active_poses=active_poses, weights=weights, inverse_gram=inverse_gram,
             dynamics_std=jnp.asarray(dynamics_std, latents.dtype),
             dynamics_fps=jnp.asarray(dynamics_fps, latents.dtype),
         )
