@@ -22,11 +22,14 @@ Wall times on a shared machine move with the other jobs on it: the load average 
 CPU seconds (all threads of the process, or of the GPy subprocess) are reported beside them.
 (e) GPy's SparseGPLVM (own venv, ``benchmarks/_gpy.py``) on the same ~1 000 training poses and the
     same held-out poses, from the same Isomap start: train + infer_newX wall time, held-out error,
-    ratios GPy/jaxtrack. GPy's objective (the negative log marginal likelihood of its sparse
-    model on all N poses) and jaxtrack's (eq. 1 on the 200 active poses) are different
-    quantities; both are printed, neither is a ratio.
+    ratios GPy/jaxtrack. GPy runs with OpenBLAS on one thread (``--gpy-blas-threads``), as
+    ``fit_gplvm`` does: on this 2-core machine OpenBLAS's threads wait on each other at every
+    small factorisation, and GPy on 1 000 poses took 162–183 s with the default threads and
+    17–33 s with one; the setting is in the JSON. GPy's objective (the negative log marginal
+    likelihood of its sparse model on all N poses) and jaxtrack's (eq. 1 on the 200 active
+    poses) are different quantities; both are printed, neither is a ratio.
 
-    python -m benchmarks.gplvm                 # full run (~10 minutes on 2 cores, GPy ~3 of them)
+    python -m benchmarks.gplvm                 # full run (~3 minutes on 2 cores, GPy ~1 of them)
     python -m benchmarks.gplvm --skip-gpy      # without the GPy reference
     python -m benchmarks.gplvm --quick         # small sizes, no GPy: a 1–2 minute smoke test
 """
@@ -245,13 +248,24 @@ def run_gpy(train_features: np.ndarray, held_out_features: np.ndarray, held_out:
     mean = train_features.mean(axis=0)
     centred = train_features - mean
     start, description = initial_latents(centred, args.latent_dim, "isomap")
+    names = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+    saved = {name: os.environ.get(name) for name in names}
+    if args.gpy_blas_threads > 0:  # the subprocess inherits the environment
+        os.environ.update({name: str(args.gpy_blas_threads) for name in names})
     tick, cpu = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
-    result = with_elapsed_bar(
-        f"GPy sparse GPLVM (N={len(centred)}, M={args.active_size}, "
-        f"max_iters={args.gpy_max_iters})",
-        run_gpy_reference, centred, held_out_features - mean, latent_dim=args.latent_dim,
-        num_inducing=args.active_size, max_iters=args.gpy_max_iters, model="sparse",
-        init_latents=start, seed=0, timeout=args.gpy_timeout)
+    try:
+        result = with_elapsed_bar(
+            f"GPy sparse GPLVM (N={len(centred)}, M={args.active_size}, "
+            f"max_iters={args.gpy_max_iters}, BLAS threads {args.gpy_blas_threads or 'default'})",
+            run_gpy_reference, centred, held_out_features - mean, latent_dim=args.latent_dim,
+            num_inducing=args.active_size, max_iters=args.gpy_max_iters, model="sparse",
+            init_latents=start, seed=0, timeout=args.gpy_timeout)
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     wall = time.perf_counter() - tick
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime + after.ru_stime - cpu.ru_utime - cpu.ru_stime
@@ -260,7 +274,7 @@ def run_gpy(train_features: np.ndarray, held_out_features: np.ndarray, held_out:
     errors = marker_errors(np.asarray(result["reconstructions"]) + mean, held_out)
     keep = {key: value for key, value in result.items() if not isinstance(value, np.ndarray)}
     return {**keep, **errors, "init": description, "subprocess_wall_s": wall,
-            "subprocess_cpu_s": cpu}
+            "subprocess_cpu_s": cpu, "blas_threads": args.gpy_blas_threads or "default"}
 
 
 # ---------------------------------------------------------------------------------- main
@@ -284,6 +298,9 @@ def main(argv=None) -> int:
     parser.add_argument("--gpy-max-iters", type=int, default=300,
                         help="GPy L-BFGS-B iteration/evaluation cap (300: ~2.5 min at N=1000)")
     parser.add_argument("--gpy-timeout", type=float, default=1800.0)
+    parser.add_argument("--gpy-blas-threads", type=int, default=1,
+                        help="OpenBLAS/OpenMP/MKL threads of the GPy subprocess (1, as fit_gplvm "
+                             "uses; 0 = the libraries' default)")
     parser.add_argument("--skip-gpy", action="store_true")
     parser.add_argument("--quick", action="store_true",
                         help="sizes 400 800, active 100, 2 iterations, 2 000 μ⁻¹ poses, no GPy")
@@ -334,6 +351,11 @@ def main(argv=None) -> int:
         fit, compile_s, train_cpu_s = train_jaxtrack(features, args, f"jaxtrack N={size}")
         fits[size] = (fit, train)
         traces[size] = {"init": fit.init, "init_seconds": fit.init_seconds, "trace": fit.trace}
+        stages = {stage: sum(row["stage_seconds"][stage] for row in fit.trace)
+                  for stage in fit.trace[0]["stage_seconds"]}
+        tqdm.write(f"[jaxtrack N={size}] train {fit.seconds:.1f} s wall, {train_cpu_s:.1f} s CPU: "
+                   f"init {fit.init_seconds:.1f} s, "
+                   + ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in stages.items()))
         held = held_out_jaxtrack(fit, held_out_features, held_out)
         rows.append({
             "method": "jaxtrack", "poses": size,
@@ -362,7 +384,8 @@ def main(argv=None) -> int:
         else:
             rows.append({
                 "method": "GPy", "poses": size,
-                "setting": f"sparse, M={args.active_size}, max_iters={args.gpy_max_iters}",
+                "setting": f"sparse, M={args.active_size}, max_iters={args.gpy_max_iters}, "
+                           f"{args.gpy_blas_threads or 'default'} BLAS thr.",
                 "train_s": gpy["train_seconds"], "objective": gpy["final_objective"],
                 "inverse_s": gpy["inverse_seconds"],
                 "total_s": gpy["train_seconds"] + gpy["inverse_seconds"],
