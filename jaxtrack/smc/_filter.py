@@ -19,11 +19,11 @@ from typing import Any
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.random as jr
 from jax import lax
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
 from jaxtrack.smc._model import StateSpaceModel
+from jaxtrack.smc._random import split
 from jaxtrack.smc._resampling import Resampler, Systematic, effective_sample_size
 
 
@@ -92,7 +92,7 @@ def _log_likelihoods(model, particles, observation):
 
 
 def _init_particles(key, model, num_particles):
-    return jax.vmap(model.init)(jr.split(key, num_particles))
+    return jax.vmap(model.init)(split(key, num_particles))
 
 
 def _measure(key, model, particles, prior_log_weights, observation, axis_name):
@@ -141,7 +141,7 @@ def initialize(
     """Draw ``num_particles`` from ``model.init`` and weight them by the first observation."""
     if not isinstance(num_particles, int) or num_particles < 1:
         raise ValueError(f"num_particles must be a positive int, got {num_particles!r}")
-    key_init, key_reseed = jr.split(key)
+    key_init, key_reseed = split(key)
     particles = _init_particles(key_init, model, num_particles)
     uniform = jnp.full((num_particles,), -math.log(num_particles))
     particles, log_weights, increment, degenerate, num_invalid = _measure(
@@ -207,11 +207,11 @@ def step(
 
     def cycle(carry, key):
         particles, log_weights, ancestors_so_far, resampled_so_far = carry
-        key_select, key_propagate, key_reseed = jr.split(key, 3)
+        key_select, key_propagate, key_reseed = split(key, 3)
         ancestors, carried, resample = select(key_select, log_weights)
         parents = _gather(particles, ancestors)
         children = jax.vmap(model.propagate, in_axes=(0, 0, None))(
-            jr.split(key_propagate, num), parents, time
+            split(key_propagate, num), parents, time
         )
         children, log_weights, increment, degenerate, num_invalid = _measure(
             key_reseed, model, children, carried, observation, axis_name
@@ -219,7 +219,7 @@ def step(
         carry = (children, log_weights, ancestors_so_far[ancestors], resampled_so_far | resample)
         return carry, (increment, degenerate, num_invalid)
 
-    keys = jr.split(key, iterations_per_frame)
+    keys = split(key, iterations_per_frame)
     carry = (state.particles, state.log_weights, identity, jnp.asarray(False))
     if iterations_per_frame == 1:
         carry, outputs = cycle(carry, keys[0])
@@ -267,7 +267,7 @@ def filter_sequence(
 ) -> FilterResult:
     """``run`` without ``jit``: the traceable body, for use inside a caller's own transformation."""
     num_frames = _num_frames(observations)
-    key_init, key_frames = jr.split(key)
+    key_init, key_frames = split(key)
     first = jax.tree.map(lambda leaf: leaf[0], observations)
     rest = jax.tree.map(lambda leaf: leaf[1:], observations)
     state, info = initialize(key_init, model, first, num_particles, axis_name=axis_name)
@@ -291,7 +291,7 @@ def filter_sequence(
         return state, record(state, info)
 
     first_record = record(state, info)
-    state, records = lax.scan(body, state, (jr.split(key_frames, num_frames - 1), rest))
+    state, records = lax.scan(body, state, (split(key_frames, num_frames - 1), rest))
     records = jax.tree.map(
         lambda head, tail: jnp.concatenate([head[None], tail]), first_record, records
     )

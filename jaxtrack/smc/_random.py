@@ -10,6 +10,10 @@ Statistical scope: counter-hash generators (as Philox/threefry, but with far few
 fine for Monte-Carlo noise; they are not cryptographic. Uniforms have 24-bit resolution, so
 the largest draw is √2 erf⁻¹(1 − 2⁻²⁴) ≈ 5.4; float64 (and any other dtype) requests fall back to
 ``jax.random.normal``, so float64 numerics are unchanged.
+
+``split`` and ``uniform`` are ``jax.random.split`` and ``jax.random.uniform`` bit for bit, written
+out so that XLA on CPU runs them as one kernel instead of a loop (see below); the engine uses
+them for its per-frame keys and the resampling draws.
 """
 
 from __future__ import annotations
@@ -80,3 +84,75 @@ def bits_to_normal(bits: Array) -> Float[Array, "..."]:
     """
     centred = (bits >> 8).astype(jnp.float32) - jnp.float32(8388607.5)
     return jnp.float32(math.sqrt(2.0)) * lax.erf_inv(centred * jnp.float32(1.0 / 8388608.0))
+
+
+# ------------------------------------------------------------------------------------------
+# jax.random.split and jax.random.uniform for threefry keys, without XLA CPU's rolled loop
+# ------------------------------------------------------------------------------------------
+#
+# On CPU, JAX lowers the threefry2x32 hash as a loop of its five four-round blocks (to keep
+# compile times down), and XLA runs that loop thunk by thunk: ~60 tiny thunks per call, which a
+# particle filter pays for every frame (splitting the frame key, one key per particle, the
+# resampling offset). Written out, the same hash is one fused elementwise kernel. These are
+# bit-for-bit jax.random.split and jax.random.uniform for threefry2x32 keys under
+# ``jax_threefry_partitionable`` (JAX's default): same keys, same draws, same filter output.
+# Any other key implementation or setting falls back to jax.random itself.
+
+_THREEFRY_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
+
+
+def _threefry2x32(key1: Array, key2: Array, count1: Array, count2: Array) -> tuple[Array, Array]:
+    """The Threefry-2x32 block cipher (20 rounds, Salmon et al. 2011), unrolled."""
+    def rotate_left(value, distance):
+        return (value << jnp.uint32(distance)) | (value >> jnp.uint32(32 - distance))
+
+    schedule = (key1, key2, key1 ^ key2 ^ jnp.uint32(0x1BD11BDA))
+    x0, x1 = count1 + schedule[0], count2 + schedule[1]
+    for block in range(5):
+        for rotation in _THREEFRY_ROTATIONS[block % 2]:
+            x0 = x0 + x1
+            x1 = x0 ^ rotate_left(x1, rotation)
+        x0 = x0 + schedule[(block + 1) % 3]
+        x1 = x1 + schedule[(block + 2) % 3] + jnp.uint32(block + 1)
+    return x0, x1
+
+
+def _is_default_threefry(key: PRNGKeyArray) -> bool:
+    if not jax.config.jax_threefry_partitionable:
+        return False
+    if jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key):
+        return key.ndim == 0 and jr.key_impl(key) == "threefry2x32"
+    return (key.shape == (2,) and key.dtype == jnp.uint32
+            and jax.config.jax_default_prng_impl == "threefry2x32")
+
+
+def _threefry_bits(key: PRNGKeyArray, shape: tuple[int, ...]) -> tuple[Array, Array]:
+    """The two uint32 words of threefry(key, i) for the flat index i of every position."""
+    if math.prod(shape) >= 2**32:
+        raise ValueError(f"shape {shape} has more than 2³² elements")
+    first, second = _key_words(key)
+    counter = lax.iota(jnp.uint32, math.prod(shape)).reshape(shape)
+    return _threefry2x32(first, second, jnp.zeros_like(counter), counter)
+
+
+def split(key: PRNGKeyArray, num: int = 2) -> PRNGKeyArray:
+    """``jax.random.split(key, num)`` (bit-for-bit), as one fused kernel for threefry keys."""
+    if not _is_default_threefry(key):
+        return jr.split(key, num)
+    high, low = _threefry_bits(key, (num,))
+    data = jnp.stack([high, low], axis=-1)
+    if jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key):
+        return jr.wrap_key_data(data, impl="threefry2x32")
+    return data
+
+
+def uniform(key: PRNGKeyArray, shape: tuple[int, ...] = (), dtype=jnp.float32
+            ) -> Float[Array, "..."]:
+    """``jax.random.uniform(key, shape, dtype)`` on [0, 1) (bit-for-bit), one fused kernel for
+    threefry keys and float32."""
+    if jnp.dtype(dtype) != jnp.dtype(jnp.float32) or not _is_default_threefry(key):
+        return jr.uniform(key, shape, dtype)
+    high, low = _threefry_bits(key, tuple(shape))
+    # JAX's construction: 23 random mantissa bits under the exponent of 1.0, minus 1
+    mantissa = ((high ^ low) >> jnp.uint32(9)) | jnp.uint32(0x3F800000)
+    return jnp.maximum(lax.bitcast_convert_type(mantissa, jnp.float32) - jnp.float32(1.0), 0.0)

@@ -37,9 +37,10 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.random as jr
 from jax import lax
 from jaxtyping import Array, Float, Int, PRNGKeyArray
+
+from jaxtrack.smc._random import uniform
 
 LogWeights = Float[Array, " particles"]
 Ancestors = Int[Array, " particles"]
@@ -76,7 +77,7 @@ def _search(weights: Array, cumulative: Array, positions: Array) -> Ancestors:
 def draw_indices(key: PRNGKeyArray, log_weights: LogWeights, num_draws: int) -> Ancestors:
     """``num_draws`` independent indices from the categorical distribution of the weights."""
     weights, cumulative = _cumulative_weights(log_weights)
-    uniforms = jr.uniform(key, (num_draws,), dtype=cumulative.dtype)
+    uniforms = uniform(key, (num_draws,), dtype=cumulative.dtype)
     return _search(weights, cumulative, uniforms * cumulative[-1])
 
 
@@ -89,7 +90,7 @@ def stratified_ancestors(key: PRNGKeyArray, log_weights: LogWeights) -> Ancestor
     """One uniform draw in each of N equal strata of [0, 1)."""
     weights, cumulative = _cumulative_weights(log_weights)
     num = weights.shape[0]
-    uniforms = jr.uniform(key, (num,), dtype=cumulative.dtype)
+    uniforms = uniform(key, (num,), dtype=cumulative.dtype)
     positions = (jnp.arange(num, dtype=cumulative.dtype) + uniforms) / num
     return _search(weights, cumulative, positions * cumulative[-1])
 
@@ -98,7 +99,7 @@ def systematic_ancestors(key: PRNGKeyArray, log_weights: LogWeights) -> Ancestor
     """One uniform offset shared by N evenly spaced positions (lowest variance, O(N log N))."""
     weights, cumulative = _cumulative_weights(log_weights)
     num = weights.shape[0]
-    offset = jr.uniform(key, (), dtype=cumulative.dtype)
+    offset = uniform(key, (), dtype=cumulative.dtype)
     positions = (jnp.arange(num, dtype=cumulative.dtype) + offset) / num
     return _search(weights, cumulative, positions * cumulative[-1])
 
@@ -114,7 +115,7 @@ def residual_ancestors(key: PRNGKeyArray, log_weights: LogWeights) -> Ancestors:
     slots = jnp.arange(num)
     deterministic = jnp.searchsorted(copies_cumulative, slots.astype(copies.dtype), side="right")
     residual = expected - copies
-    random = _search(residual, jnp.cumsum(residual), jr.uniform(key, (num,), dtype=copies.dtype)
+    random = _search(residual, jnp.cumsum(residual), uniform(key, (num,), dtype=copies.dtype)
                      * jnp.sum(residual))
     # Slots past the deterministic copies take the residual draws, in order.
     random = random[jnp.clip(slots - num_copies, 0, num - 1)]
