@@ -117,7 +117,7 @@ class ParticleTracker(eqx.Module):
         The same numbers, but the frame is never cut out of the chunk: the engine hands its
         observation to the re-seeding branch of a ``lax.cond``, and a frame sliced from the
         chunk would be copied whole into a buffer for it on every frame (1.2 MB at 640 × 480,
-        a fifth of the latent tracker's step). Here the cond gets the chunk and the index, and
+        a sixth of the latent tracker's step). Here the cond gets the chunk and the index, and
         each particle's likelihood reads its pixels from the chunk directly.
         """
         state, info = smc.step(key, state, (frames, index), _FrameOfChunk(self.model))
