@@ -69,7 +69,7 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         raise ValueError("train_prior needs at least one training clip")
     settings = {"clips": sorted(clips), "views": views, "fps": fps, "active_size": active_size,
                 "iterations": iterations, "seed": seed, "features": "spm_link_vectors",
-                "version": 1}
+                "version": 2}  # 2: μ from all poses through the active set (fit_gplvm default)
     key = _settings_key(settings)
     if cache is not None and Path(cache).is_file():
         saved = load_gplvm(cache)

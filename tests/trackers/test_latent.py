@@ -28,9 +28,6 @@ def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
         np.linalg.norm(sequence.truth[0, 3] - sequence.truth[0, 1]))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "not yet true: on this short clip a random walk with steps from the clip's own truth tracks "
-    "at ~0.17 torso, the small latent prior at ~0.20 (issue 5 is open on this)"))
 def test_random_walk_in_the_full_state_does_worse(prior, sequence):
     """The ablation: the same run with the GPLVM prior replaced by a random walk in the 25-d SPM
     state (steps from the clip's own first frames, so the walk is not handicapped) tracks worse."""
