@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+import pytest
 from scipy import stats
 
 from jaxtrack import smc
@@ -37,3 +38,20 @@ def test_float64_falls_back_to_threefry():
     key = jr.key(3)
     np.testing.assert_array_equal(smc.fast_normal(key, (5,), jnp.float64),
                                   jr.normal(key, (5,), jnp.float64))
+
+
+@pytest.mark.parametrize("num", [1, 2, 7, 200])
+def test_split_and_uniform_match_jax_random_bit_for_bit(num):
+    from jaxtrack.smc._random import split, uniform
+
+    for key in (jax.random.PRNGKey(3), jax.random.key(11)):
+        assert np.array_equal(jax.random.key_data(split(key, num)),
+                              jax.random.key_data(jax.random.split(key, num)))
+        for shape in [(), (num,), (3, num)]:
+            ours = uniform(key, shape, jnp.float32)
+            reference = jax.random.uniform(key, shape, jnp.float32)
+            assert ours.dtype == reference.dtype and np.array_equal(ours, reference)
+    # other dtypes fall back to jax.random itself
+    key = jax.random.PRNGKey(5)
+    assert np.array_equal(uniform(key, (4,), jnp.float64),
+                          jax.random.uniform(key, (4,), jnp.float64))

@@ -1,5 +1,6 @@
 """The latent-space tracker on a rendered held-out real clip (small: few frames, few particles)."""
 
+import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
@@ -69,3 +70,27 @@ def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
                  "--json", out]) == 2
     assert "must be held out" in capsys.readouterr().err
     assert not (tmp_path / "out.json").exists()
+
+
+def test_markers_from_features_equals_the_two_step_conversion(prior):
+    from jaxtrack.body import spm_forward
+    from jaxtrack.priors.poses import markers_from_features, states_from_features
+
+    rng = np.random.default_rng(0)
+    features = np.asarray(prior.model.poses[:20] + prior.model.pose_mean)
+    placements = np.c_[rng.normal(4.5, 0.3, 20), rng.uniform(0, 640, (20, 2))]
+    direct = np.asarray(jax.vmap(markers_from_features)(jnp.asarray(features),
+                                                         jnp.asarray(placements)))
+    two_step = np.asarray(jax.vmap(lambda f, p: spm_forward(
+        states_from_features(f, p, prior.template), prior.template))(
+        jnp.asarray(features), jnp.asarray(placements)))
+    assert np.allclose(direct, two_step, atol=1e-6 * np.abs(two_step).max())
+
+
+def test_track_gives_the_same_result_for_any_chunk_size(prior, sequence):
+    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                             num_particles=16, fps=sequence.fps)
+    results = [track(tracker, jr.PRNGKey(1), sequence.frames[:11], chunk_size=size,
+                     progress=False) for size in (3, 10)]
+    assert np.array_equal(results[0].markers, results[1].markers)
+    assert np.array_equal(results[0].ess, results[1].ess)
