@@ -171,12 +171,98 @@ def _shapes(prior: GPLVM, template: SPMTemplate, latents: np.ndarray) -> np.ndar
     return np.asarray(decode(jnp.asarray(latents, jnp.float32)))
 
 
-def _scores(shapes: Array, points: np.ndarray, scales: np.ndarray, reads: Array) -> np.ndarray:
-    """``(scales, latents, placements)`` Dice scores: the body drawn at each scale (torso
-    lengths in face sizes) against the foreground read at each placement's window points."""
+def _masks(shapes: Array, points: np.ndarray, scales: np.ndarray) -> list:
+    """The body masks (:func:`_body_masks`) of every shape drawn at each scale (torso lengths
+    in face sizes) over the window points."""
     radii = jnp.asarray(_RADII, jnp.float32)
-    return np.stack([np.asarray(_dice(_body_masks(shapes, jnp.asarray(points / scale), radii),
-                                      reads)) for scale in scales])
+    return [_body_masks(shapes, jnp.asarray(points / scale), radii) for scale in scales]
+
+
+def _scores(masks: list, reads: Array) -> np.ndarray:
+    """``(scales, latents, placements)`` Dice scores of each scale's masks against the
+    foreground read at each placement's window points."""
+    return np.stack([np.asarray(_dice(scale_masks, reads)) for scale_masks in masks])
+
+
+_FINE_SCALES, _FINE_OFFSETS = np.geomspace(0.88, 1.12, 5), np.linspace(-0.12, 0.12, 5)
+
+
+@dataclass(frozen=True)
+class _Bodies:
+    """The candidate poses of a search, drawn once at the coarse scales (reused for every set
+    of boxes searched against the same prior)."""
+
+    latents: np.ndarray
+    shapes: Array
+    scales: np.ndarray
+    points: np.ndarray
+    masks: list
+
+
+def _bodies(prior: GPLVM, template: SPMTemplate, scales: np.ndarray, max_latents: int,
+            resolution: int) -> _Bodies:
+    scales = np.asarray(scales, np.float64)
+    latents = _candidate_latents(prior, max_latents)
+    shapes = jnp.asarray(_shapes(prior, template, latents))
+    points = (_window_points(resolution) * scales.max() * _FINE_SCALES.max()).astype(np.float32)
+    return _Bodies(latents, shapes, scales, points, _masks(shapes, points, scales))
+
+
+def _search(bodies: _Bodies, foreground: Array, faces: np.ndarray, offsets: np.ndarray
+            ) -> AutoInit:
+    shapes, points, scales = bodies.shapes, bodies.points, bodies.scales
+    size = faces[:, 2:].max(axis=1)
+    centre = faces[:, :2] + faces[:, 2:] / 2
+
+    def read(face_of, shifts):
+        centres = centre[face_of] + shifts * size[face_of, None]
+        return centres, _read_foreground(foreground, jnp.asarray(centres, jnp.float32),
+                                         jnp.asarray(size[face_of], jnp.float32),
+                                         jnp.asarray(points))
+
+    # coarse: every face × offset, every scale
+    grid = np.stack(np.meshgrid(np.arange(len(faces)), offsets, offsets, indexing="ij"),
+                    axis=-1).reshape(-1, 3)
+    face_of = grid[:, 0].astype(int)
+    centres, reads = read(face_of, grid[:, 1:])
+    scores = _scores(bodies.masks, reads)  # (scales, latents, placements)
+    if not np.all(np.isfinite(scores)):
+        raise AutoInitError("the pose search produced non-finite scores")
+    per_face = np.array([scores[..., face_of == f].max() for f in range(len(faces))])
+    coarse_scale, _, coarse_placement = np.unravel_index(np.argmax(scores), scores.shape)
+    # fine: finer scales and offsets around the best placement, every latent
+    face = face_of[coarse_placement]
+    shifts = np.stack(np.meshgrid(_FINE_OFFSETS, _FINE_OFFSETS, indexing="ij"),
+                      -1).reshape(-1, 2)
+    shifts = shifts + grid[coarse_placement, 1:]
+    fine_centres, fine_reads = read(np.full(len(shifts), face), shifts)
+    fine_scales = scales[coarse_scale] * _FINE_SCALES
+    fine = _scores(_masks(shapes, points, fine_scales), fine_reads)
+    if fine.max() > scores.max():
+        scale_index, best_latent, placement = np.unravel_index(np.argmax(fine), fine.shape)
+        scale, centre_px, score = fine_scales[scale_index], fine_centres[placement], fine.max()
+    else:
+        scale_index, best_latent, placement = np.unravel_index(np.argmax(scores), scores.shape)
+        scale, centre_px, score = scales[scale_index], centres[placement], scores.max()
+    torso = float(scale * size[face])
+    markers = centre_px + torso * np.asarray(shapes[best_latent], np.float64)
+    return AutoInit(markers=markers, face=faces[face].astype(np.int64), score=float(score),
+                    torso=torso, latent=bodies.latents[best_latent],
+                    faces=faces.astype(np.int64), face_scores=per_face)
+
+
+def _checked_boxes(faces) -> np.ndarray:
+    faces = np.asarray(faces, np.float64).reshape(-1, 4)
+    if len(faces) == 0:
+        raise AutoInitError("no face boxes to search under")
+    return faces
+
+
+def _checked_foreground(foreground) -> Array:
+    foreground = jnp.asarray(np.asarray(foreground, np.float32))
+    if foreground.ndim != 2:
+        raise ValueError(f"foreground must be a (height, width) mask, got {foreground.shape}")
+    return foreground
 
 
 def search_poses(prior: GPLVM, template: SPMTemplate, foreground: np.ndarray,
@@ -198,60 +284,17 @@ def search_poses(prior: GPLVM, template: SPMTemplate, foreground: np.ndarray,
         max_latents: training latents tried (evenly spaced over the training set).
         resolution: window points per side.
     """
-    faces = np.asarray(faces, np.float64).reshape(-1, 4)
-    if len(faces) == 0:
-        raise AutoInitError("no face boxes to search under")
-    foreground = jnp.asarray(np.asarray(foreground, np.float32))
-    if foreground.ndim != 2:
-        raise ValueError(f"foreground must be a (height, width) mask, got {foreground.shape}")
-    scales = np.asarray(scales, np.float64)
-    latents = _candidate_latents(prior, max_latents)
-    shapes = jnp.asarray(_shapes(prior, template, latents))
-    fine_scales, fine_offsets = np.geomspace(0.88, 1.12, 5), np.linspace(-0.12, 0.12, 5)
-    points = (_window_points(resolution) * scales.max() * fine_scales.max()).astype(np.float32)
-    size = faces[:, 2:].max(axis=1)
-    centre = faces[:, :2] + faces[:, 2:] / 2
-
-    def read(face_of, shifts):
-        centres = centre[face_of] + shifts * size[face_of, None]
-        return centres, _read_foreground(foreground, jnp.asarray(centres, jnp.float32),
-                                         jnp.asarray(size[face_of], jnp.float32),
-                                         jnp.asarray(points))
-
-    # coarse: every face × offset, every scale
-    grid = np.stack(np.meshgrid(np.arange(len(faces)), offsets, offsets, indexing="ij"),
-                    axis=-1).reshape(-1, 3)
-    face_of = grid[:, 0].astype(int)
-    centres, reads = read(face_of, grid[:, 1:])
-    scores = _scores(shapes, points, scales, reads)  # (scales, latents, placements)
-    if not np.all(np.isfinite(scores)):
-        raise AutoInitError("the pose search produced non-finite scores")
-    per_face = np.array([scores[..., face_of == f].max() for f in range(len(faces))])
-    coarse_scale, _, coarse_placement = np.unravel_index(np.argmax(scores), scores.shape)
-    # fine: finer scales and offsets around the best placement, every latent
-    face = face_of[coarse_placement]
-    shifts = np.stack(np.meshgrid(fine_offsets, fine_offsets, indexing="ij"), -1).reshape(-1, 2)
-    shifts = shifts + grid[coarse_placement, 1:]
-    fine_centres, fine_reads = read(np.full(len(shifts), face), shifts)
-    fine_scales = scales[coarse_scale] * fine_scales
-    fine = _scores(shapes, points, fine_scales, fine_reads)
-    if fine.max() > scores.max():
-        scale_index, best_latent, placement = np.unravel_index(np.argmax(fine), fine.shape)
-        scale, centre_px, score = fine_scales[scale_index], fine_centres[placement], fine.max()
-    else:
-        scale_index, best_latent, placement = np.unravel_index(np.argmax(scores), scores.shape)
-        scale, centre_px, score = scales[scale_index], centres[placement], scores.max()
-    torso = float(scale * size[face])
-    markers = centre_px + torso * np.asarray(shapes[best_latent], np.float64)
-    return AutoInit(markers=markers, face=faces[face].astype(np.int64), score=float(score),
-                    torso=torso, latent=latents[best_latent], faces=faces.astype(np.int64),
-                    face_scores=per_face)
+    faces, foreground = _checked_boxes(faces), _checked_foreground(foreground)
+    bodies = _bodies(prior, template, scales, max_latents, resolution)
+    return _search(bodies, foreground, faces, np.asarray(offsets))
 
 
 def auto_initialise(prior: GPLVM, template: SPMTemplate, frame_rgb: np.ndarray,
                     foreground: np.ndarray, *, faces: np.ndarray | None = None,
                     min_score: float = 0.35, use_blob_heads: bool = True,
-                    **search_options) -> AutoInit:
+                    scales: np.ndarray = np.geomspace(2.0, 5.0, 7),
+                    offsets: np.ndarray = np.array([-0.25, 0.0, 0.25]), max_latents: int = 600,
+                    resolution: int = 40) -> AutoInit:
     """Find the face(s) in ``frame_rgb`` and the prior's pose that best explains the frame.
 
     Face boxes and, unless ``use_blob_heads`` is False, head boxes guessed from the top of the
@@ -266,8 +309,9 @@ def auto_initialise(prior: GPLVM, template: SPMTemplate, frame_rgb: np.ndarray,
         foreground: ``(height, width)`` its foreground mask (``jaxtrack.vision.foreground_mask``).
         faces: face boxes to use instead of detecting them (e.g. from another detector).
         min_score: the least Dice overlap accepted as "a person is there".
-        use_blob_heads: fall back on head boxes from foreground blobs.
-        search_options: passed to :func:`search_poses`.
+        use_blob_heads: also search head boxes from foreground blobs.
+        scales, offsets, max_latents, resolution: as for :func:`search_poses`; the candidate
+            bodies are drawn once and scored under both kinds of box.
 
     Raises:
         AutoInitError: no face or person blob was found, or no pose under any box reaches
@@ -288,19 +332,17 @@ def auto_initialise(prior: GPLVM, template: SPMTemplate, frame_rgb: np.ndarray,
         raise AutoInitError(
             f"{len(faces)} face candidate(s) found, but the first frame has no foreground "
             f"(nothing differs from the background), so there is no person to initialise on")
-    best = None
-    if len(faces):
-        best = search_poses(prior, template, foreground, faces, **search_options)
-    if use_blob_heads:
-        blobs = head_boxes(foreground)
-        if len(blobs):
-            result = search_poses(prior, template, foreground, blobs, **search_options)
-            result = replace(result, source="foreground")
-            if best is None or result.score > best.score:
-                best = result
-    if best is None:
+    blobs = head_boxes(foreground) if use_blob_heads else np.zeros((0, 4))
+    if not len(faces) and not len(blobs):
         raise AutoInitError("no face (OpenCV Haar cascades, frontal and profile) and no person-"
                             "sized foreground blob in the first frame; initialise by hand")
+    bodies = _bodies(prior, template, scales, max_latents, resolution)
+    weights = _checked_foreground(foreground)
+    # the best box of each kind; a blob head must beat the faces outright
+    results = [replace(_search(bodies, weights, _checked_boxes(boxes), np.asarray(offsets)),
+                       source=source)
+               for boxes, source in ((faces, "face"), (blobs, "foreground")) if len(boxes)]
+    best = max(results, key=lambda result: result.score)
     if best.score < min_score:
         raise AutoInitError(
             f"{len(faces)} face candidate(s) found, but no pose under any face or foreground "

@@ -33,7 +33,6 @@ class FaceDetectorUnavailableError(RuntimeError):
 
 
 def _cascade_path(cascade: str | os.PathLike | None) -> Path:
-    import cv2
 
     if cascade is None:
         cascade = os.environ.get(_ENVIRONMENT)
@@ -42,13 +41,20 @@ def _cascade_path(cascade: str | os.PathLike | None) -> Path:
         if not path.is_file():
             raise FaceDetectorUnavailableError(f"{path}: no such Haar cascade file")
         return path
+    return _bundled_cascade(CASCADE_FILE, f", or name a cascade file with cascade=... or "
+                                          f"${_ENVIRONMENT}")
+
+
+def _bundled_cascade(name: str, hint: str = "") -> Path:
+    """The path of one of the cascade files OpenCV's wheels ship in ``cv2.data.haarcascades``."""
+    import cv2
+
     folder = getattr(getattr(cv2, "data", None), "haarcascades", None)
-    path = Path(folder or ".") / CASCADE_FILE
+    path = Path(folder or ".") / name
     if folder is None or not path.is_file():
         raise FaceDetectorUnavailableError(
-            f"OpenCV {cv2.__version__} ships no {CASCADE_FILE} (looked in {folder}); install "
-            f"opencv-python-headless<5 (OpenCV 4 wheels include it), or name a cascade file "
-            f"with cascade=... or ${_ENVIRONMENT}")
+            f"OpenCV {cv2.__version__} ships no {name} (looked in {folder}); install "
+            f"opencv-python-headless<5 (OpenCV 4 wheels include it){hint}")
     return path
 
 
@@ -133,18 +139,6 @@ def detect_face(image_rgb: np.ndarray, **options) -> np.ndarray | None:
 #: the bundled cascades :func:`face_candidates` runs by default: two frontal and one profile
 CANDIDATE_CASCADES = ("haarcascade_frontalface_default.xml", "haarcascade_frontalface_alt2.xml",
                       "haarcascade_profileface.xml")
-
-
-def _bundled_cascade(name: str) -> Path:
-    import cv2
-
-    folder = getattr(getattr(cv2, "data", None), "haarcascades", None)
-    path = Path(folder or ".") / name
-    if folder is None or not path.is_file():
-        raise FaceDetectorUnavailableError(
-            f"OpenCV {cv2.__version__} ships no {name} (looked in {folder}); install "
-            f"opencv-python-headless<5 (OpenCV 4 wheels include it)")
-    return path
 
 
 def _overlap(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
