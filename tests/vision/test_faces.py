@@ -86,3 +86,25 @@ def test_bad_input_and_missing_cascade_file(tmp_path):
 def test_opencv_without_cascade_says_what_to_install():
     with pytest.raises(FaceDetectorUnavailableError, match="opencv-python-headless<5"):
         detect_faces(np.zeros((40, 40, 3), np.uint8))
+
+
+@needs_detector
+@pytest.mark.skipif(POSE2SIM is None or not POSE2SIM.is_file(),
+                    reason="the shared/data collection is not beside this checkout")
+def test_face_candidates_keep_the_detected_face_and_merge_duplicates():
+    from jaxtrack.vision import face_candidates
+
+    frame = read_video(POSE2SIM, max_frames=1).frames[0]
+    candidates = face_candidates(frame)
+    height, width = frame.shape[:2]
+    assert candidates.ndim == 2 and candidates.shape[1] == 4 and 1 <= len(candidates) <= 8
+    assert np.all(candidates[:, :2] >= 0) and np.all(candidates[:, 0] + candidates[:, 2] <= width)
+    assert np.all(candidates[:, 1] + candidates[:, 3] <= height)
+    # the frontal detector's face is among them (merged with its twins from other cascades)
+    face = detect_face(frame)
+    overlaps = [faces_module._overlap(face, box[None])[0] for box in candidates]
+    assert max(overlaps) > 0.5
+    # no two candidates overlap by more than half of the smaller
+    for i, box in enumerate(candidates):
+        assert np.all(faces_module._overlap(box, np.delete(candidates, i, axis=0)) <= 0.5)
+    assert face_candidates(np.zeros((240, 320, 3), np.uint8)).shape == (0, 4)
