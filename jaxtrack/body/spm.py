@@ -80,25 +80,31 @@ SPM_LINKS = (
 NUM_LINKS = len(SPM_LINKS)
 SPM_STATE_SIZE = 3 + 2 * NUM_LINKS
 _ROOT = SPM_MARKERS.index("neck")
-_PARENTS = np.array([SPM_MARKERS.index(parent) for parent, _ in SPM_LINKS])
-_CHILDREN = np.array([SPM_MARKERS.index(child) for _, child in SPM_LINKS])
+# The module's constants are plain Python tuples, never NumPy arrays, and become arrays afresh where
+# they are used. JAX (0.10) keeps the canonical form of a NumPy array it has converted (int64 →
+# int32, float64 → float32 without x64) for as long as a traced function holds it, keyed on the
+# array object and not on ``jax_enable_x64``: a module-level array used once under one setting would
+# come back with that setting's dtype under the other (int32 indices beside int64 sizes fail
+# inside the gather).
+_PARENTS = tuple(SPM_MARKERS.index(parent) for parent, _ in SPM_LINKS)
+_CHILDREN = tuple(SPM_MARKERS.index(child) for _, child in SPM_LINKS)
 SPM_STATE_NAMES = ("log_scale", "translation_x", "translation_y") + tuple(
     name for parent, child in SPM_LINKS
     for name in (f"angle_{parent}_{child}", f"log_length_{parent}_{child}")
 )
 
 
-def _ancestry() -> np.ndarray:
+def _ancestry() -> tuple[tuple[float, ...], ...]:
     """``A[m, k] = 1`` when link k lies on the path from the neck to marker m."""
-    link_of_child = {int(child): k for k, child in enumerate(_CHILDREN)}
+    link_of_child = {child: k for k, child in enumerate(_CHILDREN)}
     matrix = np.zeros((len(SPM_MARKERS), NUM_LINKS))
     for marker in range(len(SPM_MARKERS)):
         node = marker
         while node != _ROOT:
             k = link_of_child[node]
             matrix[marker, k] = 1.0
-            node = int(_PARENTS[k])
-    return matrix
+            node = _PARENTS[k]
+    return tuple(map(tuple, matrix.tolist()))
 
 
 # markers = neck + A @ link_vectors: the whole kinematic chain as one small matrix product.
@@ -126,7 +132,7 @@ def _check_markers(markers: Array) -> None:
 
 
 def _link_vectors(markers: Array) -> Array:
-    return markers[..., _CHILDREN, :] - markers[..., _PARENTS, :]
+    return markers[..., jnp.asarray(_CHILDREN), :] - markers[..., jnp.asarray(_PARENTS), :]
 
 
 def _torso_length(markers: Array) -> Array:

@@ -136,3 +136,22 @@ def test_bad_shapes_raise():
         spm_fit(np.zeros((3, 15, 2)), template)
     with pytest.raises(ValueError, match="25"):
         spm_forward(jnp.zeros(24), template)
+
+
+def test_switching_jax_enable_x64_between_calls():
+    """Regression: the SPM's index constants were module-level NumPy arrays, and JAX reuses the
+    canonical (int32 or int64) form of such an array across ``jax.enable_x64`` settings, so
+    ``spm_initial_state`` failed while tracing (int32 indices against int64 sizes) once it had
+    run under the other setting in the same process."""
+    upright = np.array([  # head, neck, thorax, pelvis, right arm and hip, left arm and hip
+        [0, -30], [0, 0], [0, 40], [0, 90], [-25, 5], [-35, 45], [-40, 85], [-15, 95],
+        [25, 5], [35, 45], [40, 85], [15, 95],
+    ], np.float64) + [320.0, 100.0]
+    markers = np.stack([upright, upright + np.linspace(-3.0, 3.0, 24).reshape(12, 2)])
+    for x64 in (False, True, False):  # the suite runs with x64 on: both orders are covered
+        with jax.enable_x64(x64):
+            template = build_template(jnp.asarray(markers))
+            states = spm_initial_state(jnp.asarray(markers), template)
+            fitted = jax.vmap(spm_forward, in_axes=(0, None))(states, template)
+            assert states.dtype == fitted.dtype == (jnp.float64 if x64 else jnp.float32)
+            np.testing.assert_allclose(fitted, markers, atol=1e-3)
