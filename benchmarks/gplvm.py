@@ -37,6 +37,7 @@ CPU seconds (all threads of the process, or of the GPy subprocess) are reported 
 from __future__ import annotations
 
 import argparse
+import inspect
 import os
 import resource
 import statistics
@@ -111,6 +112,26 @@ def even_rows(sequence_ids: np.ndarray, count: int) -> np.ndarray:
     return np.sort(np.concatenate(rows))
 
 
+def shifted_rows(sequence_ids: np.ndarray, count: int, seed: int) -> np.ndarray:
+    """Like :func:`even_rows`, but each sequence's evenly spaced frames start at a random phase.
+
+    ``seed`` 0 is :func:`even_rows` itself; other seeds give other ``count``-pose training sets
+    with the same number of rows per sequence (``--subsets``).
+    """
+    rows = even_rows(sequence_ids, count)
+    if seed == 0:
+        return rows
+    rng = np.random.default_rng(seed)
+    shifted = []
+    for sequence in np.unique(sequence_ids[rows]):
+        frames = np.flatnonzero(sequence_ids == sequence)
+        keep = int(np.sum(sequence_ids[rows] == sequence))
+        spacing = len(frames) / keep
+        positions = np.floor(rng.uniform(0.0, spacing) + spacing * np.arange(keep)).astype(int)
+        shifted.append(frames[np.minimum(positions, len(frames) - 1)])
+    return np.sort(np.concatenate(shifted))
+
+
 def subset(poses: PoseSet, rows: np.ndarray) -> PoseSet:
     """The pose set restricted to ``rows`` (sequence ids keep their meaning)."""
     return PoseSet(states=poses.states[rows], markers_2d=poses.markers_2d[rows],
@@ -173,15 +194,23 @@ def _means_and_variances(model, latents):
     return jax.vmap(model.mean_and_variance)(latents)
 
 
+def fit_options(args) -> dict:
+    """``fit_gplvm`` arguments from the command line."""
+    options = dict(latent_dim=args.latent_dim, active_size=args.active_size,
+                   iterations=args.iterations, active_steps=args.active_steps,
+                   inactive_steps=args.inactive_steps)
+    return options
+
+
 def train_jaxtrack(features: np.ndarray, args, label: str):
     """Warm-up fit (one outer iteration, compiles every stage), then the timed fit."""
-    options = dict(latent_dim=args.latent_dim, active_size=args.active_size,
-                   active_steps=args.active_steps, inactive_steps=args.inactive_steps)
+    options = fit_options(args)
+    del options["iterations"]
     tqdm.write(f"[{label}] warm-up fit (1 iteration, compiles) on {len(features)} poses")
     warm = fit_gplvm(features, iterations=1, **options)
     tqdm.write(f"[{label}] timed fit ({args.iterations} iterations)")
     cpu = time.process_time()
-    fit = fit_gplvm(features, iterations=args.iterations, **options)
+    fit = fit_gplvm(features, **fit_options(args))
     cpu = time.process_time() - cpu
     first_iteration = fit.trace[0]["seconds"]
     compile_s = max(warm.seconds - warm.init_seconds - first_iteration, 0.0)
@@ -277,6 +306,39 @@ def run_gpy(train_features: np.ndarray, held_out_features: np.ndarray, held_out:
             "subprocess_cpu_s": cpu, "blas_threads": args.gpy_blas_threads or "default"}
 
 
+def subset_record(seed: int, ours: dict, gpy: dict | None, load: float | None = None) -> dict:
+    """One training subset's jaxtrack and GPy time and held-out error, with their ratios."""
+    record = {"subset": seed, "load_1min": os.getloadavg()[0] if load is None else load,
+              "jaxtrack_train_s": ours["train_s"], "jaxtrack_total_s": ours["total_s"],
+              "jaxtrack_error_px": ours["error_px"]}
+    if gpy is not None and "skipped" not in gpy:
+        record.update({
+            "gpy_train_s": gpy["train_seconds"],
+            "gpy_total_s": gpy["train_seconds"] + gpy["inverse_seconds"],
+            "gpy_error_px": gpy["error_px"]})
+        record.update({
+            "train_time_gpy_over_jaxtrack": record["gpy_train_s"] / record["jaxtrack_train_s"],
+            "time_gpy_over_jaxtrack": record["gpy_total_s"] / record["jaxtrack_total_s"],
+            "error_gpy_over_jaxtrack": record["gpy_error_px"] / record["jaxtrack_error_px"]})
+    return record
+
+
+def subset_medians(subsets: list[dict]) -> dict:
+    """Median of every numeric column over the subsets, and the ratios of the medians."""
+    keys = [key for key in subsets[0] if key != "subset"
+            and all(isinstance(record.get(key), float) for record in subsets)]
+    medians = {key: float(np.median([record[key] for record in subsets])) for key in keys}
+    if "gpy_train_s" in medians:
+        medians.update({
+            "ratio_of_medians_train_time_gpy_over_jaxtrack":
+                medians["gpy_train_s"] / medians["jaxtrack_train_s"],
+            "ratio_of_medians_time_gpy_over_jaxtrack":
+                medians["gpy_total_s"] / medians["jaxtrack_total_s"],
+            "ratio_of_medians_error_gpy_over_jaxtrack":
+                medians["gpy_error_px"] / medians["jaxtrack_error_px"]})
+    return medians
+
+
 # ---------------------------------------------------------------------------------- main
 
 
@@ -285,9 +347,16 @@ def main(argv=None) -> int:
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 5000],
                         help="training set sizes (1000 5000); GPy runs on the first")
     parser.add_argument("--active-size", type=int, default=200)
-    parser.add_argument("--iterations", type=int, default=4, help="outer iterations T (4)")
-    parser.add_argument("--active-steps", type=int, default=300)
-    parser.add_argument("--inactive-steps", type=int, default=40)
+    defaults = inspect.signature(fit_gplvm).parameters
+    for name, what in (("iterations", "outer iterations T"),
+                       ("active_steps", "BFGS step cap of eq. 1"),
+                       ("inactive_steps", "BFGS step cap of each eq. 2 solve")):
+        default = defaults[name].default
+        parser.add_argument("--" + name.replace("_", "-"), type=int, default=default,
+                            help=f"{what} ({default}, fit_gplvm's default)")
+    parser.add_argument("--subsets", type=int, default=3,
+                        help="training subsets of the first size (other frames of every "
+                             "sequence) on which jaxtrack and GPy both run; medians compared (3)")
     parser.add_argument("--latent-dim", type=int, default=2)
     parser.add_argument("--views", type=int, default=5, help="views per clip (5)")
     parser.add_argument("--inverse-poses", type=int, default=10_000,
@@ -312,6 +381,7 @@ def main(argv=None) -> int:
     if args.quick:
         args.sizes, args.active_size, args.iterations = [400, 800], 100, 2
         args.inverse_poses, args.mean_repeats, args.skip_gpy = 2_000, 50, True
+        args.subsets = 1
     suffix = "_quick" if args.quick else ""
     args.json = args.json or f"benchmarks/results/gplvm{suffix}.json"
     args.plot = args.plot or f"benchmarks/results/gplvm_latent_space{suffix}.png"
@@ -393,6 +463,22 @@ def main(argv=None) -> int:
                 **{key: gpy[key] for key in ("error_px", "error_p95_px", "error_torso",
                                              "error_max_px")}})
 
+    # the same comparison on more training subsets of the first size (other frames of every
+    # sequence), jaxtrack and GPy one after the other on each; medians over all subsets
+    size = args.sizes[0]
+    first = next(row for row in rows if row["method"] == "jaxtrack" and row["poses"] == size)
+    subsets = [subset_record(0, first, gpy)]
+    for seed in range(1, args.subsets):
+        train = subset(pool, shifted_rows(pool.sequence_ids, size, seed))
+        features = features_of(train)
+        tqdm.write(f"[subset {seed}] jaxtrack fit on {size} poses (compiled by the first)")
+        load = os.getloadavg()[0]
+        fit = fit_gplvm(features, progress=False, **fit_options(args))
+        held = held_out_jaxtrack(fit, held_out_features, held_out)
+        ours = {"train_s": fit.seconds, "total_s": fit.seconds + held["inverse_s"], **held}
+        theirs = None if args.skip_gpy else run_gpy(features, held_out_features, held_out, args)
+        subsets.append(subset_record(seed, ours, theirs, load))
+
     # the latent space of the smallest model
     fit, train = fits[args.sizes[0]]
     placement = np.median(train.states[:, :3], axis=0)
@@ -452,6 +538,26 @@ def main(argv=None) -> int:
     print()
     for key, value in ratios.items():
         print(f"{key}: {value:.3g}")
+    medians = subset_medians(subsets)
+    ratios.update({f"subsets_median_{key}": value for key, value in medians.items()
+                   if "over" in key})
+    print()
+    print(f"jaxtrack vs GPy on {len(subsets)} training subsets of {size} poses (held-out error; "
+          "train s = training only, total s = training + μ⁻¹ of the held-out poses)")
+    subset_columns = [("subset", "subset", "s"), ("load_1min", "load", ".2f"),
+                      ("jaxtrack_train_s", "jaxtrack train s", ".2f"),
+                      ("jaxtrack_total_s", "total s", ".2f"),
+                      ("jaxtrack_error_px", "err px", ".2f"),
+                      ("gpy_train_s", "GPy train s", ".2f"), ("gpy_total_s", "total s", ".2f"),
+                      ("gpy_error_px", "err px", ".2f"),
+                      ("train_time_gpy_over_jaxtrack", "train ×", ".2f"),
+                      ("time_gpy_over_jaxtrack", "total ×", ".2f"),
+                      ("error_gpy_over_jaxtrack", "GPy/jaxtrack err", ".3f")]
+    print_table([*({**record, "subset": str(record["subset"])} for record in subsets),
+                 {**medians, "subset": "median"}], subset_columns)
+    for key, value in medians.items():
+        if key.startswith("ratio_of_medians"):
+            print(f"{key}: {value:.3g}")
     load_end = os.getloadavg()
     print(f"load average at end (1, 5, 15 min): {load_end[0]:.2f} {load_end[1]:.2f} "
           f"{load_end[2]:.2f}; benchmark wall {time.perf_counter() - started:.0f} s")
@@ -461,7 +567,8 @@ def main(argv=None) -> int:
         "training_clips": TRAINING_CLIPS, "held_out_clips": HELD_OUT_CLIPS,
         "pool_poses": len(pool.states), "held_out_poses": len(held_out.states),
         "states_to_markers_floor_px": floor_px,
-        "rows": rows, "speed_rows": speed_rows, "ratios": ratios, "fits": traces, "gpy": gpy,
+        "rows": rows, "speed_rows": speed_rows, "ratios": ratios,
+        "subsets": subsets, "subset_medians": medians, "fits": traces, "gpy": gpy,
         "latent_space_plot": str(plot),
         "wall_s": time.perf_counter() - started,
         "median_torso_px": float(statistics.median(held_out.torso_lengths())),
