@@ -117,14 +117,22 @@ def _optimise_active(kernel: KernelParameters, latents, poses, *, max_steps: int
 
 
 @eqx.filter_jit
-def _optimise_inactive(model: GPLVM, current_latents, poses, *, max_steps: int):
+def _optimise_inactive(model: GPLVM, current_latents, poses, *, max_steps: int, dtype):
+    # eq. 2 in ``dtype`` (float32 by default: the stage is half of training, and μ, σ² of the
+    # model are what the trackers evaluate in float32 anyway), the latents returned in float64
+    wide = current_latents.dtype
+    model, current_latents, poses = (model.astype(dtype), current_latents.astype(dtype),
+                                     poses.astype(dtype))
     # start each point at the better of where it is and the best nearby active point
     nearby = model.initial_latents(poses)
     point_objective = jax.vmap(model.point_objective)
     keep = point_objective(current_latents, poses) <= point_objective(nearby, poses)
     starts = jnp.where(keep[:, None], current_latents, nearby)
-    inverse = model.inverse(poses, max_steps=max_steps, initial_latents=starts, tolerance=1e-6)
-    return inverse.latents, inverse.objective, inverse.result != optx.RESULTS.successful
+    tolerance = 1e-6 if jnp.finfo(dtype).bits == 64 else 1e-4
+    inverse = model.inverse(poses, max_steps=max_steps, initial_latents=starts,
+                            tolerance=tolerance)
+    return (inverse.latents.astype(wide), inverse.objective.astype(wide),
+            inverse.result != optx.RESULTS.successful)
 
 
 def _check_poses(poses: np.ndarray, latent_dim: int, active_size: int) -> None:
@@ -149,6 +157,7 @@ def fit_gplvm(
     neighbours: int = 10,
     active_steps: int = 150,
     inactive_steps: int = 40,
+    inactive_dtype=jnp.float32,
     all_poses: bool = True,
     final_rounds: int = 1,
     sequence_ids: ArrayLike | None = None,
@@ -169,6 +178,10 @@ def fit_gplvm(
         init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
         neighbours: k of Isomap's nearest-neighbour graph.
         active_steps, inactive_steps: BFGS step caps for eq. 1 and for each eq. 2 solve.
+        inactive_dtype: float type of the eq. 2 solves (float32; eq. 1 and the model stay
+            float64). Validation error unchanged against float64 (3.59, 3.29, 3.39 px against
+            3.60, 3.26, 3.39 px on three subsets), that stage 20–35 % faster; more of the
+            points stop at ``inactive_steps`` (``unconverged_points`` in the trace).
         all_poses: μ and σ² (for the non-active points' L′ and in the returned model) from all
             n poses through the active set, the projected process of
             :meth:`GPLVM.from_active_set`; ``False``: from the active poses alone (eqs. 3–4 as
@@ -226,7 +239,8 @@ def fit_gplvm(
                                               jnp.zeros_like(centred_jax[0]), latents, active,
                                               all_poses=all_poses)
                 moved, values, failed = _optimise_inactive(
-                    model, latents[inactive], centred_jax[inactive], max_steps=inactive_steps)
+                    model, latents[inactive], centred_jax[inactive], max_steps=inactive_steps,
+                    dtype=inactive_dtype)
                 latents = latents.at[inactive].set(moved)
                 point_objective, unconverged = float(jnp.mean(values)), int(jnp.sum(failed))
             timings["inactive"] = time.perf_counter() - tick - sum(timings.values())
