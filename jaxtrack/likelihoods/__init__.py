@@ -1,8 +1,26 @@
 """Likelihoods: one particle's fit to one frame's observations, pure JAX (the engine vmaps)."""
 
+from jaxtrack.likelihoods.appearance import (
+    DEFAULT_LIKELIHOOD,
+    LIKELIHOODS,
+    AppearanceTemplates,
+    default_sharpness,
+    make_appearance_templates,
+)
+from jaxtrack.likelihoods.limbs import (
+    DEFAULT_LIMB_SHARPNESS,
+    DEFAULT_STRIP_WIDTH,
+    LIMB_SEGMENTS,
+    LimbTemplates,
+    limb_ncc_log_likelihood,
+    limb_ncc_scores,
+    limb_points,
+    make_limb_templates,
+)
 from jaxtrack.likelihoods.ncc import (
     DEFAULT_NCC_SHARPNESS,
     NCCTemplates,
+    bilinear_sample,
     make_templates,
     ncc_log_likelihood,
     ncc_log_likelihood_nearest,
@@ -14,7 +32,11 @@ from jaxtrack.likelihoods.ncc import (
 )
 
 __all__ = [
-    "DEFAULT_NCC_SHARPNESS", "NCCTemplates", "make_templates", "ncc_log_likelihood",
-    "ncc_log_likelihood_nearest", "ncc_scores", "ncc_scores_nearest", "patch_half_size",
-    "sample_patches", "sample_patches_nearest",
+    "DEFAULT_LIKELIHOOD", "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS",
+    "DEFAULT_STRIP_WIDTH", "LIKELIHOODS", "LIMB_SEGMENTS", "AppearanceTemplates",
+    "LimbTemplates", "NCCTemplates", "bilinear_sample", "default_sharpness",
+    "limb_ncc_log_likelihood", "limb_ncc_scores", "limb_points", "make_appearance_templates",
+    "make_limb_templates", "make_templates", "ncc_log_likelihood", "ncc_log_likelihood_nearest",
+    "ncc_scores", "ncc_scores_nearest", "patch_half_size", "sample_patches",
+    "sample_patches_nearest",
 ]

@@ -54,6 +54,7 @@ from jaxtyping import Array, ArrayLike, Float
 __all__ = [
     "DEFAULT_NCC_SHARPNESS",
     "NCCTemplates",
+    "bilinear_sample",
     "make_templates",
     "ncc_log_likelihood",
     "ncc_log_likelihood_nearest",
@@ -141,12 +142,21 @@ def sample_patches(
     if centres.ndim != 2 or centres.shape[-1] != 2:
         raise ValueError(f"centres must be (markers, 2) pixel positions, got {centres.shape}")
     dtype = _float_dtype(image, centres)
-    height, width = image.shape
     offsets = jnp.arange(-half_size, half_size + 1, dtype=dtype)
     centres = centres.astype(dtype)
-    x = jnp.clip(centres[:, None, None, 0] + offsets[None, None, :], 0, width - 1)
-    y = jnp.clip(centres[:, None, 1, None] + offsets[None, :, None], 0, height - 1)
+    x = centres[:, None, None, 0] + offsets[None, None, :]
+    y = centres[:, None, 1, None] + offsets[None, :, None]
     x, y = jnp.broadcast_arrays(x, y)  # (markers, size, size)
+    return bilinear_sample(image.astype(dtype), x, y)
+
+
+def bilinear_sample(image: Float[Array, "height width"], x: Float[Array, "*points"],
+                    y: Float[Array, "*points"]) -> Float[Array, "*points"]:
+    """``image`` interpolated bilinearly at the points ``(x, y)`` (any matching shapes), points
+    outside clamped to the border; one gather of the four neighbours, in ``x``'s dtype."""
+    height, width = image.shape
+    x = jnp.clip(x, 0, width - 1)
+    y = jnp.clip(y, 0, height - 1)
     x0 = jnp.floor(x)
     y0 = jnp.floor(y)
     fx, fy = x - x0, y - y0
@@ -154,7 +164,7 @@ def sample_patches(
     y0 = y0.astype(jnp.int32)
     x1 = jnp.minimum(x0 + 1, width - 1)
     y1 = jnp.minimum(y0 + 1, height - 1)
-    flat = image.reshape(-1).astype(dtype)
+    flat = image.reshape(-1).astype(x.dtype)
     # one gather of the four neighbours; the indices are in bounds by construction
     index = jnp.stack([y0 * width + x0, y0 * width + x1, y1 * width + x0, y1 * width + x1])
     top_left, top_right, bottom_left, bottom_right = flat.at[index].get(
@@ -199,6 +209,19 @@ class NCCTemplates(eqx.Module):
     @property
     def num_markers(self) -> int:
         return self.patches.shape[0]
+
+    def log_likelihood(self, markers_2d, image, sharpness, nearest: bool = True) -> Array:
+        """eq. 7 with nearest-pixel (fast) or bilinear patches (the interface trackers call)."""
+        score = ncc_log_likelihood_nearest if nearest else ncc_log_likelihood
+        return score(markers_2d, image, self, sharpness)
+
+    def residuals(self, markers_2d, image, sharpness) -> Array:
+        """``√λ (p̂ − t̂)`` over all patches (bilinear): since ``‖p̂ − t̂‖² = 2 − 2 NCC``, half
+        its squared norm is eq. 7's cost ``λ Σ_m (1 − NCC_m)``, a sum of squares for
+        Gauss–Newton."""
+        patches, _ = _normalise(sample_patches(image, markers_2d, self.half_size))
+        return jnp.sqrt(jnp.asarray(sharpness, patches.dtype)) * (
+            patches - self.patches.astype(patches.dtype)).reshape(-1)
 
 
 def make_templates(

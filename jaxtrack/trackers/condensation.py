@@ -8,8 +8,9 @@ likelihood (eq. 7) as :mod:`jaxtrack.trackers.latent`:
     x_t = A₁ x_{t−1} + A₂ x_{t−2} + d + w_t,   w_t ~ N(0, Q),
 
 with diagonal A₁, A₂ and Q (:func:`fit_ar2`). A particle holds ``(x_t, x_{t−1})``. Its weight is
-the NCC of template patches at the markers ``spm_forward(x_t)`` (nearest-pixel patches by
-default, as the latent tracker; ``nearest=False`` for bilinear); the estimate is the markers of
+the same appearance likelihood as the latent tracker's at the markers ``spm_forward(x_t)``
+(limb strips by default, ``likelihood="markers"`` for the paper's patches; nearest-pixel by
+default, ``nearest=False`` for bilinear); the estimate is the markers of
 the weighted mean state (SPM angles are measured from the template's directions, so ordinary
 poses sit near 0, far from the ±π wrap, and plain means are fine).
 
@@ -28,11 +29,10 @@ from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward, spm_initial_state
 from jaxtrack.likelihoods import (
-    DEFAULT_NCC_SHARPNESS,
-    NCCTemplates,
-    make_templates,
-    ncc_log_likelihood,
-    ncc_log_likelihood_nearest,
+    DEFAULT_LIKELIHOOD,
+    AppearanceTemplates,
+    default_sharpness,
+    make_appearance_templates,
 )
 from jaxtrack.trackers._runner import ParticleTracker
 
@@ -215,17 +215,17 @@ class CondensationModel(smc.StateSpaceModel):
     Attributes:
         dynamics: the AR(2) (or random-walk) dynamics.
         template: the SPM template.
-        templates: NCC template patches from the first frame.
+        templates: appearance templates from the first frame (limb strips or marker patches).
         initial_state: ``(25,)`` SPM state of frame 0.
         initial_std: ``(25,)`` spread of the initial particles around it.
-        sharpness: λ of the NCC likelihood.
-        nearest: read patches at the nearest pixel (fast; the latent tracker's default) instead
-            of bilinearly.
+        sharpness: λ of the likelihood.
+        nearest: read pixels at the nearest sample point (fast; the latent tracker's default)
+            instead of bilinearly.
     """
 
     dynamics: AR2Dynamics
     template: SPMTemplate
-    templates: NCCTemplates
+    templates: AppearanceTemplates
     initial_state: Float[Array, " state"]
     initial_std: Float[Array, " state"]
     sharpness: Float[Array, ""]
@@ -246,8 +246,8 @@ class CondensationModel(smc.StateSpaceModel):
 
     def log_likelihood(self, particle: dict, observation) -> Float[Array, ""]:
         # Tian et al. eq. 7, the same likelihood as the latent tracker's
-        score = ncc_log_likelihood_nearest if self.nearest else ncc_log_likelihood
-        return score(self.markers_of(particle), observation, self.templates, self.sharpness)
+        return self.templates.log_likelihood(self.markers_of(particle), observation,
+                                             self.sharpness, self.nearest)
 
 
 class CondensationTracker(ParticleTracker):
@@ -269,15 +269,17 @@ class CondensationTracker(ParticleTracker):
 
 
 def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_markers,
-           num_particles: int, initial_spread: float, sharpness: float, nearest: bool, dtype
-           ) -> CondensationTracker:
+           num_particles: int, initial_spread: float, likelihood: str, sharpness: float | None,
+           nearest: bool, dtype) -> CondensationTracker:
+    if sharpness is None:
+        sharpness = default_sharpness(likelihood)
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     template = jax.tree.map(cast, template)
     initial = spm_initial_state(cast(first_markers), template)
     dynamics = dynamics.astype(dtype)
     model = CondensationModel(
         dynamics=dynamics, template=template,
-        templates=make_templates(cast(first_frame), cast(first_markers)),
+        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers)),
         initial_state=initial, initial_std=jnp.asarray(initial_spread, dtype) * dynamics.noise_std,
         sharpness=cast(sharpness), nearest=bool(nearest),
     )
@@ -306,7 +308,8 @@ def condensation_tracker(
     training_states: Float[ArrayLike, "time 25"],
     *,
     num_particles: int = 1000,
-    sharpness: float = DEFAULT_NCC_SHARPNESS,
+    likelihood: str = DEFAULT_LIKELIHOOD,
+    sharpness: float | None = None,
     ridge: float = DEFAULT_RIDGE,
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     max_root: float = 1.0,
@@ -325,19 +328,20 @@ def condensation_tracker(
         training_states: ``(time, 25)`` SPM states to learn the dynamics from (the paper: the
             first 30 frames of ground truth, ``spm_fit(truth[:30], template)``).
         num_particles: N.
-        sharpness: λ of the NCC likelihood.
+        likelihood: ``"limbs"`` or ``"markers"`` (:mod:`jaxtrack.likelihoods.appearance`).
+        sharpness: λ of the likelihood; None for the likelihood's default.
         ridge, max_root: see :func:`fit_ar2`.
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:
             :func:`default_noise_floor` of the training torso length.
         initial_spread: initial particles spread by this many noise stds around frame 0's state.
-        nearest: nearest-pixel NCC patches (fast, as the latent tracker) rather than bilinear.
+        nearest: nearest-pixel sampling (fast, as the latent tracker) rather than bilinear.
         dtype: the filter's float type.
     """
     first_markers, training_states, floor = _prepare(template, first_markers, training_states,
                                                      min_noise_std)
     dynamics = fit_ar2(training_states, ridge=ridge, min_noise_std=floor, max_root=max_root)
     return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  sharpness, nearest, dtype)
+                  likelihood, sharpness, nearest, dtype)
 
 
 def random_walk_tracker(
@@ -347,7 +351,8 @@ def random_walk_tracker(
     training_states: Float[ArrayLike, "time 25"],
     *,
     num_particles: int = 1000,
-    sharpness: float = DEFAULT_NCC_SHARPNESS,
+    likelihood: str = DEFAULT_LIKELIHOOD,
+    sharpness: float | None = None,
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     step_scale: float = 1.0,
     initial_spread: float = 1.0,
@@ -365,4 +370,4 @@ def random_walk_tracker(
     dynamics = random_walk_dynamics(training_states, min_noise_std=floor)
     dynamics = eqx.tree_at(lambda d: d.noise_std, dynamics, step_scale * dynamics.noise_std)
     return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  sharpness, nearest, dtype)
+                  likelihood, sharpness, nearest, dtype)

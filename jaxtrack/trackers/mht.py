@@ -55,11 +55,11 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int, PRNGKeyArray, PyTree, 
 from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward, spm_initial_state
 from jaxtrack.likelihoods import (
+    DEFAULT_LIKELIHOOD,
     DEFAULT_NCC_SHARPNESS,
-    NCCTemplates,
-    make_templates,
-    ncc_log_likelihood,
-    sample_patches,
+    AppearanceTemplates,
+    default_sharpness,
+    make_appearance_templates,
 )
 from jaxtrack.trackers._runner import FrameEstimate
 from jaxtrack.trackers.condensation import default_noise_floor
@@ -100,19 +100,9 @@ def _solver(tolerance: float, dtype) -> ArmijoGaussNewton:
     return ArmijoGaussNewton(rtol=tolerance, atol=tolerance, search=search)
 
 
-def _unit_patches(patches: Array) -> Array:
-    """Zero-mean, unit-norm patches (all zeros for a flat one), with safe gradients."""
-    centred = patches - jnp.mean(patches, axis=(-2, -1), keepdims=True)
-    energy = jnp.sum(centred**2, axis=(-2, -1), keepdims=True)
-    magnitude = jnp.max(jnp.abs(patches), axis=(-2, -1), keepdims=True)
-    size = patches.shape[-1] * patches.shape[-2]
-    textured = energy > size * (16 * jnp.finfo(patches.dtype).eps * magnitude) ** 2
-    return jnp.where(textured, centred / jnp.sqrt(jnp.where(textured, energy, 1)), 0)
-
-
 class _Problem(eqx.Module):
     frame: Float[Array, "height width"]
-    templates: NCCTemplates
+    templates: AppearanceTemplates
     template: SPMTemplate
     prior_mean: Float[Array, " 25"]
     prior_std: Float[Array, " 25"]
@@ -121,10 +111,8 @@ class _Problem(eqx.Module):
 
 def _residuals(state: Array, problem: _Problem) -> Array:
     markers = spm_forward(state, problem.template)
-    patches = _unit_patches(sample_patches(problem.frame, markers, problem.templates.half_size))
-    templates = problem.templates.patches.astype(patches.dtype)
     # ½‖√λ (p̂ − t̂)‖² = λ Σ_m (1 − NCC_m): Tian et al.'s eq. 7 cost as a sum of squares
-    image = jnp.sqrt(problem.sharpness) * (patches - templates).reshape(-1)
+    image = problem.templates.residuals(markers, problem.frame, problem.sharpness)
     prior = (state - problem.prior_mean) / problem.prior_std
     return jnp.concatenate([image, prior])
 
@@ -132,7 +120,7 @@ def _residuals(state: Array, problem: _Problem) -> Array:
 def refinement_cost(
     state: Float[ArrayLike, " 25"],
     frame: Float[ArrayLike, "height width"],
-    templates: NCCTemplates,
+    templates: AppearanceTemplates,
     template: SPMTemplate,
     prior_mean: Float[ArrayLike, " 25"],
     prior_std: Float[ArrayLike, " 25"],
@@ -150,7 +138,7 @@ def refinement_cost(
 def refine_pose(
     state: Float[ArrayLike, " 25"],
     frame: Float[ArrayLike, "height width"],
-    templates: NCCTemplates,
+    templates: AppearanceTemplates,
     template: SPMTemplate,
     prior_mean: Float[ArrayLike, " 25"],
     prior_std: Float[ArrayLike, " 25"],
@@ -168,7 +156,7 @@ def refine_pose(
     Args:
         state: ``(25,)`` starting SPM state.
         frame: ``(height, width)`` grey frame.
-        templates: NCC template patches.
+        templates: appearance templates (limb strips or marker patches).
         template: the SPM template.
         prior_mean, prior_std: ``(25,)`` Gaussian prior on the state (MHT: the prediction and
             the per-frame step std).
@@ -239,7 +227,7 @@ class MHTTracker(eqx.Module):
 
     Attributes:
         template: the SPM template.
-        templates: NCC template patches from the first frame.
+        templates: appearance templates from the first frame (limb strips or marker patches).
         initial_state: ``(25,)`` frame 0's SPM state.
         step_std: ``(25,)`` per-frame std of the state: the prediction prior's σ and the unit of
             the refill spread.
@@ -254,7 +242,7 @@ class MHTTracker(eqx.Module):
     """
 
     template: SPMTemplate
-    templates: NCCTemplates
+    templates: AppearanceTemplates
     initial_state: Float[Array, " 25"]
     step_std: Float[Array, " 25"]
     sharpness: Float[Array, ""]
@@ -274,8 +262,8 @@ class MHTTracker(eqx.Module):
         return jax.vmap(spm_forward, in_axes=(0, None))(states, self.template)
 
     def _log_likelihoods(self, states: Array, frame: Array) -> Array:
-        values = jax.vmap(ncc_log_likelihood, in_axes=(0, None, None, None))(
-            self._markers(states), frame, self.templates, self.sharpness)
+        values = jax.vmap(self.templates.log_likelihood, in_axes=(0, None, None, None))(
+            self._markers(states), frame, self.sharpness, False)
         return jnp.where(jnp.isnan(values), -jnp.inf, values)
 
     def _seed(self) -> MHTState:
@@ -359,7 +347,8 @@ def mht_tracker(
     training_states: Float[ArrayLike, "time 25"] | None = None,
     *,
     num_modes: int = 10,
-    sharpness: float = DEFAULT_NCC_SHARPNESS,
+    likelihood: str = DEFAULT_LIKELIHOOD,
+    sharpness: float | None = None,
     step_std: Float[ArrayLike, " 25"] | None = None,
     velocity_weight: float = 0.5,
     prior_scale: float = 4.0,
@@ -380,7 +369,9 @@ def mht_tracker(
             ``step_std`` (the same first 30 ground-truth frames the CONDENSATION baseline
             learns from); ignored when ``step_std`` is given.
         num_modes: the pool size (Tian et al. compared with 10).
-        sharpness: λ of the NCC likelihood and of the refinement cost.
+        likelihood: ``"limbs"`` or ``"markers"`` (:mod:`jaxtrack.likelihoods.appearance`).
+        sharpness: λ of the likelihood and of the refinement cost; None for the likelihood's
+            default.
         step_std: ``(25,)`` per-frame state std; default from ``training_states`` or, without
             them, :func:`~jaxtrack.trackers.condensation.default_noise_floor` × 10.
         velocity_weight: prediction ``x + v (x − x_prev)``; 0 is constant position.
@@ -400,6 +391,8 @@ def mht_tracker(
     if num_modes < 1 or max_steps < 1:
         raise ValueError(f"num_modes and max_steps must be positive, got {num_modes}, "
                          f"{max_steps}")
+    if sharpness is None:
+        sharpness = default_sharpness(likelihood)
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     template = jax.tree.map(cast, template)
     initial = spm_initial_state(cast(first_markers), template)
@@ -423,7 +416,8 @@ def mht_tracker(
     if merge_radius is None:
         merge_radius = 0.02 * torso
     return MHTTracker(
-        template=template, templates=make_templates(cast(first_frame), cast(first_markers)),
+        template=template,
+        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers)),
         initial_state=initial, step_std=cast(step_std), sharpness=cast(sharpness),
         velocity_weight=cast(velocity_weight), prior_scale=cast(prior_scale),
         refill_spread=cast(refill_spread), merge_radius=cast(merge_radius),

@@ -1,11 +1,13 @@
-"""A small GPLVM prior and a short rendered held-out clip, shared by the tracker tests."""
+"""A small GPLVM prior and rendered held-out clips, shared by the tracker tests."""
 
 import pytest
 
 from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
 
 HISTORY = "animateddrawings/history_c119d6b/"
-TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "cmu_1006_wave_hello_1")
+# the demo's three training takes (jaxtrack._demo), at a low pose rate and a small active set
+TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "8yr_old_wave_hello",
+         HISTORY + "cmu_1006_wave_hello_1")
 HELD_OUT = HISTORY + "cmu_1006_wave_hello_2"
 
 
@@ -16,5 +18,13 @@ def prior():
 
 @pytest.fixture(scope="session")
 def sequence():
+    """The first 16 frames of the held-out take (the arms coming down from a T pose)."""
     return render_test_sequences(HELD_OUT, views=1, backgrounds=("photo",), fps=15.0,
                                  image_size=(320, 240), max_frames=16)[0]
+
+
+@pytest.fixture(scope="session")
+def whole_take():
+    """The whole held-out take (69 frames at 15 fps): the arms come down, then wave."""
+    return render_test_sequences(HELD_OUT, views=1, backgrounds=("photo",), fps=15.0,
+                                 image_size=(320, 240))[0]

@@ -1,0 +1,247 @@
+"""Normalised cross-correlation of limb-aligned strips: the likelihood that separates poses.
+
+Tian et al.'s eq. 7 (:mod:`jaxtrack.likelihoods.ncc`) correlates small square patches cut at the
+12 markers. Measured on frames rendered from a held-out real wave gesture, those patches barely
+tell poses apart: over a 70 × 70 grid of the GPLVM's latent space, with the true placement,
+40 % of the decoded poses score better than the pose closest to the truth, and the best-scoring
+pose is 20 % of the torso away from the truth (only 19 % of frames within 15 %). A patch at a
+joint sees a few pixels of sleeve that slide and turn under it as the limb moves.
+
+Here the templates are strips laid along the body's segments, in the segment's own coordinates
+(as Cham & Rehg's 1999 Scaled Prismatic Model tracker and Ju, Black & Yacoob's 1996 cardboard
+people warp a template per limb): ``along × across`` sample points from the segment's start to
+its end (the forearm carried on past the wrist over the hand, the neck past the head's marker),
+``across`` points spanning ``±half_width`` pixels either side of the axis. The strip turns,
+stretches and foreshortens with its segment, so the frame-0 template keeps matching the limb in
+any orientation, and a limb that is a few degrees off puts half its strip on background. The
+same grid scores the strips 10× better: the best-scoring grid pose is 8.8 % of the torso from
+the truth (74 % of frames within 15 %), and only 17 % of the grid scores above the pose closest
+to the truth.
+
+    log p(z | y) = −λ Σ_s (1 − NCC_s(y)),
+
+the form of eq. 7 with one term per strip. The half width is a fixed fraction of the spine (neck
+to pelvis) of the pose being scored, so the strips scale with the body. One pose reads
+``segments × along × across`` pixels (9 × 12 × 7 = 756 by default, fewer than the 12 × 13² =
+2 028 of the marker patches), with gathers only.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from jaxtrack.likelihoods.ncc import _float_dtype, _normalise, bilinear_sample
+
+__all__ = [
+    "DEFAULT_LIMB_SHARPNESS",
+    "DEFAULT_STRIP_WIDTH",
+    "LIMB_SEGMENTS",
+    "LimbTemplates",
+    "limb_ncc_log_likelihood",
+    "limb_ncc_scores",
+    "limb_points",
+    "make_limb_templates",
+]
+
+LIMB_SEGMENTS: tuple[tuple[str, int, int, float, float], ...] = (
+    # name, start marker, end marker (SPM_MARKERS order), extension before start and after end
+    # as fractions of the segment's length
+    ("head", 0, 1, 0.3, 0.0),
+    ("upper spine", 1, 2, 0.0, 0.0),
+    ("lower spine", 2, 3, 0.0, 0.0),
+    ("right upper arm", 4, 5, 0.0, 0.0),
+    ("right forearm and hand", 5, 6, 0.0, 0.35),
+    ("left upper arm", 8, 9, 0.0, 0.0),
+    ("left forearm and hand", 9, 10, 0.0, 0.35),
+    ("shoulders", 4, 8, 0.0, 0.0),
+    ("hips", 7, 11, 0.0, 0.0),
+)
+"""The strips: the three spine segments, both arms (forearms carried over the hand), and the
+shoulder and hip lines, which fix the torso's width and turn."""
+
+DEFAULT_STRIP_WIDTH = 0.1
+"""Half width of a strip as a fraction of the spine (neck–pelvis) length. On the rendered wave
+gesture (see the module docstring) the best-scoring grid pose was 8.8 % of the torso from the
+truth at 0.1, 8.9 % at 0.07 and 15.6 % at 0.14: strips much wider than an arm are dominated by
+background."""
+
+DEFAULT_LIMB_SHARPNESS = 4.0
+"""λ for the 9 strips. Each strip's NCC moves further per pixel of error than a patch's, but
+there are fewer terms than markers; on the held-out wave, λ = 4 tracked better than 1 or 2
+(particles spread too evenly) and than 10 (an effective sample size of ~5 of 200)."""
+
+_SPINE = (1, 3)  # neck, pelvis in SPM_MARKERS order
+_STARTS = tuple(segment[1] for segment in LIMB_SEGMENTS)
+_ENDS = tuple(segment[2] for segment in LIMB_SEGMENTS)
+_BEFORE = tuple(segment[3] for segment in LIMB_SEGMENTS)
+_AFTER = tuple(segment[4] for segment in LIMB_SEGMENTS)
+
+
+def limb_points(
+    markers_2d: Float[ArrayLike, "markers 2"],
+    *,
+    along: int = 12,
+    across: int = 7,
+    width: float | Float[ArrayLike, ""] = DEFAULT_STRIP_WIDTH,
+) -> Float[Array, "segments along across 2"]:
+    """The ``(x, y)`` sample points of every strip of one pose.
+
+    Point ``[s, i, j]`` lies at fraction ``u_i`` along segment ``s`` (from ``−before`` to
+    ``1 + after`` of :data:`LIMB_SEGMENTS`) and ``v_j ∈ [−1, 1]`` half widths across it, the
+    half width being ``width ×`` the pose's neck–pelvis distance.
+
+    Args:
+        markers_2d: ``(12, 2)`` pixel markers in ``SPM_MARKERS`` order.
+        along, across: static sample counts per strip.
+        width: half width over spine length.
+    """
+    markers = jnp.asarray(markers_2d)
+    if markers.ndim != 2 or markers.shape[-1] != 2 or markers.shape[0] <= max(_STARTS + _ENDS):
+        raise ValueError(f"markers must be (12, 2) in SPM_MARKERS order, got {markers.shape}")
+    dtype = _float_dtype(markers)
+    markers = markers.astype(dtype)
+    start = markers[jnp.asarray(_STARTS)]
+    axis = markers[jnp.asarray(_ENDS)] - start  # (segments, 2)
+    before = jnp.asarray(_BEFORE, dtype)
+    after = jnp.asarray(_AFTER, dtype)
+    fraction = jnp.linspace(0, 1, along, dtype=dtype)
+    u = -before[:, None] + fraction[None] * (1 + before + after)[:, None]  # (segments, along)
+    spine = jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
+    length = jnp.sqrt(jnp.sum(axis**2, axis=-1, keepdims=True))
+    # unit normal of each segment; a segment of zero length gets a zero normal (its strip
+    # collapses to a line, which is still a valid, if uninformative, sample)
+    normal = jnp.stack([-axis[:, 1], axis[:, 0]], axis=-1) / jnp.where(length > 0, length, 1)
+    v = jnp.linspace(-1, 1, across, dtype=dtype) * (jnp.asarray(width, dtype) * spine)
+    return (start[:, None, None] + u[:, :, None, None] * axis[:, None, None]
+            + v[None, None, :, None] * normal[:, None, None])
+
+
+def _sample_nearest(image: Array, points: Array) -> Array:
+    height, width = image.shape
+    # clamp in floating point so that far-off points cannot overflow the int32 conversion
+    x = jnp.clip(jnp.floor(points[..., 0] + 0.5), 0, width - 1).astype(jnp.int32)
+    y = jnp.clip(jnp.floor(points[..., 1] + 0.5), 0, height - 1).astype(jnp.int32)
+    return image.reshape(-1).at[y * width + x].get(mode="promise_in_bounds")
+
+
+def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool
+            ) -> Array:
+    image = jnp.asarray(image)
+    if image.ndim != 2:
+        raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
+                         f"convert colour frames with jaxtrack.vision.to_grey")
+    dtype = _float_dtype(image, jnp.asarray(markers))
+    points = limb_points(jnp.asarray(markers, dtype), along=along, across=across, width=width)
+    image = image.astype(dtype)
+    if nearest:
+        return _sample_nearest(image, points)
+    return bilinear_sample(image, points[..., 0], points[..., 1])
+
+
+class LimbTemplates(eqx.Module):
+    """Limb-strip templates for :func:`limb_ncc_scores`.
+
+    Attributes:
+        strips: ``(segments, along, across)`` zero-mean, unit-norm strips of the reference frame
+            (all zeros for a flat one: that segment then always scores 0).
+        width: half width over spine length (an array: it may be learned or changed).
+    """
+
+    strips: Float[Array, "segments along across"]
+    width: Float[Array, ""]
+
+    def __check_init__(self):
+        if self.strips.ndim != 3 or self.strips.shape[0] != len(LIMB_SEGMENTS):
+            raise ValueError(f"strips must be ({len(LIMB_SEGMENTS)}, along, across), got "
+                             f"{self.strips.shape}")
+
+    @property
+    def along(self) -> int:
+        return self.strips.shape[1]
+
+    @property
+    def across(self) -> int:
+        return self.strips.shape[2]
+
+    def log_likelihood(self, markers_2d, image, sharpness, nearest: bool = True) -> Array:
+        """:func:`limb_ncc_log_likelihood` (the interface the trackers call)."""
+        return limb_ncc_log_likelihood(markers_2d, image, self, sharpness, nearest=nearest)
+
+    def residuals(self, markers_2d, image, sharpness) -> Array:
+        """``√λ (ŝ − t̂)`` over all strips (bilinear): half its squared norm is
+        ``λ Σ_s (1 − NCC_s)``, the cost as a sum of squares for Gauss–Newton."""
+        strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest=False)
+        strips, _ = _normalise(strips)
+        return jnp.sqrt(jnp.asarray(sharpness, strips.dtype)) * (
+            strips - self.strips.astype(strips.dtype)).reshape(-1)
+
+
+def make_limb_templates(
+    image: Float[ArrayLike, "height width"],
+    markers_2d: Float[ArrayLike, "markers 2"],
+    *,
+    along: int = 12,
+    across: int = 7,
+    width: float = DEFAULT_STRIP_WIDTH,
+) -> LimbTemplates:
+    """Cut the strips of a reference frame (bilinearly) at its known markers.
+
+    Args:
+        image: ``(height, width)`` grey reference frame.
+        markers_2d: ``(12, 2)`` its markers in ``SPM_MARKERS`` order.
+        along, across: sample counts per strip (at least 2 and 3).
+        width: half width over spine length.
+    """
+    if int(along) != along or int(across) != across or along < 2 or across < 3:
+        raise ValueError(f"along must be an integer ≥ 2 and across ≥ 3, got {along}, {across}")
+    if not (np.isfinite(width) and width > 0):
+        raise ValueError(f"width must be a positive fraction of the spine, got {width}")
+    markers = jnp.asarray(markers_2d)
+    if not bool(jnp.all(jnp.isfinite(markers))):
+        raise ValueError("the reference markers must be finite")
+    strips = _strips(image, markers, int(along), int(across), width, nearest=False)
+    strips, _ = _normalise(strips)
+    return LimbTemplates(strips=strips, width=jnp.asarray(width, strips.dtype))
+
+
+def limb_ncc_scores(
+    markers_2d: Float[ArrayLike, "markers 2"],
+    image: Float[ArrayLike, "height width"],
+    templates: LimbTemplates,
+    *,
+    nearest: bool = True,
+) -> Float[Array, " segments"]:
+    """NCC of each strip of one pose in ``image`` with its template.
+
+    Args:
+        markers_2d: ``(12, 2)`` pixel markers of one pose (vmap over particles).
+        image: ``(height, width)`` grey frame.
+        templates: from :func:`make_limb_templates`.
+        nearest: read the nearest pixel of each sample point (fast, for filters) rather than
+            interpolating bilinearly (smooth in the markers, for gradients).
+
+    Returns:
+        ``(segments,)`` in [−1, 1]; 0 for a flat strip; never NaN; invariant to
+        ``image → a · image + b`` for ``a > 0``.
+    """
+    strips = _strips(image, markers_2d, templates.along, templates.across, templates.width,
+                     nearest)
+    strips, _ = _normalise(strips)
+    scores = jnp.sum(strips * templates.strips.astype(strips.dtype), axis=(-2, -1))
+    return jnp.clip(scores, -1, 1)  # Cauchy–Schwarz, up to rounding
+
+
+def limb_ncc_log_likelihood(
+    markers_2d: Float[ArrayLike, "markers 2"],
+    image: Float[ArrayLike, "height width"],
+    templates: LimbTemplates,
+    sharpness: float | Float[ArrayLike, ""] = DEFAULT_LIMB_SHARPNESS,
+    *,
+    nearest: bool = True,
+) -> Float[Array, ""]:
+    """``−λ Σ_s (1 − NCC_s)``: eq. 7's form over limb strips (see the module docstring)."""
+    scores = limb_ncc_scores(markers_2d, image, templates, nearest=nearest)
+    return -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
