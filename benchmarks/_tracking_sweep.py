@@ -75,10 +75,10 @@ COLUMNS = [("method", "method", "s"), ("particles", "N", "d"),
            ("note", "note", "s")]
 
 
-def _track_once(method, prior, sequence, particles, seed) -> dict:
+def _track_once(method, prior, sequence, particles, seed, likelihood) -> dict:
     """One tracked run: the evaluation's scalars, timings, and the re-seeded frame count."""
     start = time.perf_counter()
-    tracker = build_tracker(method, prior, sequence, particles)
+    tracker = build_tracker(method, prior, sequence, particles, likelihood)
     result = track(tracker, jr.PRNGKey(seed), sequence.frames,
                    chunk_size=max(len(sequence.frames) - 1, 1), progress=False)
     wall = time.perf_counter() - start
@@ -185,6 +185,8 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, nargs="+", default=list(PARTICLE_COUNTS))
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--seeds", type=int, default=3, help="tracker seeds per N (3)")
+    parser.add_argument("--likelihood", choices=("limbs", "markers"), default="limbs",
+                        help="limb strips (default) or the paper's marker patches, all methods")
     parser.add_argument("--frames", type=int, default=None,
                         help="first frames of the held-out take (all 138)")
     parser.add_argument("--max-mht", type=int, default=50,
@@ -199,6 +201,7 @@ def main(argv=None) -> int:
         args.particles, args.seeds = list(QUICK_PARTICLE_COUNTS), 1
         args.frames = args.frames or 40
     stem = "tracking_sweep_quick" if args.quick else "tracking_sweep"
+    stem += "_markers" if args.likelihood == "markers" else ""
     args.json = args.json or str(RESULTS / f"{stem}.json")
     args.plot = args.plot or str(RESULTS / f"{stem}.png")
     caps = {"mht": args.max_mht}
@@ -228,7 +231,8 @@ def main(argv=None) -> int:
             runs = []
             for seed in range(args.seeds):
                 bar.set_postfix_str(f"{method} N={particles} seed {seed}")
-                runs.append(_track_once(method, prior, sequence, particles, seed))
+                runs.append(_track_once(method, prior, sequence, particles, seed,
+                                        args.likelihood))
                 bar.update(1)
             rows.append(_summarise(method, particles, runs))
             row = rows[-1]
@@ -239,7 +243,8 @@ def main(argv=None) -> int:
     load_end = os.getloadavg()
 
     print()
-    print(f"{sequence.name}: {frames} frames, {args.seeds} seed(s); error = mean over seeds "
+    print(f"{sequence.name}: {frames} frames, {args.seeds} seed(s), {args.likelihood} "
+          f"likelihood; error = mean over seeds "
           f"(± half the seeds' range); ms/frame = median over seeds; compile = first seed")
     print_table(rows, COLUMNS)
     copy_ms = frame_copy_ms(sequence.frames[1:])
@@ -249,7 +254,7 @@ def main(argv=None) -> int:
         if row["status"] == "skipped":
             print(f"skipped {row['method']} N={row['particles']}: {row['reason']}")
     print(f"load average (1, 5, 15 min): start {load_start}, end {load_end}")
-    title = (f"{sequence.name}, {frames} frames, {args.seeds} seed(s) — "
+    title = (f"{sequence.name}, {frames} frames, {args.seeds} seed(s), {args.likelihood} — "
              f"{device_description()}")
     plot = plot_sweep(rows, Path(args.plot), title, copy_ms)
     write_json_atomically(Path(args.json), {

@@ -26,6 +26,8 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--particles", type=int, default=None,
                         help="particles (modes for mht); default 200 / 1000 / 10")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--likelihood", choices=("limbs", "markers"), default="limbs",
+                        help="limb strips (default) or the paper's patches at the markers")
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"))
@@ -84,7 +86,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
                                               backgrounds=args.backgrounds, seed=args.seed,
                                               max_frames=args.max_frames):
             result = run_method(args.method, prior, sequence, particles=particles,
-                                seed=args.seed)
+                                seed=args.seed, likelihood=args.likelihood)
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
@@ -101,7 +103,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
     overall = summarise(per_sequence)
     write_json_atomically(args.json, {
         "method": args.method, "particles": particles, "seed": args.seed,
-        "train": args.train, "test": args.test, "prior": prior.description,
+        "likelihood": args.likelihood, "train": args.train, "test": args.test,
+        "prior": prior.description,
         "overall": overall, "sequences": per_sequence})
     print(compare_methods({f"{args.method} (N={particles})": overall}))
     print(f"wrote {args.json}")

@@ -89,6 +89,8 @@ def add_track(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--out", required=True, type=Path, metavar="DIR")
     parser.add_argument("--particles", type=int, default=200, help="particles (default 200)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--likelihood", choices=("limbs", "markers"), default="limbs",
+                        help="limb strips (default) or the paper's patches at the markers")
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
@@ -220,7 +222,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
           + ")")
     grey = to_grey(frames)
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
-                             fps=fps)
+                             fps=fps, likelihood=args.likelihood)
     result = track(tracker, jr.PRNGKey(args.seed), grey)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
@@ -248,7 +250,8 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     json_path = write_json_atomically(args.out / "track.json", {
         "video": str(args.video), "model": str(args.model), "size": [width, height],
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
-        "particles": args.particles, "seed": args.seed, "init": init,
+        "particles": args.particles, "seed": args.seed, "likelihood": args.likelihood,
+        "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})
     print(f"tracked {len(frames)} frames: {1e3 * result.seconds_per_frame:.2f} ms/frame "

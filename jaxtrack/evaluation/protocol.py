@@ -29,6 +29,7 @@ from jaxtrack.body import (
     render_motion,
     spm_initial_state,
 )
+from jaxtrack.likelihoods import DEFAULT_LIKELIHOOD
 from jaxtrack.priors.gplvm import GPLVM, fit_gplvm, load_gplvm, save_gplvm
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
 
@@ -69,7 +70,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         raise ValueError("train_prior needs at least one training clip")
     settings = {"clips": sorted(clips), "views": views, "fps": fps, "active_size": active_size,
                 "iterations": iterations, "seed": seed, "features": "spm_link_vectors",
-                "version": 2}  # 2: μ from all poses through the active set (fit_gplvm default)
+                # 2: μ from all poses through the active set; 3: fit_gplvm's faster defaults
+                "version": 3}
     key = _settings_key(settings)
     if cache is not None and Path(cache).is_file():
         saved = load_gplvm(cache)
@@ -137,30 +139,35 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
     return sequences
 
 
-def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int):
-    """The tracker ``method`` initialised on the sequence's first frame (ground truth)."""
+def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int,
+                  likelihood: str = DEFAULT_LIKELIHOOD):
+    """The tracker ``method`` initialised on the sequence's first frame (ground truth), scored
+    by ``likelihood`` (``"limbs"`` or ``"markers"``, the same for every method)."""
     from jaxtrack import trackers
 
     frame, markers = sequence.frames[0], sequence.truth[0]
     if method == "latent":
         return trackers.latent_tracker(prior.model, prior.template, frame, markers,
-                                       num_particles=particles, fps=sequence.fps)
+                                       num_particles=particles, fps=sequence.fps,
+                                       likelihood=likelihood)
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES]),
                                           prior.template))
     if method == "condensation":
         return trackers.condensation_tracker(prior.template, frame, markers, states,
-                                             num_particles=particles)
+                                             num_particles=particles, likelihood=likelihood)
     if method == "mht":
-        return trackers.mht_tracker(prior.template, frame, markers, states, num_modes=particles)
+        return trackers.mht_tracker(prior.template, frame, markers, states, num_modes=particles,
+                                    likelihood=likelihood)
     raise ValueError(f"method must be one of {METHODS}, got {method!r}")
 
 
 def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
-               particles: int | None = None, seed: int = 0, progress: bool = True):
+               particles: int | None = None, seed: int = 0, likelihood: str = DEFAULT_LIKELIHOOD,
+               progress: bool = True):
     """Track a test sequence with one method; returns the :class:`TrackResult`."""
     from jaxtrack.trackers import track
 
     particles = particles or DEFAULT_PARTICLES[method]
-    tracker = build_tracker(method, prior, sequence, particles)
+    tracker = build_tracker(method, prior, sequence, particles, likelihood)
     return track(tracker, jr.PRNGKey(seed), sequence.frames, progress=progress,
                  description=f"{method} N={particles}")
