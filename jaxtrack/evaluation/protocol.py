@@ -57,19 +57,26 @@ def _settings_key(settings: dict) -> str:
 
 
 def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
-                active_size: int = 200, iterations: int = 3, seed: int = 0,
-                cache: str | Path | None = None, progress: bool = True) -> TrainedPrior:
+                active_size: int = 200, iterations: int = 3, active_steps: int = 300,
+                seed: int = 0, cache: str | Path | None = None, progress: bool = True
+                ) -> TrainedPrior:
     """Train (or load from ``cache`` when it was trained with the same settings) a GPLVM.
 
     Args:
         clips: catalogue clip names (``jaxtrack.data.list_clips()``).
         views: training viewpoints per clip, spread over ±45° in front of the subject.
+        iterations, active_steps: Algorithm 1's outer iterations and eq. 1 steps per
+            iteration. The protocol keeps 3 × 300 with float64 non-active solves, more than
+            ``fit_gplvm``'s faster defaults (2 × 150, float32), which reconstruct held-out
+            poses as well but tracked the demo's held-out wave worse (16.0 % of the torso
+            against 14.0 %, 3 seeds).
         cache: ``.npz`` path; reused when its settings match, (re)written otherwise.
     """
     if not clips:
         raise ValueError("train_prior needs at least one training clip")
     settings = {"clips": sorted(clips), "views": views, "fps": fps, "active_size": active_size,
-                "iterations": iterations, "seed": seed, "features": "spm_link_vectors",
+                "iterations": iterations, "active_steps": active_steps,
+                "inactive_dtype": "float64", "seed": seed, "features": "spm_link_vectors",
                 # 2: μ from all poses through the active set; 3: fit_gplvm's faster defaults
                 "version": 3}
     key = _settings_key(settings)
@@ -84,6 +91,7 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
     with jax.enable_x64(True):
         features = np.asarray(pose_features(poses.states, poses.template))
     fit = fit_gplvm(features, active_size=active_size, iterations=iterations,
+                    active_steps=active_steps, inactive_dtype=jnp.float64,
                     sequence_ids=poses.sequence_ids, fps=poses.fps, seed=seed, progress=progress)
     labels = tuple(str(name) for name in poses.clip_names)
     description = {"settings": settings, "settings_key": key, "num_poses": len(features),
