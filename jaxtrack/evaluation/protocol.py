@@ -66,10 +66,10 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         clips: catalogue clip names (``jaxtrack.data.list_clips()``).
         views: training viewpoints per clip, spread over ±45° in front of the subject.
         iterations, active_steps: Algorithm 1's outer iterations and eq. 1 steps per
-            iteration. The protocol keeps 3 × 300 with float64 non-active solves, more than
-            ``fit_gplvm``'s faster defaults (2 × 150, float32), which reconstruct held-out
-            poses as well but tracked the demo's held-out wave worse (16.0 % of the torso
-            against 14.0 %, 3 seeds).
+            iteration. The protocol keeps the 3 × 300 steps and float64 non-active solves
+            that its tracking results were measured with; ``fit_gplvm``'s faster defaults
+            (2 × 150, float32) tracked the demo's held-out wave equally (16.0 % of the torso
+            against 16.2 %, 3 seeds).
         cache: ``.npz`` path; reused when its settings match, (re)written otherwise.
     """
     if not clips:
