@@ -7,9 +7,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _wave import rendered_wave
 
-from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
-from jaxtrack.data import load_clip
 from jaxtrack.likelihoods import (
     DEFAULT_LIMB_SHARPNESS,
     LIMB_SEGMENTS,
@@ -20,20 +19,14 @@ from jaxtrack.likelihoods import (
     make_appearance_templates,
     make_limb_templates,
 )
-from jaxtrack.vision import to_grey
 
 RIGHT_ELBOW, RIGHT_WRIST, LEFT_ELBOW, LEFT_WRIST = 5, 6, 9, 10
 
 
 @cache
 def wave():
-    """Grey frames ``(10, 480, 640)``, true markers ``(10, 12, 2)`` (float32), limb templates."""
-    motion = load_clip("animateddrawings/fair1_wave_hello").resample(10.0)
-    camera = frontal_camera(motion, (640, 480))
-    sequence = render_motion(motion.select(10, 20), camera, background="photo", seed=0,
-                             markers=UPPER_BODY_12, progress=False)
-    grey = to_grey(sequence.images)
-    markers = sequence.markers_2d.astype(np.float32)
+    """Grey frames, true markers (``_wave.rendered_wave``) and templates cut at frame 0."""
+    grey, markers = rendered_wave()
     return grey, markers, make_limb_templates(grey[0], markers[0])
 
 

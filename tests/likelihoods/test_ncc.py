@@ -13,10 +13,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _wave import rendered_wave
 from scipy import ndimage
 
-from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
-from jaxtrack.data import load_clip
 from jaxtrack.likelihoods import (
     DEFAULT_NCC_SHARPNESS,
     NCCTemplates,
@@ -29,20 +28,14 @@ from jaxtrack.likelihoods import (
     sample_patches,
     sample_patches_nearest,
 )
-from jaxtrack.vision import to_grey
 
 HEAD, RIGHT_WRIST, LEFT_WRIST = 0, 6, 10
 
 
 @cache
 def wave():
-    """Grey frames ``(10, 480, 640)`` float32, true markers ``(10, 12, 2)`` float32, templates."""
-    motion = load_clip("animateddrawings/fair1_wave_hello").resample(10.0)
-    camera = frontal_camera(motion, (640, 480))
-    sequence = render_motion(motion.select(10, 20), camera, background="photo", seed=0,
-                             markers=UPPER_BODY_12, progress=False)
-    grey = to_grey(sequence.images)
-    markers = sequence.markers_2d.astype(np.float32)
+    """Grey frames, true markers (``_wave.rendered_wave``) and templates cut at frame 0."""
+    grey, markers = rendered_wave()
     return grey, markers, make_templates(grey[0], markers[0])
 
 
