@@ -12,10 +12,12 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     spm         SPM states → 12 markers (``spm_forward``)
     markers     features → 12 markers directly (``markers_from_features``, the model's path)
     decode      latent + placement → markers, as the model does it (μ, then markers)
-    ncc         nearest-pixel NCC log-likelihood of every particle's markers
+    likelihood  the appearance log-likelihood of every particle's markers (nearest-pixel limb
+                strips by default, ``--likelihood markers`` for eq. 7's patches)
     resample    systematic resampling of the weights
     step        one whole ``smc.step`` (select, propagate, decode, measure)
-    estimate    the tracker's per-frame estimate (μ of the weighted mean latent, best particle)
+    estimate    the tracker's per-frame estimate (μ of the local mode's mean latent, best
+                particle)
     update      ``step`` + ``estimate``: one frame of the tracker
     track       the per-frame cost inside ``track``'s compiled scan of 64-frame chunks
     track()     ``TrackResult.seconds_per_frame`` of ``track`` itself on the whole held-out
@@ -25,13 +27,14 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
 Wall times on this shared machine move with other jobs: the load average is printed, and CPU
 seconds (all threads of the process) are reported beside the wall times.
 
-    python -m benchmarks.tracker_step                    # 200 and 1 000 particles
-    python -m benchmarks.tracker_step --particles 200 --repeats 50
+    python -m benchmarks.tracker_step                    # 200 and 1 000 particles, both likelihoods
+    python -m benchmarks.tracker_step --particles 200 --likelihood markers --repeats 50
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import statistics
 import time
@@ -45,7 +48,6 @@ import numpy as np
 from benchmarks._common import device_description, print_table, time_compiled, write_json
 from jaxtrack import smc
 from jaxtrack.body import spm_forward
-from jaxtrack.likelihoods import ncc_log_likelihood_nearest
 from jaxtrack.priors.poses import markers_from_features, states_from_features
 
 RESULTS = Path(__file__).parent / "results"
@@ -57,7 +59,8 @@ def _load_average() -> float:
     return os.getloadavg()[0]
 
 
-def build(num_particles: int, frames: int | None = None, seed: int = 0):
+def build(num_particles: int, frames: int | None = None, seed: int = 0,
+          likelihood: str = "limbs"):
     """(tracker, grey frames) for the demo's held-out wave, ``frames`` frames of it."""
     from jaxtrack import trackers
     from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
@@ -69,7 +72,7 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0):
                                      max_frames=frames, seed=seed)[0]
     tracker = trackers.latent_tracker(prior.model, prior.template, sequence.frames[0],
                                       sequence.truth[0], num_particles=num_particles,
-                                      fps=sequence.fps)
+                                      fps=sequence.fps, likelihood=likelihood)
     return tracker, np.asarray(sequence.frames, np.float32)
 
 
@@ -119,9 +122,9 @@ def components(tracker, frames, repeats: int) -> dict[str, dict]:
     def decode(particles):
         return jax.vmap(model.markers_of)(particles)
 
-    def ncc(markers, frame):
-        return jax.vmap(ncc_log_likelihood_nearest, in_axes=(0, None, None, None))(
-            markers, frame, model.templates, model.sharpness)
+    def likelihood(markers, frame):
+        return jax.vmap(model.templates.log_likelihood, in_axes=(0, None, None, None))(
+            markers, frame, model.sharpness, model.nearest)
 
     def resample(key, log_weights):
         return smc.Systematic()(key, log_weights)
@@ -143,7 +146,7 @@ def components(tracker, frames, repeats: int) -> dict[str, dict]:
         "spm": (forward, states),
         "markers": (direct, features, placements),
         "decode": (decode, particles),
-        "ncc": (ncc, markers, frame),
+        "likelihood": (likelihood, markers, frame),
         "resample": (resample, key, log_weights),
         "step": (step, key, state, frame),
         "estimate": (estimate, state, info),
@@ -184,6 +187,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--particles", type=int, nargs="+", default=[200, 1000])
     parser.add_argument("--repeats", type=int, default=200)
+    parser.add_argument("--likelihood", nargs="+", choices=("limbs", "markers"),
+                        default=["limbs", "markers"])
     parser.add_argument("--output", default=str(RESULTS / "tracker_step.json"))
     args = parser.parse_args()
 
@@ -192,18 +197,18 @@ def main() -> None:
     print(f"device: {device}; this process may run on {cores} core(s)")
     frames_needed = None  # the whole clip (138 frames at 30 fps)
     results = {}
-    for num_particles in args.particles:
-        tracker, frames = build(num_particles, frames_needed)
+    for likelihood, num_particles in itertools.product(args.likelihood, args.particles):
+        tracker, frames = build(num_particles, frames_needed, likelihood=likelihood)
         load_before = _load_average()
         rows = components(tracker, frames, args.repeats)
         load_after = _load_average()
-        print(f"\nlatent tracker, {num_particles} particles, {frames.shape[2]}x{frames.shape[1]} "
-              f"frames (load average {load_before:.2f} → {load_after:.2f})")
+        print(f"\nlatent tracker, {likelihood}, {num_particles} particles, {frames.shape[2]}x"
+              f"{frames.shape[1]} frames (load average {load_before:.2f} → {load_after:.2f})")
         table = [{"component": name, **row} for name, row in rows.items()]
         print_table(table, [("component", "component", "s"), ("ms", "wall ms", ".3f"),
                             ("cpu_ms", "cpu ms", ".3f"), ("compile_s", "compile s", ".2f")])
-        results[str(num_particles)] = {"load_average": [load_before, load_after],
-                                       "components": rows}
+        results[f"{likelihood}/{num_particles}"] = {"load_average": [load_before, load_after],
+                                                    "components": rows}
     write_json(args.output, {"device": device, "cores": cores, "repeats": args.repeats,
                              "chunk": CHUNK,
                              "results": results})
