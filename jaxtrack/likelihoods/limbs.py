@@ -41,7 +41,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from jaxtrack.likelihoods.ncc import _float_dtype, _normalise, bilinear_sample
+from jaxtrack.likelihoods.ncc import (
+    _correlation,
+    _float_dtype,
+    _normalise,
+    _template_residuals,
+    bilinear_sample,
+)
 
 __all__ = [
     "DEFAULT_LIMB_SHARPNESS",
@@ -208,9 +214,7 @@ class LimbTemplates(eqx.Module):
         """``√λ (ŝ − t̂)`` over all strips (bilinear): half its squared norm is
         ``λ Σ_s (1 − NCC_s)``, the cost as a sum of squares for Gauss–Newton."""
         strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest=False)
-        strips, _ = _normalise(strips)
-        return jnp.sqrt(jnp.asarray(sharpness, strips.dtype)) * (
-            strips - self.strips.astype(strips.dtype)).reshape(-1)
+        return _template_residuals(strips, self.strips, sharpness)
 
 
 def make_limb_templates(
@@ -263,9 +267,7 @@ def limb_ncc_scores(
     """
     strips = _strips(image, markers_2d, templates.along, templates.across, templates.width,
                      nearest)
-    strips, _ = _normalise(strips)
-    scores = jnp.sum(strips * templates.strips.astype(strips.dtype), axis=(-2, -1))
-    return jnp.clip(scores, -1, 1)  # Cauchy–Schwarz, up to rounding
+    return _correlation(strips, templates.strips)
 
 
 def limb_ncc_log_likelihood(

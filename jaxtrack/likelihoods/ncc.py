@@ -219,9 +219,8 @@ class NCCTemplates(eqx.Module):
         """``√λ (p̂ − t̂)`` over all patches (bilinear): since ``‖p̂ − t̂‖² = 2 − 2 NCC``, half
         its squared norm is eq. 7's cost ``λ Σ_m (1 − NCC_m)``, a sum of squares for
         Gauss–Newton."""
-        patches, _ = _normalise(sample_patches(image, markers_2d, self.half_size))
-        return jnp.sqrt(jnp.asarray(sharpness, patches.dtype)) * (
-            patches - self.patches.astype(patches.dtype)).reshape(-1)
+        return _template_residuals(sample_patches(image, markers_2d, self.half_size),
+                                   self.patches, sharpness)
 
 
 def make_templates(
@@ -264,9 +263,22 @@ def ncc_scores(
     markers = jnp.asarray(markers_2d)
     if markers.shape[0] != templates.num_markers:
         raise ValueError(f"{markers.shape[0]} markers but {templates.num_markers} templates")
-    patches, _ = _normalise(sample_patches(image, markers, templates.half_size))
-    scores = jnp.sum(patches * templates.patches.astype(patches.dtype), axis=(-2, -1))
+    return _correlation(sample_patches(image, markers, templates.half_size), templates.patches)
+
+
+def _correlation(samples: Array, templates: Array) -> Array:
+    """NCC of each sample block (last two axes) with its zero-mean, unit-norm template."""
+    samples, _ = _normalise(samples)
+    scores = jnp.sum(samples * templates.astype(samples.dtype), axis=(-2, -1))
     return jnp.clip(scores, -1, 1)  # Cauchy–Schwarz, up to rounding
+
+
+def _template_residuals(samples: Array, templates: Array, sharpness) -> Array:
+    """``√λ (ŝ − t̂)`` flattened: half its squared norm is ``λ Σ (1 − NCC)`` (textured blocks),
+    the NCC cost as a sum of squares for Gauss–Newton."""
+    samples, _ = _normalise(samples)
+    return jnp.sqrt(jnp.asarray(sharpness, samples.dtype)) * (
+        samples - templates.astype(samples.dtype)).reshape(-1)
 
 
 def ncc_log_likelihood(
