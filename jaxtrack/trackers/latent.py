@@ -70,7 +70,6 @@ class LatentModel(smc.StateSpaceModel):
         templates: appearance templates from the first frame (limb strips or marker patches).
         initial_latent, initial_placement: where frame 0's pose lies.
         latent_std: ``(latent,)`` random-walk step per frame (ν, rescaled to the video's rate).
-        jump_latents: ``(pool, latent)`` training latents a jumping particle is redrawn at.
         jump_threshold: Φ⁻¹(jump probability): a particle jumps when its normal draw falls
             below it (−inf: never, the paper's random walk).
         placement_std: ``(3,)`` random-walk step of (log scale, x, y) per frame.
@@ -85,7 +84,6 @@ class LatentModel(smc.StateSpaceModel):
     initial_latent: Float[Array, " latent"]
     initial_placement: Float[Array, " 3"]
     latent_std: Float[Array, " latent"]
-    jump_latents: Float[Array, "pool latent"]
     jump_threshold: Float[Array, ""]
     placement_std: Float[Array, " 3"]
     initial_spread: Float[Array, ""]
@@ -106,10 +104,12 @@ class LatentModel(smc.StateSpaceModel):
         step, jump_draw, pick_draw = (noise[:latent_dim + PLACEMENT_SIZE], noise[-2], noise[-1])
         # Tian et al. §4: random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) ...
         start = particle["latent"]
-        # ... or, with probability ε, from a random training latent (module docstring)
-        pool = self.jump_latents.shape[0]
-        pick = jnp.minimum((jsp.ndtr(pick_draw) * pool).astype(jnp.int32), pool - 1)
-        start = jnp.where(jump_draw < self.jump_threshold, self.jump_latents[pick], start)
+        # ... or, with probability ε, from a random training latent of the prior (module
+        # docstring)
+        pool = self.prior.latents
+        pick = jnp.minimum((jsp.ndtr(pick_draw) * pool.shape[0]).astype(jnp.int32),
+                           pool.shape[0] - 1)
+        start = jnp.where(jump_draw < self.jump_threshold, pool[pick], start)
         return {"latent": start + self.latent_std * step[:latent_dim],
                 "placement": particle["placement"] + self.placement_std * step[latent_dim:]}
 
@@ -229,7 +229,6 @@ def latent_tracker(
         templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers)),
         initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
         latent_std=cast(std),
-        jump_latents=cast(prior.latents),
         jump_threshold=cast(NormalDist().inv_cdf(jump_probability) if jump_probability > 0
                             else -np.inf),
         placement_std=cast(placement_std),

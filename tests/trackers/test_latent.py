@@ -122,7 +122,7 @@ def test_jumps_redraw_a_fraction_of_particles_at_training_latents(prior, sequenc
     assert 0.27 < jumped.mean() < 0.33
     # a jumped particle is a training latent plus the very step the walk took
     starts = mixed[jumped] - (walked[jumped] - np.asarray(model.initial_latent))
-    pool = np.asarray(model.jump_latents)
+    pool = np.asarray(model.prior.latents)
     distance = np.min(np.abs(starts[:, None] - pool[None]).max(-1), axis=1)
     assert np.all(distance < 1e-4 * np.abs(pool).max())
     assert len(np.unique(np.round(starts, 4), axis=0)) > 100  # from all over the pool
