@@ -20,6 +20,9 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
                 particle)
     update      ``step`` + ``estimate``: one frame of the tracker
     track       the per-frame cost inside ``track``'s compiled scan of 64-frame chunks
+    track, no image
+                the same scan with a stand-in likelihood that reads no pixel: the engine's
+                own cost, below which no likelihood can bring the tracker
     track()     ``TrackResult.seconds_per_frame`` of ``track`` itself on the whole held-out
                 clip (137 frames after frame 0, chunks of at most 64; host copies of the
                 frames included), median of a few calls
@@ -40,6 +43,7 @@ import statistics
 import time
 from pathlib import Path
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
@@ -86,10 +90,37 @@ def _tracked_state(tracker, frames, steps: int = 8):
     return state
 
 
+class _NoImage(eqx.Module):
+    """A stand-in likelihood that reads no pixel (it still uses the markers, so that the
+    decoding is not optimised away): ``−10⁻⁶ |markers|²``."""
+
+    def log_likelihood(self, markers, image, sharpness, nearest=True):
+        del image, sharpness, nearest
+        return -1e-6 * jnp.sum(jnp.square(markers))
+
+
+def _scan_timing(tracker, state, frames, repeats: int) -> dict:
+    """Per-frame wall and CPU ms of ``track``'s compiled scan over a chunk of CHUNK frames."""
+    from jaxtrack.trackers._runner import _chunk
+
+    arguments = (tracker, state, jr.split(jr.PRNGKey(3), CHUNK),
+                 jnp.asarray(frames[1:CHUNK + 1]))
+    tick = time.perf_counter()
+    compiled = _chunk.lower(*arguments).compile()
+    compile_s = time.perf_counter() - tick
+    times, cpu_times = [], []
+    for _ in range(max(repeats // 10, 5)):
+        tick, cpu = time.perf_counter(), time.process_time()
+        jax.block_until_ready(compiled(*arguments))
+        times.append(time.perf_counter() - tick)
+        cpu_times.append(time.process_time() - cpu)
+    return {"compile_s": compile_s, "ms": 1e3 * statistics.median(times) / CHUNK,
+            "cpu_ms": 1e3 * statistics.median(cpu_times) / CHUNK}
+
+
 def components(tracker, frames, repeats: int) -> dict[str, dict]:
     """Compile and time each component on the same tracked state; ``{name: timings}``."""
     from jaxtrack.trackers import track
-    from jaxtrack.trackers._runner import _chunk
 
     model = tracker.latent_model
     state = _tracked_state(tracker, frames)
@@ -157,21 +188,11 @@ def components(tracker, frames, repeats: int) -> dict[str, dict]:
         compile_s, wall_s, cpu_s, _ = time_compiled(function, *arguments, repeats=repeats)
         rows[name] = {"compile_s": compile_s, "ms": 1e3 * wall_s, "cpu_ms": 1e3 * cpu_s}
 
-    # the scan of track(): a compiled chunk of CHUNK frames, timed per frame
-    chunk_frames = jnp.asarray(frames[1:CHUNK + 1])
-    chunk_keys = jr.split(jr.PRNGKey(3), CHUNK)
-    arguments = (tracker, state, chunk_keys, chunk_frames)
-    tick = time.perf_counter()
-    compiled = _chunk.lower(*arguments).compile()
-    compile_s = time.perf_counter() - tick
-    times, cpu_times = [], []
-    for _ in range(max(repeats // 10, 5)):
-        tick, cpu = time.perf_counter(), time.process_time()
-        jax.block_until_ready(compiled(*arguments))
-        times.append(time.perf_counter() - tick)
-        cpu_times.append(time.process_time() - cpu)
-    rows["track"] = {"compile_s": compile_s, "ms": 1e3 * statistics.median(times) / CHUNK,
-                     "cpu_ms": 1e3 * statistics.median(cpu_times) / CHUNK}
+    rows["track"] = _scan_timing(tracker, state, frames, repeats)
+    # the same scan with a likelihood that reads no pixel: what is left is the engine's own
+    # cost (draws, μ, decoding, resampling, estimate), the floor of any likelihood's ms/frame
+    blind = eqx.tree_at(lambda t: t.latent_model.templates, tracker, _NoImage())
+    rows["track, no image"] = _scan_timing(blind, state, frames, repeats)
 
     # the whole clip through track() itself: a first call (which compiles the chunk shape),
     # then the median of the timed ones
