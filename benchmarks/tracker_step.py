@@ -65,19 +65,21 @@ def _load_average() -> float:
 
 def build(num_particles: int, frames: int | None = None, seed: int = 0,
           likelihood: str = "limbs"):
-    """(tracker, grey frames) for the demo's held-out wave, ``frames`` frames of it."""
+    """(tracker, observations) for the demo's held-out wave, ``frames`` frames of it: grey
+    frames, or grey frames with edge distance maps for ``"limbs+edges"``."""
     from jaxtrack import trackers
     from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
-    from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
+    from jaxtrack.evaluation.protocol import observations_of, render_test_sequences, train_prior
 
     prior = train_prior(TRAIN_CLIPS, cache=RESULTS / "gplvm_waves.npz", seed=seed,
                         progress=False)
     sequence = render_test_sequences(HELD_OUT_CLIP, views=1, backgrounds=("photo",),
                                      max_frames=frames, seed=seed)[0]
-    tracker = trackers.latent_tracker(prior.model, prior.template, sequence.frames[0],
+    observations = np.asarray(observations_of(sequence, likelihood), np.float32)
+    tracker = trackers.latent_tracker(prior.model, prior.template, observations[0],
                                       sequence.truth[0], num_particles=num_particles,
                                       fps=sequence.fps, likelihood=likelihood)
-    return tracker, np.asarray(sequence.frames, np.float32)
+    return tracker, observations
 
 
 def _tracked_state(tracker, frames, steps: int = 8):
@@ -208,7 +210,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--particles", type=int, nargs="+", default=[200, 1000])
     parser.add_argument("--repeats", type=int, default=200)
-    parser.add_argument("--likelihood", nargs="+", choices=("limbs", "markers"),
+    parser.add_argument("--likelihood", nargs="+",
+                        choices=("limbs", "limbs+edges", "markers"),
                         default=["limbs", "markers"])
     parser.add_argument("--output", default=str(RESULTS / "tracker_step.json"))
     args = parser.parse_args()

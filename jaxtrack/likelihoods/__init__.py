@@ -4,8 +4,17 @@ from jaxtrack.likelihoods.appearance import (
     DEFAULT_LIKELIHOOD,
     LIKELIHOODS,
     AppearanceTemplates,
+    check_observations,
     default_sharpness,
     make_appearance_templates,
+    needs_edges,
+)
+from jaxtrack.likelihoods.edges import (
+    DEFAULT_EDGE_SCALE,
+    DEFAULT_EDGE_WEIGHT,
+    EdgeLimbTemplates,
+    limb_edge_distances,
+    make_edge_limb_templates,
 )
 from jaxtrack.likelihoods.limbs import (
     DEFAULT_LIMB_SHARPNESS,
@@ -32,9 +41,11 @@ from jaxtrack.likelihoods.ncc import (
 )
 
 __all__ = [
-    "DEFAULT_LIKELIHOOD", "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS",
-    "DEFAULT_STRIP_WIDTH", "LIKELIHOODS", "LIMB_SEGMENTS", "AppearanceTemplates",
-    "LimbTemplates", "NCCTemplates", "bilinear_sample", "default_sharpness",
+    "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD", "DEFAULT_LIMB_SHARPNESS",
+    "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS", "LIMB_SEGMENTS",
+    "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates",
+    "bilinear_sample", "check_observations", "default_sharpness", "limb_edge_distances",
+    "make_edge_limb_templates", "needs_edges",
     "limb_ncc_log_likelihood", "limb_ncc_scores", "limb_points", "make_appearance_templates",
     "make_limb_templates", "make_templates", "ncc_log_likelihood", "ncc_log_likelihood_nearest",
     "ncc_scores", "ncc_scores_nearest", "patch_half_size", "sample_patches",

@@ -26,6 +26,7 @@ from jaxtyping import Array, Float, Int, PRNGKeyArray
 from tqdm.auto import tqdm
 
 from jaxtrack import smc
+from jaxtrack.likelihoods import check_observations
 
 __all__ = ["FrameEstimate", "ParticleTracker", "TrackResult", "track"]
 
@@ -86,6 +87,12 @@ class ParticleTracker(eqx.Module):
     @property
     def num_particles(self) -> int:
         raise NotImplementedError
+
+    @property
+    def templates(self):
+        """The appearance templates the model scores frames with (they say which observations
+        :func:`track` needs: grey frames, or grey frames with edge distance maps)."""
+        return self.model.templates
 
     def estimate_markers(self, particles, log_weights) -> Float[Array, "markers 2"]:
         return self.markers_of(smc.weighted_mean(particles, log_weights))
@@ -176,15 +183,16 @@ def _chunk(tracker, state, keys, frames):
 def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"], *,
           chunk_size: int = 64, progress: bool = True, description: str = "tracking"
           ) -> TrackResult:
-    """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on).
+    """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on; for the
+    ``"limbs+edges"`` likelihood ``(time, 2, height, width)`` from
+    ``jaxtrack.vision.edge_observations``).
 
     Frames after the first run in equal chunks of at most ``chunk_size`` frames through one
     compiled scan; the last chunk is padded by repeating its final frame and the padding's
     output is dropped.
     """
     frames = np.asarray(frames)
-    if frames.ndim != 3:
-        raise ValueError(f"frames must be (time, height, width) grey images, got {frames.shape}")
+    check_observations(tracker.templates, frames.shape)
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
     num_frames = frames.shape[0]

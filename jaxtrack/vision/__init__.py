@@ -5,6 +5,7 @@ package does not need them.
 """
 
 from jaxtrack.vision.contours import resample_closed_curve, signed_area, silhouette_contour
+from jaxtrack.vision.edges import edge_distance_maps, edge_observations
 from jaxtrack.vision.faces import (
     FaceDetectorUnavailableError,
     detect_face,
@@ -17,6 +18,7 @@ from jaxtrack.vision.video import VideoError, VideoFrames, iter_video_chunks, re
 
 __all__ = [
     "FaceDetectorUnavailableError", "VideoError", "VideoFrames", "detect_face", "detect_faces",
+    "edge_distance_maps", "edge_observations",
     "face_candidates", "face_detector_available", "foreground_mask", "head_boxes",
     "iter_video_chunks", "median_background", "read_video", "resample_closed_curve",
     "signed_area", "silhouette_contour", "to_grey",

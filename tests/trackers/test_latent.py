@@ -29,6 +29,24 @@ def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
         np.linalg.norm(sequence.truth[0, 3] - sequence.truth[0, 1]))
 
 
+def test_latent_tracker_with_edges_follows_the_clip_and_checks_its_observations(prior, sequence):
+    from jaxtrack.vision import edge_observations
+
+    observations = edge_observations(sequence.frames)
+    tracker = latent_tracker(prior.model, prior.template, observations[0], sequence.truth[0],
+                             num_particles=100, fps=sequence.fps, likelihood="limbs+edges")
+    result = track(tracker, jr.PRNGKey(0), observations, chunk_size=8, progress=False)
+    metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
+    assert np.all(np.isfinite(result.log_likelihood))
+    assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
+    assert not metrics["failed"]
+    with pytest.raises(ValueError, match="edge distance maps"):
+        track(tracker, jr.PRNGKey(0), sequence.frames, progress=False)
+    with pytest.raises(ValueError, match=r"\(2, height, width\)"):
+        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                       likelihood="limbs+edges")
+
+
 def test_random_walk_in_the_full_state_does_worse(wave_prior, whole_take):
     """The ablation: the same run with the GPLVM prior replaced by a random walk in the 25-d SPM
     state (steps from the clip's own frames, so the walk is not handicapped) tracks worse.

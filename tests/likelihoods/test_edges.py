@@ -1,0 +1,115 @@
+"""Limb strips plus edges (``likelihood="limbs+edges"``) on video rendered from a real wave
+gesture (the frames of ``_wave.rendered_wave``)."""
+
+from functools import cache
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from _wave import rendered_wave
+
+from jaxtrack.likelihoods import (
+    DEFAULT_LIMB_SHARPNESS,
+    LIMB_SEGMENTS,
+    EdgeLimbTemplates,
+    limb_edge_distances,
+    limb_ncc_log_likelihood,
+    make_appearance_templates,
+    make_edge_limb_templates,
+    needs_edges,
+)
+from jaxtrack.vision import edge_observations
+
+RIGHT_ELBOW, RIGHT_WRIST, LEFT_ELBOW, LEFT_WRIST = 5, 6, 9, 10
+
+
+@cache
+def wave():
+    """Observations (grey + edge distance), true markers and templates cut at frame 0."""
+    grey, markers = rendered_wave()
+    observations = edge_observations(grey)
+    return observations, markers, make_edge_limb_templates(observations[0], markers[0])
+
+
+batch_log_likelihood = jax.jit(jax.vmap(lambda markers, observation, templates:
+                                        templates.log_likelihood(markers, observation, 4.0),
+                                        in_axes=(0, None, None)))
+distances_of = jax.jit(limb_edge_distances)
+residuals_of = jax.jit(lambda templates, *args: templates.residuals(*args))
+
+
+def _rotate_about(markers, pivot, moved, degrees):
+    angle = np.deg2rad(degrees)
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    out = markers.copy()
+    out[moved] = (markers[moved] - markers[pivot]) @ rotation.T + markers[pivot]
+    return out.astype(np.float32)
+
+
+def test_strip_borders_lie_on_edges_at_the_true_pose():
+    observations, markers, templates = wave()
+
+    def edge_penalty(pose, observation):  # κ Σ_s mean min(d/σ, 2)²: the strips' score minus ours
+        return float(templates.strips.log_likelihood(pose, observation[0], 4.0)
+                     - templates.log_likelihood(pose, observation, 4.0))
+
+    shifts = np.float32([[6, 0], [-6, 0], [0, 6], [0, -6], [12, 0], [0, 12]])
+    for t in (0, 5, 9):
+        true = np.asarray(distances_of(markers[t], observations[t, 1]))
+        assert true.shape == (len(LIMB_SEGMENTS), 2 * (12 - 2))
+        assert np.all(true >= 0) and np.all(np.isfinite(true))
+        assert np.median(true) <= 2.5, (t, np.median(true))  # the outline's edges, ~2 px off
+        at_truth = edge_penalty(markers[t], observations[t])
+        moved = [edge_penalty(markers[t] + shift, observations[t]) for shift in shifts]
+        assert 0 < at_truth < min(moved), (t, at_truth, moved)
+
+
+def test_true_pose_beats_turned_and_shifted_arms():
+    observations, markers, templates = wave()
+    directions = np.random.default_rng(0).normal(size=(16, 12, 2))
+    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+    for t in (3, 6, 9):
+        wrong = [_rotate_about(markers[t], elbow, [wrist], degrees)
+                 for elbow, wrist in ((RIGHT_ELBOW, RIGHT_WRIST), (LEFT_ELBOW, LEFT_WRIST))
+                 for degrees in (-30, -15, 15, 30)]
+        wrong += list((markers[t] + 4 * directions).astype(np.float32))
+        values = np.asarray(batch_log_likelihood(np.stack([markers[t], *wrong]),
+                                                 observations[t], templates))
+        assert np.all(values[1:] < values[0]), (t, values)
+
+
+def test_the_edge_term_adds_to_the_strips_and_residuals_are_the_cost():
+    observations, markers, templates = wave()
+    pose = markers[4] + np.float32(0.6)
+    sharpness = jnp.float32(DEFAULT_LIMB_SHARPNESS)
+    strips_only = limb_ncc_log_likelihood(pose, observations[4, 0], templates.strips, sharpness)
+    combined = templates.log_likelihood(pose, observations[4], sharpness)
+    unweighted = EdgeLimbTemplates(templates.strips, jnp.float32(0.0), templates.edge_scale)
+    np.testing.assert_allclose(unweighted.log_likelihood(pose, observations[4], sharpness),
+                               strips_only, rtol=1e-6)
+    assert combined < strips_only  # the edge penalty is never a reward
+    # the strip penalty saturates: κ · 4 per strip at most
+    assert strips_only - combined <= 4 * len(LIMB_SEGMENTS) * float(templates.edge_weight)
+    residuals = residuals_of(templates, pose, observations[4], sharpness)
+    bilinear = templates.log_likelihood(pose, observations[4], sharpness, nearest=False)
+    np.testing.assert_allclose(0.5 * jnp.sum(residuals**2), -bilinear, rtol=1e-4)
+    assert combined.dtype == jnp.float32
+
+
+def test_chosen_by_name_and_misuse_is_reported():
+    observations, markers, _ = wave()
+    assert needs_edges("limbs+edges") and not needs_edges("limbs")
+    assert isinstance(make_appearance_templates("limbs+edges", observations[0], markers[0]),
+                      EdgeLimbTemplates)
+    with pytest.raises(ValueError, match=r"\(2, height, width\)"):
+        make_edge_limb_templates(observations[0, 0], markers[0])
+    with pytest.raises(ValueError, match="edge_weight"):
+        make_edge_limb_templates(observations[0], markers[0], edge_weight=-1.0)
+    with pytest.raises(ValueError, match="edge_scale"):
+        make_edge_limb_templates(observations[0], markers[0], edge_scale=0.0)
+    templates = make_edge_limb_templates(observations[0], markers[0])
+    with pytest.raises(ValueError, match=r"\(2, height, width\)"):
+        templates.log_likelihood(markers[0], observations[0, 0], 4.0)
+    with pytest.raises(ValueError, match="likelihood must be one of"):
+        needs_edges("edges")

@@ -1,0 +1,57 @@
+"""Edge distance maps (Canny + distance transform) on OpenCV drawings."""
+
+import cv2
+import numpy as np
+import pytest
+
+from jaxtrack.vision import edge_distance_maps, edge_observations
+
+
+def rectangle_frame(shape=(120, 160), corners=((40, 30), (120, 90)), level=0.8):
+    frame = np.full(shape, 0.2, np.float32)
+    cv2.rectangle(frame, corners[0], corners[1], level, thickness=-1)
+    return frame
+
+
+def test_distance_is_zero_on_the_outline_and_grows_away_from_it():
+    frame = rectangle_frame()
+    distances = edge_distance_maps(frame[None], blur=0.0)[0]
+    assert distances.shape == frame.shape and distances.dtype == np.float32
+    # the rectangle's left side is at column 40: the edge lies on it or next to it
+    assert distances[60, 39:42].min() == 0
+    # 20 columns left of the outline and 20 right of it (inside the rectangle, whose centre
+    # row is 30 px from the top and bottom sides)
+    np.testing.assert_allclose(distances[60, 20], 20, atol=1.5)
+    np.testing.assert_allclose(distances[60, 60], 20, atol=1.5)
+    assert distances[60, 80] > distances[60, 60]  # further inside, further from every side
+
+
+def test_uint8_and_float_frames_agree_and_a_flat_frame_has_no_edge():
+    frame = rectangle_frame()
+    as_float = edge_distance_maps(frame[None])
+    as_uint8 = edge_distance_maps(np.rint(frame * 255).astype(np.uint8)[None])
+    np.testing.assert_array_equal(as_float, as_uint8)
+    flat = edge_distance_maps(np.full((1, 50, 40), 0.5, np.float32))
+    np.testing.assert_allclose(flat, np.hypot(50, 40))  # as far as any pixel can be
+
+
+def test_observations_stack_the_grey_frame_and_its_distance_map():
+    frames = np.stack([rectangle_frame(), rectangle_frame(level=0.6)])
+    observations = edge_observations(frames)
+    assert observations.shape == (2, 2, 120, 160) and observations.dtype == np.float32
+    np.testing.assert_array_equal(observations[:, 0], frames)
+    np.testing.assert_array_equal(observations[:, 1], edge_distance_maps(frames))
+    from_uint8 = edge_observations(np.rint(frames * 255).astype(np.uint8))
+    np.testing.assert_allclose(from_uint8[:, 0], frames, atol=0.5 / 255)
+
+
+def test_bad_input_is_reported():
+    frame = rectangle_frame()
+    with pytest.raises(ValueError, match="time, height, width"):
+        edge_distance_maps(frame)
+    with pytest.raises(ValueError, match="low <= high"):
+        edge_distance_maps(frame[None], low=100, high=50)
+    with pytest.raises(ValueError, match="blur"):
+        edge_distance_maps(frame[None], blur=-1)
+    with pytest.raises(ValueError, match="non-finite"):
+        edge_distance_maps(np.full((1, 10, 10), np.nan, np.float32))
