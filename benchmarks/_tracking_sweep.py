@@ -55,7 +55,6 @@ from jaxtrack.evaluation import evaluate_track
 from jaxtrack.evaluation.protocol import (
     METHODS,
     build_tracker,
-    observations_of,
     render_test_sequences,
     train_prior,
 )
@@ -79,9 +78,8 @@ COLUMNS = [("method", "method", "s"), ("particles", "N", "d"),
 def _track_once(method, prior, sequence, particles, seed, likelihood) -> dict:
     """One tracked run: the evaluation's scalars, timings, and the re-seeded frame count."""
     start = time.perf_counter()
-    observations = observations_of(sequence, likelihood)
-    tracker = build_tracker(method, prior, sequence, particles, likelihood, observations)
-    result = track(tracker, jr.PRNGKey(seed), observations,
+    tracker = build_tracker(method, prior, sequence, particles, likelihood)
+    result = track(tracker, jr.PRNGKey(seed), sequence.frames,
                    chunk_size=max(len(sequence.frames) - 1, 1), progress=False)
     wall = time.perf_counter() - start
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
@@ -187,9 +185,9 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, nargs="+", default=list(PARTICLE_COUNTS))
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--seeds", type=int, default=3, help="tracker seeds per N (3)")
-    parser.add_argument("--likelihood", choices=("limbs", "limbs+edges", "markers"),
-                        default="limbs", help="limb strips (default), strips plus edges, or "
-                        "the paper's marker patches, all methods")
+    parser.add_argument("--likelihood", choices=("limbs+edges", "limbs", "markers"),
+                        default="limbs+edges", help="limb strips and their edges (default), "
+                        "strips alone, or the paper's marker patches, all methods")
     parser.add_argument("--frames", type=int, default=None,
                         help="first frames of the held-out take (all 138)")
     parser.add_argument("--max-mht", type=int, default=50,
@@ -204,7 +202,7 @@ def main(argv=None) -> int:
         args.particles, args.seeds = list(QUICK_PARTICLE_COUNTS), 1
         args.frames = args.frames or 40
     stem = "tracking_sweep_quick" if args.quick else "tracking_sweep"
-    stem += {"markers": "_markers", "limbs+edges": "_edges"}.get(args.likelihood, "")
+    stem += {"markers": "_markers", "limbs": "_strips"}.get(args.likelihood, "")
     args.json = args.json or str(RESULTS / f"{stem}.json")
     args.plot = args.plot or str(RESULTS / f"{stem}.png")
     caps = {"mht": args.max_mht}

@@ -6,8 +6,8 @@ CONDENSATION on a held-out real wave gesture.
 2. Render the fourth, held-out take over a real photo background, with exact 2-D ground truth.
 3. Track it with the latent tracker (200 particles) and with CONDENSATION in the full 25-d SPM
    state with AR(2) dynamics learned from the first 30 frames (1 000 particles), both
-   initialised from frame 0's ground truth and scored by the same likelihood (limb strips),
-   each with 3 seeds.
+   initialised from frame 0's ground truth and scored by the same likelihood (limb strips and
+   their edges), each with 3 seeds.
 4. Print a comparison table; write overlay videos, the latent-space plot, the error plot and the
    metrics (JSON) to ``./jaxtrack-demo/``.
 """

@@ -26,9 +26,9 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--particles", type=int, default=None,
                         help="particles (modes for mht); default 200 / 1000 / 10")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--likelihood", choices=("limbs", "limbs+edges", "markers"),
-                        default="limbs", help="limb strips (default), limb strips plus their "
-                        "edges, or the paper's patches at the markers")
+    parser.add_argument("--likelihood", choices=("limbs+edges", "limbs", "markers"),
+                        default="limbs+edges", help="limb strips and their edges (default), "
+                        "limb strips alone, or the paper's patches at the markers")
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"))

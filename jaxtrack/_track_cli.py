@@ -89,9 +89,9 @@ def add_track(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--out", required=True, type=Path, metavar="DIR")
     parser.add_argument("--particles", type=int, default=200, help="particles (default 200)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--likelihood", choices=("limbs", "limbs+edges", "markers"),
-                        default="limbs", help="limb strips (default), limb strips plus their "
-                        "edges, or the paper's patches at the markers")
+    parser.add_argument("--likelihood", choices=("limbs+edges", "limbs", "markers"),
+                        default="limbs+edges", help="limb strips and their edges (default), "
+                        "limb strips alone, or the paper's patches at the markers")
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
@@ -189,7 +189,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.evaluation import write_overlay_video
     from jaxtrack.trackers import latent_tracker, track
-    from jaxtrack.vision import VideoError, edge_observations, read_video, to_grey
+    from jaxtrack.vision import VideoError, read_video, to_grey
 
     started = time.perf_counter()
     if args.particles < 1:
@@ -222,8 +222,6 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
           + (f", {init['source']} box, overlap {init['score']:.2f}" if "score" in init else "")
           + ")")
     grey = to_grey(frames)
-    if args.likelihood == "limbs+edges":
-        grey = edge_observations(grey)
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
                              fps=fps, likelihood=args.likelihood)
     result = track(tracker, jr.PRNGKey(args.seed), grey)

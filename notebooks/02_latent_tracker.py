@@ -46,12 +46,15 @@ for method, result in results.items():
     print(f"{method:13s} {metrics['mean_error_torso']:.3f} of torso, "
           f"{metrics['frames_tracked']}/{metrics['num_frames']} frames tracked")
 
-# %% The likelihood: limb strips (default) against the paper's patches at the markers
-# Both methods take `likelihood=`; with the paper's eq. 7 patches the latent tracker loses the
+# %% The likelihood: limb strips and their edges (default), the strips alone, the paper's patches
+# Every method takes `likelihood=`; with the paper's eq. 7 patches the latent tracker loses the
 # waving arm far more often (README, "Tracking": the patches' best-scoring pose over the whole
-# latent space is 20 % of the torso from the truth, the strips' 8.8 %).
+# latent space is 20 % of the torso from the truth, the strips' 8.8 %), and the edge term keeps
+# scoring the limbs when their texture has drifted from the frame-0 strips.
+strips = run_method("latent", prior, sequence, particles=200, likelihood="limbs")
 paper = run_method("latent", prior, sequence, particles=200, likelihood="markers")
-for name, result in (("limb strips", results["latent"]), ("marker patches", paper)):
+for name, result in (("strips + edges", results["latent"]), ("limb strips", strips),
+                     ("marker patches", paper)):
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
     print(f"latent, {name:14s} {metrics['mean_error_torso']:.3f} of torso, "
           f"{metrics['fraction_within_15']:.0%} of frames within 15 %")

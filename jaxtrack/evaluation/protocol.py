@@ -29,12 +29,12 @@ from jaxtrack.body import (
     render_motion,
     spm_initial_state,
 )
-from jaxtrack.likelihoods import DEFAULT_LIKELIHOOD, needs_edges
+from jaxtrack.likelihoods import DEFAULT_LIKELIHOOD
 from jaxtrack.priors.gplvm import GPLVM, fit_gplvm, load_gplvm, save_gplvm
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
 
-__all__ = ["METHODS", "TrainedPrior", "TestSequence", "observations_of",
-           "render_test_sequences", "run_method", "train_prior"]
+__all__ = ["METHODS", "TrainedPrior", "TestSequence", "render_test_sequences", "run_method",
+           "train_prior"]
 
 METHODS = ("latent", "condensation", "mht")
 DEFAULT_PARTICLES = {"latent": 200, "condensation": 1000, "mht": 10}
@@ -147,26 +147,14 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
     return sequences
 
 
-def observations_of(sequence: TestSequence, likelihood: str = DEFAULT_LIKELIHOOD) -> np.ndarray:
-    """What a tracker scored by ``likelihood`` observes: the grey frames, or for
-    ``"limbs+edges"`` the grey frames with their edge distance maps (OpenCV)."""
-    if not needs_edges(likelihood):
-        return sequence.frames
-    from jaxtrack.vision import edge_observations
-
-    return edge_observations(sequence.frames)
-
-
 def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int,
-                  likelihood: str = DEFAULT_LIKELIHOOD, observations: np.ndarray | None = None):
+                  likelihood: str = DEFAULT_LIKELIHOOD):
     """The tracker ``method`` initialised on the sequence's first frame (ground truth), scored
-    by ``likelihood`` (``"limbs"``, ``"limbs+edges"`` or ``"markers"``, the same for every
-    method); ``observations`` from :func:`observations_of` (computed when not given)."""
+    by ``likelihood`` (``"limbs+edges"``, ``"limbs"`` or ``"markers"``, the same for every
+    method)."""
     from jaxtrack import trackers
 
-    if observations is None:
-        observations = observations_of(sequence, likelihood)
-    frame, markers = observations[0], sequence.truth[0]
+    frame, markers = sequence.frames[0], sequence.truth[0]
     if method == "latent":
         return trackers.latent_tracker(prior.model, prior.template, frame, markers,
                                        num_particles=particles, fps=sequence.fps,
@@ -189,7 +177,6 @@ def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
     from jaxtrack.trackers import track
 
     particles = particles or DEFAULT_PARTICLES[method]
-    observations = observations_of(sequence, likelihood)
-    tracker = build_tracker(method, prior, sequence, particles, likelihood, observations)
-    return track(tracker, jr.PRNGKey(seed), observations, progress=progress,
+    tracker = build_tracker(method, prior, sequence, particles, likelihood)
+    return track(tracker, jr.PRNGKey(seed), sequence.frames, progress=progress,
                  description=f"{method} N={particles}")

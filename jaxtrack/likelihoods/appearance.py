@@ -1,19 +1,20 @@
-"""Choosing a tracker's appearance likelihood by name: ``"limbs"``, ``"limbs+edges"`` or
+"""Choosing a tracker's appearance likelihood by name: ``"limbs+edges"``, ``"limbs"`` or
 ``"markers"``.
 
-Both are template models cut from the first frame at its known markers and scored as
-``−λ Σ (1 − NCC)`` (Tian et al. 2005, eq. 7's form); both expose ``log_likelihood(markers,
-image, sharpness, nearest)`` and ``residuals(markers, image, sharpness)``, which is all a tracker
-calls, so every tracker (and every baseline) runs on either.
+All three are template models cut from the first frame at its known markers and scored as
+``−λ Σ (1 − NCC)`` (Tian et al. 2005, eq. 7's form), the first with an edge term added; all
+expose ``log_likelihood(markers, observation, sharpness, nearest)`` and ``residuals(markers,
+observation, sharpness)``, which is all a tracker calls, so every tracker (and every baseline)
+runs on any of them.
 
+* ``"limbs+edges"`` (the default): the limb strips plus the distance of their borders to the
+  frame's edges (:mod:`jaxtrack.likelihoods.edges`), which do not drift as limbs turn in depth.
+  Its observations are ``(2, height, width)``, the grey frame and its edge distance map;
+  ``jaxtrack.trackers.track`` builds them from grey frames (:func:`check_observations`).
+* ``"limbs"``: strips along the body's segments (:mod:`jaxtrack.likelihoods.limbs`); grey
+  frames.
 * ``"markers"``: square patches at the 12 markers, the paper's eq. 7
-  (:mod:`jaxtrack.likelihoods.ncc`).
-* ``"limbs"``: strips along the body's segments (:mod:`jaxtrack.likelihoods.limbs`), the
-  default: on the held-out wave it is the one whose best-scoring pose lies near the truth.
-* ``"limbs+edges"``: the strips plus the distance of their borders to the frame's edges
-  (:mod:`jaxtrack.likelihoods.edges`), which do not drift as limbs turn. Its observations are
-  ``(2, height, width)``, the grey frame and its edge distance map
-  (``jaxtrack.vision.edge_observations``): :func:`needs_edges` says when to build them.
+  (:mod:`jaxtrack.likelihoods.ncc`); grey frames.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ __all__ = ["DEFAULT_LIKELIHOOD", "LIKELIHOODS", "AppearanceTemplates", "default_
            "check_observations", "make_appearance_templates", "needs_edges"]
 
 LIKELIHOODS = ("limbs", "limbs+edges", "markers")
-DEFAULT_LIKELIHOOD = "limbs"
+DEFAULT_LIKELIHOOD = "limbs+edges"
 AppearanceTemplates = NCCTemplates | LimbTemplates | EdgeLimbTemplates
 
 
@@ -66,15 +67,24 @@ def make_appearance_templates(
     return make_templates(image, markers_2d)
 
 
-def check_observations(templates: AppearanceTemplates, shape: tuple[int, ...]) -> None:
-    """Raise a ValueError unless a sequence of observations of ``shape`` suits ``templates``:
-    ``(time, height, width)`` grey frames, or for the edge-limb templates ``(time, 2, height,
-    width)`` grey frames with their edge distance maps."""
+def check_observations(templates: AppearanceTemplates, shape: tuple[int, ...]) -> bool:
+    """Check that a sequence of observations of ``shape`` suits ``templates``; say whether
+    edge distance maps must still be added to it.
+
+    Grey frames ``(time, height, width)`` suit every likelihood; the edge-limb templates also
+    take ``(time, 2, height, width)`` grey frames with their edge distance maps
+    (``jaxtrack.vision.edge_observations``). Anything else raises a ValueError.
+
+    Returns:
+        True when ``templates`` need edge maps and the frames are grey.
+    """
     shape = tuple(shape)
-    if isinstance(templates, EdgeLimbTemplates):
-        if len(shape) != 4 or shape[1] != 2:
-            raise ValueError(f"frames must be (time, 2, height, width): grey frames with their "
-                             f"edge distance maps (jaxtrack.vision.edge_observations) for the "
-                             f"'limbs+edges' likelihood, got {shape}")
-    elif len(shape) != 3:
-        raise ValueError(f"frames must be (time, height, width) grey images, got {shape}")
+    edges = isinstance(templates, EdgeLimbTemplates)
+    if len(shape) == 3:
+        return edges
+    if edges and len(shape) == 4 and shape[1] == 2:
+        return False
+    expected = ("(time, height, width) grey images, or (time, 2, height, width) grey frames "
+                "with their edge distance maps (jaxtrack.vision.edge_observations)" if edges
+                else "(time, height, width) grey images")
+    raise ValueError(f"frames must be {expected}, got shape {shape}")

@@ -18,7 +18,9 @@ needs no template, so it cannot drift; in clutter it is weaker (edges everywhere
 why it complements the NCC rather than replacing it.
 
 Observations are ``(2, height, width)``: the grey frame and its edge distance map
-(:func:`jaxtrack.vision.edge_observations` stacks them for a sequence).
+(:func:`jaxtrack.vision.edge_observations` stacks them for a sequence). Trackers take grey
+frames as with the other likelihoods: ``jaxtrack.trackers.track`` adds the edge maps chunk by
+chunk.
 """
 
 from __future__ import annotations
@@ -131,20 +133,26 @@ class EdgeLimbTemplates(eqx.Module):
 
 
 def make_edge_limb_templates(
-    observation: Float[ArrayLike, "2 height width"],
+    image: Float[ArrayLike, "height width"] | Float[ArrayLike, "2 height width"],
     markers_2d: Float[ArrayLike, "markers 2"],
     *,
     edge_weight: float = DEFAULT_EDGE_WEIGHT,
     edge_scale: float = DEFAULT_EDGE_SCALE,
     **strip_options,
 ) -> EdgeLimbTemplates:
-    """Strip templates cut from the reference observation's grey frame, with κ and σ."""
-    observation = _check_observation(observation)
+    """Strip templates cut from the reference grey frame (or the grey channel of its
+    ``(2, height, width)`` observation), with κ and σ. The edge term has no template."""
+    image = jnp.asarray(image)
+    if image.ndim == 3:
+        image = _check_observation(image)[0]
+    elif image.ndim != 2:
+        raise ValueError(f"the reference frame must be (height, width) grey levels or a (2, "
+                         f"height, width) observation, got shape {image.shape}")
     if not (np.isfinite(edge_weight) and edge_weight >= 0):
         raise ValueError(f"edge_weight must be a non-negative number, got {edge_weight}")
     if not (np.isfinite(edge_scale) and edge_scale > 0):
         raise ValueError(f"edge_scale must be a positive fraction of the spine, got {edge_scale}")
-    strips = make_limb_templates(observation[0], markers_2d, **strip_options)
+    strips = make_limb_templates(image, markers_2d, **strip_options)
     dtype = strips.strips.dtype
     return EdgeLimbTemplates(strips=strips, edge_weight=jnp.asarray(edge_weight, dtype),
                              edge_scale=jnp.asarray(edge_scale, dtype))

@@ -163,6 +163,12 @@ def _aligned_empty(shape: tuple[int, ...], dtype, alignment: int = 64) -> np.nda
     return raw[offset:offset + size].view(dtype).reshape(shape)
 
 
+def _edge_observations(frames: np.ndarray) -> np.ndarray:
+    from jaxtrack.vision import edge_observations
+
+    return edge_observations(frames)
+
+
 @eqx.filter_jit
 def _start(tracker, key, frame):
     state = tracker.start(key, frame)
@@ -183,21 +189,24 @@ def _chunk(tracker, state, keys, frames):
 def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"], *,
           chunk_size: int = 64, progress: bool = True, description: str = "tracking"
           ) -> TrackResult:
-    """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on; for the
-    ``"limbs+edges"`` likelihood ``(time, 2, height, width)`` from
-    ``jaxtrack.vision.edge_observations``).
+    """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on).
+
+    A tracker scored by ``"limbs+edges"`` also needs each frame's edge distance map: they are
+    computed here chunk by chunk (``jaxtrack.vision.edge_observations``, OpenCV, counted in
+    the run time), or may be given, ``frames`` being ``(time, 2, height, width)``.
 
     Frames after the first run in equal chunks of at most ``chunk_size`` frames through one
     compiled scan; the last chunk is padded by repeating its final frame and the padding's
     output is dropped.
     """
     frames = np.asarray(frames)
-    check_observations(tracker.templates, frames.shape)
+    add_edges = check_observations(tracker.templates, frames.shape)
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
     num_frames = frames.shape[0]
     key_start, key_frames = jr.split(key)
-    state, first = _start(tracker, key_start, jnp.asarray(frames[0]))
+    observe = _edge_observations if add_edges else np.asarray
+    state, first = _start(tracker, key_start, jnp.asarray(observe(frames[:1])[0]))
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
     # equal chunks of at most chunk_size frames, so that little of the last one is padding
     num_chunks = max(1, math.ceil((num_frames - 1) / max(1, chunk_size)))
@@ -215,14 +224,14 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     # would copy each chunk into freshly allocated memory, ~1–2 ms per 640 × 480 frame (page
     # faults), several times the latent tracker's step. Two buffers, so that the next chunk
     # is copied in while the current one is tracked.
-    buffers = [_aligned_empty((chunk_size, *frames.shape[1:]),
-                              jax.dtypes.canonicalize_dtype(frames.dtype))
-               for _ in range(min(2, len(begins)))]
+    shape, dtype = (((2, *frames.shape[1:]), np.float32) if add_edges
+                    else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
+    buffers = [_aligned_empty((chunk_size, *shape), dtype) for _ in range(min(2, len(begins)))]
 
     def stage(index: int) -> Array:
         buffer, begin, count = buffers[index % 2], begins[index], counts[index]
-        buffer[:count] = frames[begin:begin + count]
-        buffer[count:] = frames[begin + count - 1]  # padding repeats the last frame
+        buffer[:count] = observe(frames[begin:begin + count])
+        buffer[count:] = buffer[count - 1]  # padding repeats the last frame
         return jax.device_put(buffer)
 
     def collect(estimates, count: int) -> None:

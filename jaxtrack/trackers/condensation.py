@@ -328,7 +328,8 @@ def condensation_tracker(
         training_states: ``(time, 25)`` SPM states to learn the dynamics from (the paper: the
             first 30 frames of ground truth, ``spm_fit(truth[:30], template)``).
         num_particles: N.
-        likelihood: ``"limbs"`` or ``"markers"`` (:mod:`jaxtrack.likelihoods.appearance`).
+        likelihood: ``"limbs+edges"``, ``"limbs"`` or ``"markers"``
+            (:mod:`jaxtrack.likelihoods.appearance`).
         sharpness: λ of the likelihood; None for the likelihood's default.
         ridge, max_root: see :func:`fit_ar2`.
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:

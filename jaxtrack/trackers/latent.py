@@ -13,10 +13,11 @@ fixed placement.
 Two departures from the paper, each measured on a held-out real wave (README, "Tracking"), each
 switchable back:
 
-* **Likelihood.** The default is NCC of limb-aligned strips (``likelihood="limbs"``,
-  :mod:`jaxtrack.likelihoods.limbs`) instead of patches at the markers (``"markers"``, eq. 7):
-  over the latent space, the marker patches' best-scoring pose is 20 % of the torso from the
-  truth, the strips' 8.8 %.
+* **Likelihood.** The default is NCC of limb-aligned strips plus the distance of their borders
+  to image edges (``likelihood="limbs+edges"``, :mod:`jaxtrack.likelihoods.edges`) instead of
+  patches at the markers (``"markers"``, eq. 7): over the latent space, the marker patches'
+  best-scoring pose is 20 % of the torso from the truth, the strips' 8.8 %; the edge term keeps
+  scoring limbs whose texture has drifted from the frame-0 templates.
 * **Jumps.** A GPLVM keeps dissimilar poses apart but not similar poses together, so a gesture
   can leave one region of the latent space for a distant one that decodes to nearly the same
   pose (μ⁻¹ of the held-out wave steps more than 4ν between frames in 10 % of frames), and a
@@ -184,15 +185,17 @@ def latent_tracker(
     Args:
         prior: a trained GPLVM with its dynamics ν (``fit_gplvm(..., sequence_ids=...)``).
         template: the SPM template its training poses were expressed in.
-        first_frame: ``(height, width)`` grey frame 0.
+        first_frame: ``(height, width)`` grey frame 0 (or its ``(2, height, width)``
+            observation with the edge map).
         first_markers: ``(12, 2)`` its markers (``SPM_MARKERS`` order): they give the NCC
             templates, the placement and, through μ⁻¹, the initial latent point.
         fps: the video's frame rate; ν (learned at ``prior.dynamics_fps``) is rescaled by
             ``sqrt(prior fps / fps)``, a random walk's step over a longer or shorter frame.
         placement_std: per-frame random-walk std of (log scale, x px, y px); default
             (0.01, 1 % of the torso, 1 % of the torso).
-        likelihood: ``"limbs"`` (strips along the segments) or ``"markers"`` (the paper's
-            patches at the markers); see :mod:`jaxtrack.likelihoods.appearance`.
+        likelihood: ``"limbs+edges"`` (strips along the segments and their edges),
+            ``"limbs"`` (the strips alone) or ``"markers"`` (the paper's patches at the
+            markers); see :mod:`jaxtrack.likelihoods.appearance`.
         sharpness: λ of the likelihood; None for the likelihood's default.
         jump_probability: chance per particle and frame of a jump to a random training
             latent (0: the paper's pure random walk).

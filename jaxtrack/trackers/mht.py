@@ -281,7 +281,8 @@ class MHTTracker(eqx.Module):
     def first_estimate(self, state: MHTState) -> FrameEstimate:
         best = jnp.argmax(state.log_weights)
         markers = spm_forward(state.modes[best], self.template)
-        # the templates were cut at these markers on frame 0: every NCC is 1, log-likelihood 0
+        # frame 0's pose is given, not scored: its log-likelihood is reported as 0 (every NCC
+        # is 1 there, the templates having been cut at these markers)
         return FrameEstimate(markers=markers, best_markers=markers,
                              ess=jnp.sum(state.kept).astype(markers.dtype),
                              log_likelihood=jnp.asarray(0, markers.dtype),
@@ -369,7 +370,8 @@ def mht_tracker(
             ``step_std`` (the same first 30 ground-truth frames the CONDENSATION baseline
             learns from); ignored when ``step_std`` is given.
         num_modes: the pool size (Tian et al. compared with 10).
-        likelihood: ``"limbs"`` or ``"markers"`` (:mod:`jaxtrack.likelihoods.appearance`).
+        likelihood: ``"limbs+edges"``, ``"limbs"`` or ``"markers"``
+            (:mod:`jaxtrack.likelihoods.appearance`).
         sharpness: λ of the likelihood and of the refinement cost; None for the likelihood's
             default.
         step_std: ``(25,)`` per-frame state std; default from ``training_states`` or, without

@@ -102,8 +102,12 @@ def test_chosen_by_name_and_misuse_is_reported():
     assert needs_edges("limbs+edges") and not needs_edges("limbs")
     assert isinstance(make_appearance_templates("limbs+edges", observations[0], markers[0]),
                       EdgeLimbTemplates)
+    # the templates are cut from the grey frame alone, given by itself or in its observation
+    from_grey = make_edge_limb_templates(observations[0, 0], markers[0])
+    from_observation = make_edge_limb_templates(observations[0], markers[0])
+    np.testing.assert_array_equal(from_grey.strips.strips, from_observation.strips.strips)
     with pytest.raises(ValueError, match=r"\(2, height, width\)"):
-        make_edge_limb_templates(observations[0, 0], markers[0])
+        make_edge_limb_templates(np.stack([observations[0, 0]] * 3), markers[0])
     with pytest.raises(ValueError, match="edge_weight"):
         make_edge_limb_templates(observations[0], markers[0], edge_weight=-1.0)
     with pytest.raises(ValueError, match="edge_scale"):

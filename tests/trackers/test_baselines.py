@@ -26,7 +26,7 @@ from jaxtrack.trackers import (
     track,
 )
 from jaxtrack.trackers.mht import _surviving, refinement_cost
-from jaxtrack.vision import to_grey
+from jaxtrack.vision import edge_observations, to_grey
 
 CLIP = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 SIZE = (320, 240)
@@ -193,7 +193,8 @@ def test_condensation_follows_the_first_frames(wave, make):
 def test_condensation_model_jit_matches_eager(wave, nearest):
     tracker = condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0],
                                    wave["states"], num_particles=4, nearest=nearest)
-    model, frame = tracker.model, jnp.asarray(wave["frames"][1])
+    # the default likelihood observes the grey frame with its edge distance map
+    model, frame = tracker.model, jnp.asarray(edge_observations(wave["frames"][1:2])[0])
 
     def one_particle(key):
         key_init, key_propagate = jr.split(key)
@@ -306,7 +307,9 @@ def test_mht_scan_matches_a_loop_of_updates(wave):
     state = tracker.start(key_start, jnp.asarray(frames[0]))
     update = eqx.filter_jit(tracker.update)
     looped = [tracker.first_estimate(state).markers]
-    for frame_key, frame in zip(jr.split(key_frames, TRACKED - 1)[:3], frames[1:4], strict=True):
+    observations = edge_observations(frames[1:4])  # what track() adds for the default likelihood
+    for frame_key, frame in zip(jr.split(key_frames, TRACKED - 1)[:3], observations,
+                                strict=True):
         state, estimate = update(frame_key, state, jnp.asarray(frame))
         looped.append(estimate.markers)
     np.testing.assert_allclose(scanned.markers[:4], np.stack(looped), atol=1e-3)

@@ -29,22 +29,26 @@ def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
         np.linalg.norm(sequence.truth[0, 3] - sequence.truth[0, 1]))
 
 
-def test_latent_tracker_with_edges_follows_the_clip_and_checks_its_observations(prior, sequence):
+def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior, sequence):
+    """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
+    frames, chunk by chunk, or takes ``(time, 2, height, width)`` observations made before."""
     from jaxtrack.vision import edge_observations
 
-    observations = edge_observations(sequence.frames)
-    tracker = latent_tracker(prior.model, prior.template, observations[0], sequence.truth[0],
+    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                              num_particles=100, fps=sequence.fps, likelihood="limbs+edges")
-    result = track(tracker, jr.PRNGKey(0), observations, chunk_size=8, progress=False)
-    metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
-    assert np.all(np.isfinite(result.log_likelihood))
+    from_grey = track(tracker, jr.PRNGKey(0), sequence.frames, chunk_size=8, progress=False)
+    given = track(tracker, jr.PRNGKey(0), edge_observations(sequence.frames), chunk_size=8,
+                  progress=False)
+    np.testing.assert_array_equal(from_grey.markers, given.markers)
+    metrics = evaluate_track(from_grey.markers, sequence.truth, UPPER_BODY_12)
+    assert np.all(np.isfinite(from_grey.log_likelihood))
     assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
-    assert not metrics["failed"]
     with pytest.raises(ValueError, match="edge distance maps"):
-        track(tracker, jr.PRNGKey(0), sequence.frames, progress=False)
-    with pytest.raises(ValueError, match=r"\(2, height, width\)"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       likelihood="limbs+edges")
+        track(tracker, jr.PRNGKey(0), sequence.images, progress=False)
+    strips = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                            num_particles=8, likelihood="limbs")
+    with pytest.raises(ValueError, match="grey images, got"):
+        track(strips, jr.PRNGKey(0), edge_observations(sequence.frames[:2]), progress=False)
 
 
 def test_random_walk_in_the_full_state_does_worse(wave_prior, whole_take):
