@@ -163,10 +163,17 @@ def _aligned_empty(shape: tuple[int, ...], dtype, alignment: int = 64) -> np.nda
     return raw[offset:offset + size].view(dtype).reshape(shape)
 
 
-def _edge_observations(frames: np.ndarray) -> np.ndarray:
+def _edge_observations(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     from jaxtrack.vision import edge_observations
 
-    return edge_observations(frames)
+    return edge_observations(frames, out=out)
+
+
+def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    if out is None:
+        return np.asarray(frames)
+    out[...] = frames
+    return out
 
 
 @eqx.filter_jit
@@ -205,7 +212,7 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
         raise ValueError("frames hold non-finite values")
     num_frames = frames.shape[0]
     key_start, key_frames = jr.split(key)
-    observe = _edge_observations if add_edges else np.asarray
+    observe = _edge_observations if add_edges else _copy_frames
     state, first = _start(tracker, key_start, jnp.asarray(observe(frames[:1])[0]))
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
     # equal chunks of at most chunk_size frames, so that little of the last one is padding
@@ -230,7 +237,7 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
 
     def stage(index: int) -> Array:
         buffer, begin, count = buffers[index % 2], begins[index], counts[index]
-        buffer[:count] = observe(frames[begin:begin + count])
+        observe(frames[begin:begin + count], out=buffer[:count])
         buffer[count:] = buffer[count - 1]  # padding repeats the last frame
         return jax.device_put(buffer)
 

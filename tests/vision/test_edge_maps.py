@@ -55,3 +55,16 @@ def test_bad_input_is_reported():
         edge_distance_maps(frame[None], blur=-1)
     with pytest.raises(ValueError, match="non-finite"):
         edge_distance_maps(np.full((1, 10, 10), np.nan, np.float32))
+    with pytest.raises(ValueError, match="out must be float32"):
+        edge_observations(frame[None], out=np.empty((1, 2, 120, 160), np.float64))
+
+
+def test_written_into_a_given_array_and_negative_grey_is_black():
+    frames = np.stack([rectangle_frame(), rectangle_frame(level=0.6)])
+    out = np.full((2, 2, 120, 160), np.nan, np.float32)
+    assert edge_observations(frames, out=out) is out
+    np.testing.assert_array_equal(out, edge_observations(frames))
+    below = frames.copy()
+    below[below < 0.5] = -0.2  # below black: clipped to 0, never folded up to +0.2
+    np.testing.assert_array_equal(edge_distance_maps(below),
+                                  edge_distance_maps(np.maximum(below, 0)))
