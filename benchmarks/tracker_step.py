@@ -66,7 +66,7 @@ def _load_average() -> float:
 def build(num_particles: int, frames: int | None = None, seed: int = 0,
           likelihood: str = "limbs"):
     """(tracker, observations) for the demo's held-out wave, ``frames`` frames of it: grey
-    frames, or grey frames with edge distance maps for ``"limbs+edges"``."""
+    frames, or grey frames with edge maps for ``"limbs+edges"``."""
     from jaxtrack import trackers
     from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
     from jaxtrack.evaluation.protocol import render_test_sequences, train_prior

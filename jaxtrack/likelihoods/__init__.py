@@ -11,6 +11,7 @@ from jaxtrack.likelihoods.appearance import (
 )
 from jaxtrack.likelihoods.edges import (
     DEFAULT_EDGE_SCALE,
+    DEFAULT_EDGE_TOLERANCE,
     DEFAULT_EDGE_WEIGHT,
     EdgeLimbTemplates,
     limb_edge_distances,
@@ -41,8 +42,9 @@ from jaxtrack.likelihoods.ncc import (
 )
 
 __all__ = [
-    "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD", "DEFAULT_LIMB_SHARPNESS",
-    "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS", "LIMB_SEGMENTS",
+    "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD",
+    "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS",
+    "LIMB_SEGMENTS",
     "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates",
     "bilinear_sample", "check_observations", "default_sharpness", "limb_edge_distances",
     "make_edge_limb_templates", "needs_edges",

@@ -9,7 +9,8 @@ runs on any of them.
 
 * ``"limbs+edges"`` (the default): the limb strips plus the distance of their borders to the
   frame's edges (:mod:`jaxtrack.likelihoods.edges`), which do not drift as limbs turn in depth.
-  Its observations are ``(2, height, width)``, the grey frame and its edge distance map;
+  Its observations are ``(3, height, width)``, the grey frame, its edge distance map and the
+  nearest edge's orientation;
   ``jaxtrack.trackers.track`` builds them from grey frames (:func:`check_observations`).
 * ``"limbs"``: strips along the body's segments (:mod:`jaxtrack.likelihoods.limbs`); grey
   frames.
@@ -46,7 +47,7 @@ def default_sharpness(likelihood: str) -> float:
 
 
 def needs_edges(likelihood: str) -> bool:
-    """Whether ``likelihood`` observes ``(2, height, width)`` frames with edge distance maps
+    """Whether ``likelihood`` observes ``(3, height, width)`` frames with edge maps
     (``jaxtrack.vision.edge_observations``) rather than ``(height, width)`` grey frames."""
     _check(likelihood)
     return likelihood == "limbs+edges"
@@ -58,7 +59,7 @@ def make_appearance_templates(
     markers_2d: Float[ArrayLike, "markers 2"],
 ) -> AppearanceTemplates:
     """The templates of ``likelihood`` cut from a reference frame at its ``(12, 2)`` markers
-    (for ``"limbs+edges"`` the frame is its ``(2, height, width)`` observation)."""
+    (for ``"limbs+edges"`` the grey frame or its ``(3, height, width)`` observation)."""
     _check(likelihood)
     if likelihood == "limbs+edges":
         return make_edge_limb_templates(image, markers_2d)
@@ -72,7 +73,7 @@ def check_observations(templates: AppearanceTemplates, shape: tuple[int, ...]) -
     edge distance maps must still be added to it.
 
     Grey frames ``(time, height, width)`` suit every likelihood; the edge-limb templates also
-    take ``(time, 2, height, width)`` grey frames with their edge distance maps
+    take ``(time, 3, height, width)`` grey frames with their edge maps
     (``jaxtrack.vision.edge_observations``). Anything else raises a ValueError.
 
     Returns:
@@ -82,9 +83,9 @@ def check_observations(templates: AppearanceTemplates, shape: tuple[int, ...]) -
     edges = isinstance(templates, EdgeLimbTemplates)
     if len(shape) == 3:
         return edges
-    if edges and len(shape) == 4 and shape[1] == 2:
+    if edges and len(shape) == 4 and shape[1] == 3:
         return False
-    expected = ("(time, height, width) grey images, or (time, 2, height, width) grey frames "
-                "with their edge distance maps (jaxtrack.vision.edge_observations)" if edges
+    expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
+                "with their edge maps (jaxtrack.vision.edge_observations)" if edges
                 else "(time, height, width) grey images")
     raise ValueError(f"frames must be {expected}, got shape {shape}")

@@ -91,7 +91,7 @@ class ParticleTracker(eqx.Module):
     @property
     def templates(self):
         """The appearance templates the model scores frames with (they say which observations
-        :func:`track` needs: grey frames, or grey frames with edge distance maps)."""
+        :func:`track` needs: grey frames, or grey frames with edge maps)."""
         return self.model.templates
 
     def estimate_markers(self, particles, log_weights) -> Float[Array, "markers 2"]:
@@ -198,9 +198,9 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
           ) -> TrackResult:
     """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on).
 
-    A tracker scored by ``"limbs+edges"`` also needs each frame's edge distance map: they are
-    computed here chunk by chunk (``jaxtrack.vision.edge_observations``, OpenCV, counted in
-    the run time), or may be given, ``frames`` being ``(time, 2, height, width)``.
+    A tracker scored by ``"limbs+edges"`` also needs each frame's edge maps: they are computed
+    here chunk by chunk (``jaxtrack.vision.edge_observations``, OpenCV, counted in the run
+    time), or may be given, ``frames`` being ``(time, 3, height, width)``.
 
     Frames after the first run in equal chunks of at most ``chunk_size`` frames through one
     compiled scan; the last chunk is padded by repeating its final frame and the padding's
@@ -231,7 +231,7 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     # would copy each chunk into freshly allocated memory, ~1–2 ms per 640 × 480 frame (page
     # faults), several times the latent tracker's step. Two buffers, so that the next chunk
     # is copied in while the current one is tracked.
-    shape, dtype = (((2, *frames.shape[1:]), np.float32) if add_edges
+    shape, dtype = (((3, *frames.shape[1:]), np.float32) if add_edges
                     else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
     buffers = [_aligned_empty((chunk_size, *shape), dtype) for _ in range(min(2, len(begins)))]
 

@@ -185,8 +185,8 @@ def latent_tracker(
     Args:
         prior: a trained GPLVM with its dynamics ν (``fit_gplvm(..., sequence_ids=...)``).
         template: the SPM template its training poses were expressed in.
-        first_frame: ``(height, width)`` grey frame 0 (or its ``(2, height, width)``
-            observation with the edge map).
+        first_frame: ``(height, width)`` grey frame 0 (or its ``(3, height, width)``
+            observation with the edge maps).
         first_markers: ``(12, 2)`` its markers (``SPM_MARKERS`` order): they give the NCC
             templates, the placement and, through μ⁻¹, the initial latent point.
         fps: the video's frame rate; ν (learned at ``prior.dynamics_fps``) is rescaled by

@@ -85,7 +85,8 @@ def test_the_edge_term_adds_to_the_strips_and_residuals_are_the_cost():
     sharpness = jnp.float32(DEFAULT_LIMB_SHARPNESS)
     strips_only = limb_ncc_log_likelihood(pose, observations[4, 0], templates.strips, sharpness)
     combined = templates.log_likelihood(pose, observations[4], sharpness)
-    unweighted = EdgeLimbTemplates(templates.strips, jnp.float32(0.0), templates.edge_scale)
+    unweighted = EdgeLimbTemplates(templates.strips, jnp.float32(0.0), templates.edge_scale,
+                                   templates.edge_tolerance)
     np.testing.assert_allclose(unweighted.log_likelihood(pose, observations[4], sharpness),
                                strips_only, rtol=1e-6)
     assert combined < strips_only  # the edge penalty is never a reward
@@ -97,6 +98,24 @@ def test_the_edge_term_adds_to_the_strips_and_residuals_are_the_cost():
     assert combined.dtype == jnp.float32
 
 
+def test_only_edges_along_the_limb_count():
+    """An outline edge turned across the limb is no longer on the limb's outline: the same
+    distances with every tangent turned by 90° cost more, unless the tolerance is 90°."""
+    observations, markers, templates = wave()
+    turned = observations[5].copy()
+    turned[2] = np.mod(turned[2] + np.pi / 2, np.pi)
+
+    def edge_penalty(templates, observation):
+        return float(templates.strips.log_likelihood(markers[5], observation[0], 4.0)
+                     - templates.log_likelihood(markers[5], observation, 4.0))
+
+    assert edge_penalty(templates, turned) > 1.5 * edge_penalty(templates, observations[5])
+    any_edge = make_edge_limb_templates(observations[0], markers[0], edge_tolerance=90.0)
+    np.testing.assert_allclose(edge_penalty(any_edge, turned),
+                               edge_penalty(any_edge, observations[5]), rtol=1e-6)
+    assert edge_penalty(any_edge, observations[5]) < edge_penalty(templates, observations[5])
+
+
 def test_chosen_by_name_and_misuse_is_reported():
     observations, markers, _ = wave()
     assert needs_edges("limbs+edges") and not needs_edges("limbs")
@@ -106,14 +125,16 @@ def test_chosen_by_name_and_misuse_is_reported():
     from_grey = make_edge_limb_templates(observations[0, 0], markers[0])
     from_observation = make_edge_limb_templates(observations[0], markers[0])
     np.testing.assert_array_equal(from_grey.strips.strips, from_observation.strips.strips)
-    with pytest.raises(ValueError, match=r"\(2, height, width\)"):
-        make_edge_limb_templates(np.stack([observations[0, 0]] * 3), markers[0])
+    with pytest.raises(ValueError, match=r"\(3, height, width\)"):
+        make_edge_limb_templates(np.stack([observations[0, 0]] * 2), markers[0])
     with pytest.raises(ValueError, match="edge_weight"):
         make_edge_limb_templates(observations[0], markers[0], edge_weight=-1.0)
     with pytest.raises(ValueError, match="edge_scale"):
         make_edge_limb_templates(observations[0], markers[0], edge_scale=0.0)
     templates = make_edge_limb_templates(observations[0], markers[0])
-    with pytest.raises(ValueError, match=r"\(2, height, width\)"):
-        templates.log_likelihood(markers[0], observations[0, 0], 4.0)
+    with pytest.raises(ValueError, match=r"\(3, height, width\)"):
+        templates.log_likelihood(markers[0], observations[0, :2], 4.0)
+    with pytest.raises(ValueError, match="edge_tolerance"):
+        make_edge_limb_templates(observations[0], markers[0], edge_tolerance=120.0)
     with pytest.raises(ValueError, match="likelihood must be one of"):
         needs_edges("edges")

@@ -193,7 +193,7 @@ def test_condensation_follows_the_first_frames(wave, make):
 def test_condensation_model_jit_matches_eager(wave, nearest):
     tracker = condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0],
                                    wave["states"], num_particles=4, nearest=nearest)
-    # the default likelihood observes the grey frame with its edge distance map
+    # the default likelihood observes the grey frame with its edge maps
     model, frame = tracker.model, jnp.asarray(edge_observations(wave["frames"][1:2])[0])
 
     def one_particle(key):

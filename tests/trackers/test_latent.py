@@ -31,7 +31,7 @@ def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
 
 def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior, sequence):
     """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
-    frames, chunk by chunk, or takes ``(time, 2, height, width)`` observations made before."""
+    frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before."""
     from jaxtrack.vision import edge_observations
 
     tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
@@ -43,7 +43,7 @@ def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior
     metrics = evaluate_track(from_grey.markers, sequence.truth, UPPER_BODY_12)
     assert np.all(np.isfinite(from_grey.log_likelihood))
     assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
-    with pytest.raises(ValueError, match="edge distance maps"):
+    with pytest.raises(ValueError, match="edge maps"):
         track(tracker, jr.PRNGKey(0), sequence.images, progress=False)
     strips = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                             num_particles=8, likelihood="limbs")

@@ -1,4 +1,4 @@
-"""Edge distance maps (Canny + distance transform) on OpenCV drawings."""
+"""Edge maps (Canny, distance transform, nearest edge's tangent) on OpenCV drawings."""
 
 import cv2
 import numpy as np
@@ -35,12 +35,18 @@ def test_uint8_and_float_frames_agree_and_a_flat_frame_has_no_edge():
     np.testing.assert_allclose(flat, np.hypot(50, 40))  # as far as any pixel can be
 
 
-def test_observations_stack_the_grey_frame_and_its_distance_map():
+def test_observations_stack_the_grey_frame_its_distance_map_and_the_nearest_edges_tangent():
     frames = np.stack([rectangle_frame(), rectangle_frame(level=0.6)])
     observations = edge_observations(frames)
-    assert observations.shape == (2, 2, 120, 160) and observations.dtype == np.float32
+    assert observations.shape == (2, 3, 120, 160) and observations.dtype == np.float32
+    tangent = observations[0, 2]
+    assert np.all((tangent >= 0) & (tangent < np.pi))
+    # left of the rectangle the nearest edge is its vertical left side; above it, its top
+    assert abs(np.cos(tangent[60, 20])) < 0.2 and abs(np.cos(tangent[60, 45])) < 0.2
+    assert abs(np.sin(tangent[10, 80])) < 0.2 and abs(np.sin(tangent[35, 80])) < 0.2
     np.testing.assert_array_equal(observations[:, 0], frames)
-    np.testing.assert_array_equal(observations[:, 1], edge_distance_maps(frames))
+    # the labelled transform rounds differently in the last digits
+    np.testing.assert_allclose(observations[:, 1], edge_distance_maps(frames), rtol=1e-4)
     from_uint8 = edge_observations(np.rint(frames * 255).astype(np.uint8))
     np.testing.assert_allclose(from_uint8[:, 0], frames, atol=0.5 / 255)
 
@@ -56,12 +62,12 @@ def test_bad_input_is_reported():
     with pytest.raises(ValueError, match="non-finite"):
         edge_distance_maps(np.full((1, 10, 10), np.nan, np.float32))
     with pytest.raises(ValueError, match="out must be float32"):
-        edge_observations(frame[None], out=np.empty((1, 2, 120, 160), np.float64))
+        edge_observations(frame[None], out=np.empty((1, 3, 120, 160), np.float64))
 
 
 def test_written_into_a_given_array_and_negative_grey_is_black():
     frames = np.stack([rectangle_frame(), rectangle_frame(level=0.6)])
-    out = np.full((2, 2, 120, 160), np.nan, np.float32)
+    out = np.full((2, 3, 120, 160), np.nan, np.float32)
     assert edge_observations(frames, out=out) is out
     np.testing.assert_array_equal(out, edge_observations(frames))
     below = frames.copy()
