@@ -26,6 +26,11 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     track()     ``TrackResult.seconds_per_frame`` of ``track`` itself on the whole held-out
                 clip (137 frames after frame 0, chunks of at most 64; host copies of the
                 frames included), median of a few calls
+    edge maps   (``limbs+edges``) ``vision.edge_observations`` per frame: Canny, the labelled
+                distance transform and the edges' tangents (OpenCV, host)
+    track() from grey
+                (``limbs+edges``) ``track`` given grey frames, building the edge maps chunk by
+                chunk itself: what ``jaxtrack evaluate`` and ``jaxtrack track`` pay per frame
 
 Wall times on this shared machine move with other jobs: the load average is printed, and CPU
 seconds (all threads of the process) are reported beside the wall times.
@@ -84,7 +89,7 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     tracker = trackers.latent_tracker(prior.model, prior.template, observations[0],
                                       sequence.truth[0], num_particles=num_particles,
                                       fps=sequence.fps, likelihood=likelihood)
-    return tracker, observations
+    return tracker, observations, np.asarray(sequence.frames, np.float32)
 
 
 def _tracked_state(tracker, frames, steps: int = 8):
@@ -125,8 +130,9 @@ def _scan_timing(tracker, state, frames, repeats: int) -> dict:
             "cpu_ms": 1e3 * statistics.median(cpu_times) / CHUNK}
 
 
-def components(tracker, frames, repeats: int) -> dict[str, dict]:
-    """Compile and time each component on the same tracked state; ``{name: timings}``."""
+def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
+    """Compile and time each component on the same tracked state; ``{name: timings}``.
+    ``grey``: the grey frames, when ``frames`` are observations built from them."""
     from jaxtrack.trackers import track
 
     model = tracker.latent_model
@@ -208,6 +214,21 @@ def components(tracker, frames, repeats: int) -> dict[str, dict]:
     rows["track()"] = {"compile_s": results[0].compile_seconds,
                        "ms": 1e3 * statistics.median(r.seconds_per_frame for r in results[1:]),
                        "cpu_ms": None}
+    if grey is not None and grey.shape != frames.shape:
+        from jaxtrack.vision import edge_observations
+
+        times = []
+        for _ in range(TRACK_CALLS):
+            tick = time.perf_counter()
+            edge_observations(grey)
+            times.append((time.perf_counter() - tick) / len(grey))
+        rows["edge maps"] = {"compile_s": None, "ms": 1e3 * statistics.median(times),
+                             "cpu_ms": None}
+        results = [track(tracker, jr.PRNGKey(seed), grey, chunk_size=CHUNK, progress=False)
+                   for seed in range(TRACK_CALLS)]
+        rows["track() from grey"] = {
+            "compile_s": None, "cpu_ms": None,
+            "ms": 1e3 * statistics.median(r.seconds_per_frame for r in results)}
     return rows
 
 
@@ -227,12 +248,12 @@ def main() -> None:
     frames_needed = None  # the whole clip (138 frames at 30 fps)
     results = {}
     for likelihood, num_particles in itertools.product(args.likelihood, args.particles):
-        tracker, frames = build(num_particles, frames_needed, likelihood=likelihood)
+        tracker, frames, grey = build(num_particles, frames_needed, likelihood=likelihood)
         load_before = _load_average()
-        rows = components(tracker, frames, args.repeats)
+        rows = components(tracker, frames, args.repeats, grey)
         load_after = _load_average()
-        print(f"\nlatent tracker, {likelihood}, {num_particles} particles, {frames.shape[2]}x"
-              f"{frames.shape[1]} frames (load average {load_before:.2f} → {load_after:.2f})")
+        print(f"\nlatent tracker, {likelihood}, {num_particles} particles, {grey.shape[2]}x"
+              f"{grey.shape[1]} frames (load average {load_before:.2f} → {load_after:.2f})")
         table = [{"component": name, **row} for name, row in rows.items()]
         print_table(table, [("component", "component", "s"), ("ms", "wall ms", ".3f"),
                             ("cpu_ms", "cpu ms", ".3f"), ("compile_s", "compile s", ".2f")])
