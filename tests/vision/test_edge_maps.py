@@ -65,11 +65,14 @@ def test_bad_input_is_reported():
         edge_observations(frame[None], out=np.empty((1, 3, 120, 160), np.float64))
 
 
-def test_written_into_a_given_array_and_negative_grey_is_black():
-    frames = np.stack([rectangle_frame(), rectangle_frame(level=0.6)])
-    out = np.full((2, 3, 120, 160), np.nan, np.float32)
-    assert edge_observations(frames, out=out) is out
-    np.testing.assert_array_equal(out, edge_observations(frames))
+def test_written_into_a_given_array_by_any_number_of_threads_and_negative_grey_is_black():
+    frames = np.stack([rectangle_frame(), rectangle_frame(level=0.6), rectangle_frame(level=0.4)])
+    out = np.full((3, 3, 120, 160), np.nan, np.float32)
+    assert edge_observations(frames, out=out, workers=2) is out
+    np.testing.assert_array_equal(out, edge_observations(frames, workers=1))
+    with pytest.raises(ValueError, match="workers"):
+        edge_distance_maps(frames, workers=0)
+    frames = frames[:2]
     below = frames.copy()
     below[below < 0.5] = -0.2  # below black: clipped to 0, never folded up to +0.2
     np.testing.assert_array_equal(edge_distance_maps(below),
