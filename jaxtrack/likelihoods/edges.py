@@ -53,9 +53,10 @@ __all__ = ["DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT"
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
-Chosen with the strips' λ = 4 on the held-out wave of the protocol's 4 sequences × 3 seeds and
-checked on a take the protocol does not use (Bandai both-hands wave, 4 sequences × 2 seeds):
-κ = 0.5, 1, 2 gave 19.8, 19.1, 24.8 % of the torso there (21.7 % without edges)."""
+Chosen, with edges of any orientation, with the strips' λ = 4 on the held-out wave of the
+protocol's 4 sequences × 3 seeds and checked on a take the protocol does not use (Bandai
+both-hands wave, 4 sequences × 2 seeds): κ = 0.5, 1, 2 gave 19.8, 19.1, 24.8 % of the torso
+there (21.7 % without edges). Kept unchanged for the oriented term."""
 
 DEFAULT_EDGE_SCALE = 0.025
 """σ as a fraction of the spine (neck–pelvis) length: ~3 px for a 130-px spine."""
