@@ -163,6 +163,17 @@ def _aligned_empty(shape: tuple[int, ...], dtype, alignment: int = 64) -> np.nda
     return raw[offset:offset + size].view(dtype).reshape(shape)
 
 
+CHUNK_BYTES = 256 * 2**20
+"""The most bytes of observations one of :func:`track`'s two chunk buffers holds: 64 grey or
+edge-map frames at 640 × 480 fit (3.7 MB each with edge maps), 960 × 544 edge maps take 40."""
+
+
+def _frames_per_chunk(chunk_size: int, frame_shape: tuple[int, ...], dtype) -> int:
+    """``chunk_size`` capped so that a chunk of frames of ``frame_shape`` fits CHUNK_BYTES."""
+    frame_bytes = math.prod(frame_shape) * np.dtype(dtype).itemsize
+    return max(1, min(int(chunk_size), CHUNK_BYTES // max(frame_bytes, 1)))
+
+
 def _edge_observations(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     from jaxtrack.vision import edge_observations
 
@@ -202,9 +213,10 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     here chunk by chunk (``jaxtrack.vision.edge_observations``, OpenCV, counted in the run
     time), or may be given, ``frames`` being ``(time, 3, height, width)``.
 
-    Frames after the first run in equal chunks of at most ``chunk_size`` frames through one
-    compiled scan; the last chunk is padded by repeating its final frame and the padding's
-    output is dropped.
+    Frames after the first run in equal chunks of at most ``chunk_size`` frames (fewer for
+    frames so large that a chunk would pass :data:`CHUNK_BYTES`) through one compiled scan;
+    the last chunk is padded by repeating its final frame and the padding's output is dropped.
+    The result does not depend on the chunk size.
     """
     frames = np.asarray(frames)
     add_edges = check_observations(tracker.templates, frames.shape)
@@ -215,6 +227,9 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     observe = _edge_observations if add_edges else _copy_frames
     state, first = _start(tracker, key_start, jnp.asarray(observe(frames[:1])[0]))
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
+    shape, dtype = (((3, *frames.shape[1:]), np.float32) if add_edges
+                    else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
+    chunk_size = _frames_per_chunk(chunk_size, shape, dtype)
     # equal chunks of at most chunk_size frames, so that little of the last one is padding
     num_chunks = max(1, math.ceil((num_frames - 1) / max(1, chunk_size)))
     chunk_size = max(1, math.ceil((num_frames - 1) / num_chunks))
@@ -231,8 +246,6 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     # would copy each chunk into freshly allocated memory, ~1–2 ms per 640 × 480 frame (page
     # faults), several times the latent tracker's step. Two buffers, so that the next chunk
     # is copied in while the current one is tracked.
-    shape, dtype = (((3, *frames.shape[1:]), np.float32) if add_edges
-                    else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
     buffers = [_aligned_empty((chunk_size, *shape), dtype) for _ in range(min(2, len(begins)))]
 
     def stage(index: int) -> Array:

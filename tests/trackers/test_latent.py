@@ -154,3 +154,13 @@ def test_jumps_redraw_a_fraction_of_particles_at_training_latents(prior, sequenc
     with pytest.raises(ValueError, match="mode_radius"):
         latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                        mode_radius=0.0)
+
+
+def test_chunks_are_capped_by_bytes_not_only_by_frame_count():
+    from jaxtrack.trackers._runner import CHUNK_BYTES, _frames_per_chunk
+
+    assert _frames_per_chunk(64, (3, 480, 640), np.float32) == 64
+    per_frame = 3 * 544 * 960 * 4
+    assert _frames_per_chunk(64, (3, 544, 960), np.float32) == CHUNK_BYTES // per_frame < 64
+    assert _frames_per_chunk(64, (3, 20_000, 20_000), np.float32) == 1  # never below one
+    assert _frames_per_chunk(8, (240, 320), np.float32) == 8
