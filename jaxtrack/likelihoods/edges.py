@@ -48,8 +48,7 @@ from jaxtrack.likelihoods.limbs import (
 from jaxtrack.likelihoods.ncc import _float_dtype, bilinear_sample
 
 __all__ = ["DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT",
-           "EdgeLimbTemplates",
-           "limb_edge_distances", "make_edge_limb_templates"]
+           "EdgeLimbTemplates", "limb_edge_distances", "make_edge_limb_templates"]
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
