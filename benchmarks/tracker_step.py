@@ -82,8 +82,8 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
                         progress=False)
     sequence = render_test_sequences(HELD_OUT_CLIP, views=1, backgrounds=("photo",),
                                      max_frames=frames, seed=seed)[0]
-    # the compiled scan is timed on observations made beforehand (edge maps: OpenCV, ~2.5 ms
-    # per frame, are preprocessing that track() does on the host)
+    # the compiled scan is timed on observations made beforehand (edge maps are OpenCV
+    # preprocessing that track() does on the host; the "edge maps" row times them)
     observations = (edge_observations(sequence.frames) if needs_edges(likelihood)
                     else np.asarray(sequence.frames, np.float32))
     tracker = trackers.latent_tracker(prior.model, prior.template, observations[0],

@@ -55,7 +55,7 @@ def needs_edges(likelihood: str) -> bool:
 
 def make_appearance_templates(
     likelihood: str,
-    image: Float[ArrayLike, "height width"] | Float[ArrayLike, "2 height width"],
+    image: Float[ArrayLike, "height width"] | Float[ArrayLike, "3 height width"],
     markers_2d: Float[ArrayLike, "markers 2"],
 ) -> AppearanceTemplates:
     """The templates of ``likelihood`` cut from a reference frame at its ``(12, 2)`` markers
