@@ -39,13 +39,21 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from jaxtrack.likelihoods.limbs import (
+    _ENDS,
+    _STARTS,
     DEFAULT_STRIP_WIDTH,
-    LIMB_SEGMENTS,
     LimbTemplates,
-    _point_coordinates,
+    _nearest_pixels,
+    _read_strips,
+    _strip_points,
     make_limb_templates,
 )
-from jaxtrack.likelihoods.ncc import _float_dtype, bilinear_sample
+from jaxtrack.likelihoods.ncc import (
+    _correlation,
+    _float_dtype,
+    _template_residuals,
+    bilinear_sample,
+)
 
 __all__ = ["DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT",
            "EdgeLimbTemplates", "limb_edge_distances", "make_edge_limb_templates"]
@@ -79,22 +87,17 @@ def _check_observation(observation: Array) -> Array:
     return observation
 
 
-def _border_points(markers: Array, along: int, width) -> tuple[Array, Array, Array]:
-    """x, y of each strip's two long borders without their end points, ``(segments, n)``,
-    and each strip's axis direction, ``(segments,)`` radians."""
-    x, y = _point_coordinates(markers, along, 2, width)
-    shape = (len(LIMB_SEGMENTS), along, 2)
-    x, y = x.reshape(shape), y.reshape(shape)
-    axis = jnp.arctan2(y[:, -1, 0] - y[:, 0, 0], x[:, -1, 0] - x[:, 0, 0])
-    return (x[:, 1:-1].reshape(len(LIMB_SEGMENTS), -1),
-            y[:, 1:-1].reshape(len(LIMB_SEGMENTS), -1), axis)
+def _borders(values: Array) -> Array:
+    """Per-point values of the strips, ``(segments, along, across)``, on their two long borders
+    (the first and last point across) without the end points along: ``(segments, 2 (along −
+    2))``."""
+    return values[:, 1:-1, :: values.shape[2] - 1].reshape(values.shape[0], -1)
 
 
-def _nearest_pixels(x: Array, y: Array, height: int, width: int) -> Array:
-    """Flat index of the pixel nearest each point, clamped to the image."""
-    column = jnp.clip(jnp.floor(x + 0.5), 0, width - 1).astype(jnp.int32)
-    row = jnp.clip(jnp.floor(y + 0.5), 0, height - 1).astype(jnp.int32)
-    return row * width + column
+def _axis_angles(markers: Array) -> Array:
+    """Direction of each strip's axis (start to end marker), ``(segments,)`` radians."""
+    axis = markers[jnp.asarray(_ENDS)] - markers[jnp.asarray(_STARTS)]
+    return jnp.arctan2(axis[:, 1], axis[:, 0])
 
 
 def limb_edge_distances(
@@ -109,12 +112,8 @@ def limb_edge_distances(
     markers = jnp.asarray(markers_2d)
     distance_map = jnp.asarray(distance_map)
     dtype = _float_dtype(distance_map, markers)
-    x, y, _ = _border_points(markers.astype(dtype), along, width)
-    distance_map = distance_map.astype(dtype)
-    if not nearest:
-        return bilinear_sample(distance_map, x, y)
-    return jnp.take(distance_map.reshape(-1), _nearest_pixels(x, y, *distance_map.shape),
-                    mode="clip")
+    x, y = _strip_points(markers.astype(dtype), along, 2, width)
+    return _read_strips(distance_map.astype(dtype), _borders(x), _borders(y), nearest)[0]
 
 
 class EdgeLimbTemplates(eqx.Module):
@@ -134,43 +133,61 @@ class EdgeLimbTemplates(eqx.Module):
     edge_scale: Float[Array, ""]
     edge_tolerance: Float[Array, ""]
 
-    def _scaled_distances(self, markers_2d, observation, nearest: bool) -> Array:
-        """``e_i``: ``min(d/σ, 2)`` where the nearest edge runs along the strip, else 2.
-        Distances are read bilinearly unless ``nearest``; orientations always at the nearest
-        pixel (angles do not interpolate)."""
+    def _read(self, markers_2d, observation, nearest: bool) -> tuple[Array, Array]:
+        """The strips' samples ``(segments, along, across)`` and ``e_i`` of their border points
+        ``(segments, points)``: ``min(d/σ, 2)`` where the nearest edge runs along the strip,
+        else 2.
+
+        The border points are the strips' own first and last points across, so one set of
+        sample points (and, with ``nearest``, one set of pixel indices into the flattened
+        observation, offset by a channel for the maps) serves both terms. Samples and distances
+        are read bilinearly unless ``nearest``; orientations always at the nearest pixel
+        (angles do not interpolate).
+        """
         observation = _check_observation(observation)
         markers = jnp.asarray(markers_2d)
         dtype = _float_dtype(observation, markers)
         markers, observation = markers.astype(dtype), observation.astype(dtype)
-        x, y, axis = _border_points(markers, self.strips.along, self.strips.width)
-        pixels = _nearest_pixels(x, y, *observation.shape[1:])
-        distance_map, tangent_map = observation[1], observation[2]
+        strips = self.strips
+        x, y = _strip_points(markers, strips.along, strips.across, strips.width)
+        height, width = observation.shape[1:]
         if nearest:
-            distances = jnp.take(distance_map.reshape(-1), pixels, mode="clip")
+            flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
+            pixels = _nearest_pixels(x, y, height, width)
+            samples = jnp.take(flat, pixels, mode="clip")
+            border = _borders(pixels)
+            distances = jnp.take(flat, border + height * width, mode="clip")
         else:
-            distances = bilinear_sample(distance_map, x, y)
-        tangents = jnp.take(tangent_map.reshape(-1), pixels, mode="clip")
-        along_limb = (jnp.abs(jnp.sin(tangents - axis[:, None]))
-                      <= jnp.sin(jnp.deg2rad(self.edge_tolerance.astype(dtype))) + 1e-6)
+            samples = bilinear_sample(observation[0], x, y)
+            border_x, border_y = _borders(x), _borders(y)
+            flat = observation.reshape(-1)
+            border = _nearest_pixels(border_x, border_y, height, width)
+            distances = bilinear_sample(observation[1], border_x, border_y)
+        tangents = jnp.take(flat, border + 2 * height * width, mode="clip")
+        # |sin(φ − θ)| ≤ sin(tolerance), as the angle between the two lines (mod π) within the
+        # tolerance of 0 or of π: no sine per point
+        difference = tangents - _axis_angles(markers)[:, None]
+        difference = difference - jnp.pi * jnp.floor(difference / jnp.pi)  # [0, π)
+        tolerance = jnp.deg2rad(self.edge_tolerance.astype(dtype)) + 1e-6
+        along_limb = (difference <= tolerance) | (difference >= jnp.pi - tolerance)
         spine = jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
         sigma = jnp.maximum(self.edge_scale.astype(dtype) * spine, 1e-3)
-        return jnp.where(along_limb, jnp.minimum(distances / sigma, 2.0), 2.0)
+        return samples, jnp.where(along_limb, jnp.minimum(distances / sigma, 2.0), 2.0)
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
         """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i²`` for one pose."""
-        observation = _check_observation(observation)
-        appearance = self.strips.log_likelihood(markers_2d, observation[0], sharpness, nearest)
-        scaled = self._scaled_distances(markers_2d, observation, nearest)
+        samples, scaled = self._read(markers_2d, observation, nearest)
+        scores = _correlation(samples, self.strips.strips)
+        appearance = -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
         edges = jnp.sum(jnp.mean(scaled**2, axis=-1))
         return appearance - self.edge_weight.astype(appearance.dtype) * edges
 
     def residuals(self, markers_2d, observation, sharpness) -> Array:
-        """The strips' residuals, then ``√(2κ / n) e_i`` per border point (bilinear distances):
-        half the squared norm is the negative log-likelihood."""
-        observation = _check_observation(observation)
-        appearance = self.strips.residuals(markers_2d, observation[0], sharpness)
-        scaled = self._scaled_distances(markers_2d, observation, nearest=False)
+        """The strips' residuals, then ``√(2κ / n) e_i`` per border point (bilinear samples
+        and distances): half the squared norm is the negative log-likelihood."""
+        samples, scaled = self._read(markers_2d, observation, nearest=False)
+        appearance = _template_residuals(samples, self.strips.strips, sharpness)
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
         return jnp.concatenate([appearance, (weight * scaled).reshape(-1)])
 

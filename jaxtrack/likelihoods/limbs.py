@@ -160,25 +160,46 @@ def _point_coordinates(markers: Array, along: int, across: int, width) -> Array:
     return coefficients @ jnp.asarray(_point_matrix(along, across, jnp.dtype(dtype).name))
 
 
-def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool
-            ) -> Array:
+def _nearest_pixels(x: Array, y: Array, height: int, width: int) -> Array:
+    """Flat index of the pixel nearest each point, clamped to the image."""
+    # clamp in floating point so that far-off points cannot overflow the int32 conversion
+    column = jnp.clip(jnp.floor(x + 0.5), 0, width - 1).astype(jnp.int32)
+    row = jnp.clip(jnp.floor(y + 0.5), 0, height - 1).astype(jnp.int32)
+    return row * width + column
+
+
+def _read_strips(image: Array, x: Array, y: Array, nearest: bool) -> tuple[Array, Array | None]:
+    """``image`` at the strip points ``x, y`` (any matching shapes) and, when ``nearest``, the
+    flat pixel indices it read (callers read other maps of the same size there)."""
+    if not nearest:
+        return bilinear_sample(image, x, y), None
+    pixels = _nearest_pixels(x, y, *image.shape)
+    # (XLA on CPU runs a clipping take ~10 % faster here than a "promise_in_bounds" gather)
+    return jnp.take(image.reshape(-1), pixels, mode="clip"), pixels
+
+
+def _check_image(image: Array) -> Array:
     image = jnp.asarray(image)
     if image.ndim != 2:
         raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
                          f"convert colour frames with jaxtrack.vision.to_grey")
+    return image
+
+
+def _strip_points(markers: Array, along: int, across: int, width) -> tuple[Array, Array]:
+    """x and y of :func:`limb_points`, each ``(segments, along, across)``."""
+    x, y = _point_coordinates(markers, along, across, width)
+    shape = (len(LIMB_SEGMENTS), along, across)
+    return x.reshape(shape), y.reshape(shape)
+
+
+def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool
+            ) -> Array:
+    image = _check_image(image)
     markers = jnp.asarray(markers)
     dtype = _float_dtype(image, markers)
-    x, y = _point_coordinates(markers.astype(dtype), along, across, width)  # (points,) each
-    image = image.astype(dtype)
-    shape = (len(LIMB_SEGMENTS), along, across)
-    if not nearest:
-        return bilinear_sample(image, x, y).reshape(shape)
-    height, width_px = image.shape
-    # clamp in floating point so that far-off points cannot overflow the int32 conversion
-    column = jnp.clip(jnp.floor(x + 0.5), 0, width_px - 1).astype(jnp.int32)
-    row = jnp.clip(jnp.floor(y + 0.5), 0, height - 1).astype(jnp.int32)
-    # (XLA on CPU runs a clipping take ~10 % faster here than a "promise_in_bounds" gather)
-    return jnp.take(image.reshape(-1), row * width_px + column, mode="clip").reshape(shape)
+    x, y = _strip_points(markers.astype(dtype), along, across, width)
+    return _read_strips(image.astype(dtype), x, y, nearest)[0]
 
 
 class LimbTemplates(eqx.Module):

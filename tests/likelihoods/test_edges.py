@@ -15,6 +15,7 @@ from jaxtrack.likelihoods import (
     EdgeLimbTemplates,
     limb_edge_distances,
     limb_ncc_log_likelihood,
+    limb_points,
     make_appearance_templates,
     make_edge_limb_templates,
     needs_edges,
@@ -82,6 +83,33 @@ def test_the_edge_term_adds_to_the_strips_and_residuals_are_the_cost():
     bilinear = templates.log_likelihood(pose, observations[4], sharpness, nearest=False)
     np.testing.assert_allclose(0.5 * jnp.sum(residuals**2), -bilinear, rtol=1e-4)
     assert combined.dtype == jnp.float32
+
+
+@pytest.mark.parametrize("tolerance", [30.0, 45.0])
+def test_edge_term_is_the_documented_formula_written_out_with_numpy(tolerance):
+    """−κ Σ_s mean_i e_i², e_i = min(d_i/σ, 2) where |sin(φ_i − θ_s)| ≤ sin(tolerance), else 2,
+    over each strip's two long borders without their ends: from the strip points, the distance
+    map and the tangent map read at the nearest pixels, for the true and for wrong poses."""
+    observations, markers, _ = wave()
+    observation = observations[6]
+    templates = make_edge_limb_templates(observations[0], markers[0], edge_tolerance=tolerance)
+    height, width = observation.shape[1:]
+    for pose in [markers[6], *wrong_poses(markers[6])[::3]]:
+        points = np.asarray(limb_points(pose), np.float64)  # (segments, along, across, 2)
+        borders = points[:, 1:-1, [0, -1]].reshape(len(LIMB_SEGMENTS), -1, 2)
+        column = np.clip(np.floor(borders[..., 0] + 0.5), 0, width - 1).astype(int)
+        row = np.clip(np.floor(borders[..., 1] + 0.5), 0, height - 1).astype(int)
+        distances, tangents = observation[1][row, column], observation[2][row, column]
+        axis = points[:, -1, 0] - points[:, 0, 0]
+        theta = np.arctan2(axis[:, 1], axis[:, 0])[:, None]
+        spine = np.linalg.norm(np.asarray(pose[3], np.float64) - np.asarray(pose[1]))
+        scaled = np.minimum(distances / (float(templates.edge_scale) * spine), 2.0)
+        along = np.abs(np.sin(tangents - theta)) <= np.sin(np.deg2rad(tolerance)) + 1e-6
+        expected = -float(templates.edge_weight) * np.sum(np.mean(
+            np.where(along, scaled, 2.0) ** 2, axis=-1))
+        strips = limb_ncc_log_likelihood(pose, observation[0], templates.strips, 4.0)
+        combined = templates.log_likelihood(pose, observation, 4.0)
+        np.testing.assert_allclose(float(combined - strips), expected, rtol=1e-4, atol=1e-4)
 
 
 def test_only_edges_along_the_limb_count():
