@@ -24,8 +24,8 @@ the form of eq. 7 with one term per strip. The half width is a fixed fraction of
 to pelvis) of the pose being scored, so the strips scale with the body. One pose reads
 ``segments × along × across`` pixels (9 × 12 × 7 = 756 by default, fewer than the 12 × 13² =
 2 028 of the marker patches), with gathers only; scattered single-pixel gathers cost more per
-pixel than the patches' contiguous rows, so the likelihood of 200 poses takes ~1.2 ms on this
-2-core CPU against ~0.4 ms for the marker patches.
+pixel than the patches' contiguous rows, so the strips cost the more per frame
+(``python -m benchmarks.tracker_step`` times both).
 
 The renderer used for evaluation paints its clothes texture in screen space (it does not move
 with the body), which is part of why marker patches fail on rendered frames; the strips rely on

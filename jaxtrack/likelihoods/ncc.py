@@ -270,9 +270,9 @@ def _correlation(samples: Array, templates: Array) -> Array:
     """NCC of each sample block (last two axes) with its zero-mean, unit-norm template.
 
     ``Σ (s − s̄) t̂ / |s − s̄|``, 0 for a flat block, as :func:`_normalise` then a dot product,
-    but without materialising the normalised blocks: XLA on CPU runs each pass over the
-    particles' samples as its own loop, and this needs the mean, then one pass for the energy
-    and the dot product (limb strips of 200 particles: ~0.1 ms less than normalising first).
+    but without materialising the centred and normalised blocks: XLA on CPU runs each pass
+    over the particles' samples as a loop of its own, and this makes one for the mean and
+    reads the samples once more for the energy and the dot product.
     A block is flat when its energy is within the rounding residue of its magnitude, judged
     with ``|s̄| + |s − s̄|`` ≥ max |s| in place of :func:`_normalise`'s max |s|.
     """
