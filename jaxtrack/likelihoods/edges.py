@@ -113,7 +113,7 @@ def limb_edge_distances(
     distance_map = jnp.asarray(distance_map)
     dtype = _float_dtype(distance_map, markers)
     x, y = _strip_points(markers.astype(dtype), along, 2, width)
-    return _read_strips(distance_map.astype(dtype), _borders(x), _borders(y), nearest)[0]
+    return _read_strips(distance_map.astype(dtype), _borders(x), _borders(y), nearest)
 
 
 class EdgeLimbTemplates(eqx.Module):
@@ -151,8 +151,8 @@ class EdgeLimbTemplates(eqx.Module):
         strips = self.strips
         x, y = _strip_points(markers, strips.along, strips.across, strips.width)
         height, width = observation.shape[1:]
+        flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
         if nearest:
-            flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
             pixels = _nearest_pixels(x, y, height, width)
             samples = jnp.take(flat, pixels, mode="clip")
             border = _borders(pixels)
@@ -160,7 +160,6 @@ class EdgeLimbTemplates(eqx.Module):
         else:
             samples = bilinear_sample(observation[0], x, y)
             border_x, border_y = _borders(x), _borders(y)
-            flat = observation.reshape(-1)
             border = _nearest_pixels(border_x, border_y, height, width)
             distances = bilinear_sample(observation[1], border_x, border_y)
         tangents = jnp.take(flat, border + 2 * height * width, mode="clip")

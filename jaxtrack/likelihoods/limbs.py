@@ -168,22 +168,13 @@ def _nearest_pixels(x: Array, y: Array, height: int, width: int) -> Array:
     return row * width + column
 
 
-def _read_strips(image: Array, x: Array, y: Array, nearest: bool) -> tuple[Array, Array | None]:
-    """``image`` at the strip points ``x, y`` (any matching shapes) and, when ``nearest``, the
-    flat pixel indices it read (callers read other maps of the same size there)."""
+def _read_strips(image: Array, x: Array, y: Array, nearest: bool) -> Array:
+    """``image`` at the strip points ``x, y`` (any matching shapes): the nearest pixel or
+    bilinearly."""
     if not nearest:
-        return bilinear_sample(image, x, y), None
-    pixels = _nearest_pixels(x, y, *image.shape)
+        return bilinear_sample(image, x, y)
     # (XLA on CPU runs a clipping take ~10 % faster here than a "promise_in_bounds" gather)
-    return jnp.take(image.reshape(-1), pixels, mode="clip"), pixels
-
-
-def _check_image(image: Array) -> Array:
-    image = jnp.asarray(image)
-    if image.ndim != 2:
-        raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
-                         f"convert colour frames with jaxtrack.vision.to_grey")
-    return image
+    return jnp.take(image.reshape(-1), _nearest_pixels(x, y, *image.shape), mode="clip")
 
 
 def _strip_points(markers: Array, along: int, across: int, width) -> tuple[Array, Array]:
@@ -195,11 +186,14 @@ def _strip_points(markers: Array, along: int, across: int, width) -> tuple[Array
 
 def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool
             ) -> Array:
-    image = _check_image(image)
+    image = jnp.asarray(image)
+    if image.ndim != 2:
+        raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
+                         f"convert colour frames with jaxtrack.vision.to_grey")
     markers = jnp.asarray(markers)
     dtype = _float_dtype(image, markers)
     x, y = _strip_points(markers.astype(dtype), along, across, width)
-    return _read_strips(image.astype(dtype), x, y, nearest)[0]
+    return _read_strips(image.astype(dtype), x, y, nearest)
 
 
 class LimbTemplates(eqx.Module):
