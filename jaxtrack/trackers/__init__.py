@@ -14,11 +14,11 @@ from jaxtrack.trackers.condensation import (
     random_walk_dynamics,
     random_walk_tracker,
 )
-from jaxtrack.trackers.latent import LatentModel, LatentTracker, latent_tracker
+from jaxtrack.trackers.latent import LatentModel, LatentState, LatentTracker, latent_tracker
 from jaxtrack.trackers.mht import MHTState, MHTTracker, mht_tracker, refine_pose
 
-__all__ = ["FrameEstimate", "LatentModel", "LatentTracker", "ParticleTracker", "TrackResult",
-           "latent_tracker", "track"]
+__all__ = ["FrameEstimate", "LatentModel", "LatentState", "LatentTracker", "ParticleTracker",
+           "TrackResult", "latent_tracker", "track"]
 __all__ += ["AR2Dynamics", "CondensationModel", "CondensationTracker", "MHTState", "MHTTracker",
             "condensation_tracker", "fit_ar2", "mht_tracker", "random_walk_dynamics",
             "random_walk_tracker", "refine_pose"]
