@@ -18,11 +18,15 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     step        one whole ``smc.step`` (select, propagate, decode, measure)
     estimate    the tracker's per-frame estimate (μ of the local mode's mean latent, best
                 particle)
-    update      ``step`` + ``estimate``: one frame of the tracker
+    refine      the full-state refinement of the reported pose (two candidates, Gauss–Newton,
+                ``refine_steps`` = 10)
+    update      ``step`` + ``estimate`` + ``refine``: one frame of the tracker
     track       the per-frame cost inside ``track``'s compiled scan of 64-frame chunks
+    track, paper's estimate
+                the same scan with ``refine_steps = 0`` (the particle filter alone)
     track, no image
-                the same scan with a stand-in likelihood that reads no pixel: the engine's
-                own cost, below which no likelihood can bring the tracker
+                the paper's-estimate scan with a stand-in likelihood that reads no pixel: the
+                engine's own cost, below which no likelihood can bring the tracker
     track()     ``TrackResult.seconds_per_frame`` of ``track`` itself on the whole held-out
                 clip (137 frames after frame 0, chunks of at most 64; host copies of the
                 frames included), median of a few calls
@@ -42,6 +46,7 @@ seconds (all threads of the process) are reported beside the wall times.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import os
 import statistics
@@ -93,7 +98,7 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
 
 
 def _tracked_state(tracker, frames, steps: int = 8):
-    """The filter state after ``steps`` tracked frames (a realistic, spread particle cloud)."""
+    """The tracker state after ``steps`` tracked frames (a realistic, spread particle cloud)."""
     from jaxtrack.trackers._runner import _chunk, _start
 
     key_start, key_frames = jr.split(jr.PRNGKey(1))
@@ -136,7 +141,9 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
     from jaxtrack.trackers import track
 
     model = tracker.latent_model
-    state = _tracked_state(tracker, frames)
+    paper = dataclasses.replace(tracker, refine_steps=0)
+    tracker_state = _tracked_state(tracker, frames)
+    state = tracker_state.filter
     particles, log_weights = state.particles, state.log_weights
     frame = jnp.asarray(frames[9])
     key = jr.PRNGKey(2)
@@ -179,10 +186,14 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
     def estimate(state, info):
         return tracker._estimate(state, info)
 
+    def refine(carried, filtered, estimate, frame):
+        return tracker._refined(carried, filtered, estimate, frame)
+
     def update(key, state, frame):
         return tracker.update(key, state, frame)
 
-    _, info = jax.jit(lambda *arguments: step(*arguments))(key, state, frame)
+    filtered, info = jax.jit(lambda *arguments: step(*arguments))(key, state, frame)
+    frame_estimate = jax.jit(estimate)(filtered, info)
     cases = {
         "propagate": (propagate, key, particles),
         "mu": (mean, latents),
@@ -194,18 +205,20 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
         "resample": (resample, key, log_weights),
         "step": (step, key, state, frame),
         "estimate": (estimate, state, info),
-        "update": (update, key, state, frame),
+        "refine": (refine, tracker_state.pose, filtered, frame_estimate, frame),
+        "update": (update, key, tracker_state, frame),
     }
     rows = {}
     for name, (function, *arguments) in cases.items():
         compile_s, wall_s, cpu_s, _ = time_compiled(function, *arguments, repeats=repeats)
         rows[name] = {"compile_s": compile_s, "ms": 1e3 * wall_s, "cpu_ms": 1e3 * cpu_s}
 
-    rows["track"] = _scan_timing(tracker, state, frames, repeats)
+    rows["track"] = _scan_timing(tracker, tracker_state, frames, repeats)
+    rows["track, paper's estimate"] = _scan_timing(paper, tracker_state, frames, repeats)
     # the same scan with a likelihood that reads no pixel: what is left is the engine's own
     # cost (draws, μ, decoding, resampling, estimate), the floor of any likelihood's ms/frame
-    blind = eqx.tree_at(lambda t: t.latent_model.templates, tracker, _NoImage())
-    rows["track, no image"] = _scan_timing(blind, state, frames, repeats)
+    blind = eqx.tree_at(lambda t: t.latent_model.templates, paper, _NoImage())
+    rows["track, no image"] = _scan_timing(blind, tracker_state, frames, repeats)
 
     # the whole clip through track() itself: a first call (which compiles the chunk shape),
     # then the median of the timed ones
