@@ -41,7 +41,8 @@ switchable back:
   better-scoring refined pose is reported and carried. The particles stay in the latent space
   (the refinement does not feed back into them), so the latent tracker's robustness is kept and
   a carried pose that drifts off the subject is replaced as soon as the latent estimate scores
-  better. ``refine_steps = 0`` reports the paper's estimate.
+  better. ``refine_steps = 0`` reports the paper's estimate (the default with eq. 7's marker
+  patches, which give Gauss–Newton nothing to climb).
 """
 
 from __future__ import annotations
@@ -86,9 +87,13 @@ frames within 15 %."""
 
 DEFAULT_REFINE_STEPS = 10
 """Gauss–Newton trial steps per candidate and frame of the full-state refinement (module
-docstring), the MHT baseline's default. On the protocol's held-out take (4 sequences × 3 seeds,
-200 particles) it took the tracker from 9.9 % of the torso and 73 % of frames within 15 % to
-7.7 % and 90 %; 20 steps gave 7.8 % and 89 %."""
+docstring), the MHT baseline's default; the default of the strip likelihoods. On the protocol's
+held-out take (4 sequences × 3 seeds, 200 particles) it took the tracker from 9.9 % of the torso
+and 73 % of frames within 15 % to 7.9 % and 90 % with strips + oriented edges (20 steps: 7.8 %
+and 89 %), and from 14.5 % and 57 % to 12.3 % and 67 % with the strips alone. With eq. 7's
+marker patches, whose NCC has nothing for Gauss–Newton to climb (see the MHT baseline), it lost
+the subject in 8 of the 12 runs instead of 2, so ``likelihood="markers"`` defaults to the
+paper's estimate (``refine_steps = 0``)."""
 
 
 class LatentModel(smc.StateSpaceModel):
@@ -271,7 +276,7 @@ def latent_tracker(
     sharpness: float | None = None,
     jump_probability: float = DEFAULT_JUMP_PROBABILITY,
     mode_radius: float = 3.0,
-    refine_steps: int = DEFAULT_REFINE_STEPS,
+    refine_steps: int | None = None,
     refine_std: Float[ArrayLike, " 25"] | None = None,
     nearest: bool = True,
     dtype=jnp.float32,
@@ -300,7 +305,8 @@ def latent_tracker(
             (``float("inf")``: all particles, as the paper).
         refine_steps: Gauss–Newton steps per candidate of the full-state refinement of the
             reported pose (module docstring); 0 reports the paper's estimate, μ of the
-            particles' estimate, and costs nothing.
+            particles' estimate, and costs nothing. None: :data:`DEFAULT_REFINE_STEPS` with
+            the strip likelihoods, 0 with ``"markers"`` (measured there, see the constant).
         refine_std: ``(25,)`` σ of the Gaussian prior about each refinement's start; default
             the MHT baseline's without training frames: 4 × 10 × ``default_noise_floor`` (0.08
             in log scale, angles and log lengths, 8 % of the torso in the neck position).
@@ -343,6 +349,8 @@ def latent_tracker(
     if not mode_radius > 0:
         raise ValueError(f"mode_radius must be positive (inf for all particles), got "
                          f"{mode_radius}")
+    if refine_steps is None:
+        refine_steps = 0 if likelihood == "markers" else DEFAULT_REFINE_STEPS
     if int(refine_steps) != refine_steps or refine_steps < 0:
         raise ValueError(f"refine_steps must be a non-negative integer, got {refine_steps}")
     if refine_std is None:

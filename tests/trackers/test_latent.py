@@ -102,6 +102,10 @@ def test_full_state_refinement_leaves_the_latent_space_and_lowers_the_error(wave
     errors = [evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)["mean_error_torso"]
               for result in (refined, plain)]
     assert errors[0] < 0.9 * errors[1], errors
+    # eq. 7's marker patches give Gauss–Newton nothing to climb: no refinement by default there
+    assert tracker.refine_steps > 0
+    assert latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                          likelihood="markers").refine_steps == 0
 
 
 def test_latent_tracker_rejects_bad_input(prior, sequence):
