@@ -29,6 +29,10 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--likelihood", choices=("limbs+edges", "limbs", "markers"),
                         default="limbs+edges", help="limb strips and their edges (default), "
                         "limb strips alone, or the paper's patches at the markers")
+    parser.add_argument("--refine-steps", type=int, default=None, metavar="N",
+                        help="latent tracker: Gauss-Newton steps of the full-state refinement "
+                        "of its reported pose (default 10, none with --likelihood markers; 0: "
+                        "the paper's estimate)")
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"))
@@ -75,11 +79,19 @@ def _run(args: argparse.Namespace, user_error) -> int:
         raise user_error(f"--particles must be positive, got {args.particles}")
     if args.views < 1:
         raise user_error(f"--views must be positive, got {args.views}")
+    if args.refine_steps is not None and args.refine_steps < 0:
+        raise user_error(f"--refine-steps must be 0 or more, got {args.refine_steps}")
     if args.json.suffix != ".json" or not args.json.parent.exists():
         raise user_error(f"--json {args.json}: must be a .json path in an existing folder")
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
     particles = args.particles or DEFAULT_PARTICLES[args.method]
+    refine_steps = None  # only the latent tracker refines its pose
+    if args.method == "latent":
+        from jaxtrack.trackers.latent import default_refine_steps
+
+        refine_steps = (default_refine_steps(args.likelihood) if args.refine_steps is None
+                        else args.refine_steps)
     prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed)
     per_sequence = []
     for clip in args.test:
@@ -87,7 +99,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
                                               backgrounds=args.backgrounds, seed=args.seed,
                                               max_frames=args.max_frames):
             result = run_method(args.method, prior, sequence, particles=particles,
-                                seed=args.seed, likelihood=args.likelihood)
+                                seed=args.seed, likelihood=args.likelihood,
+                                refine_steps=args.refine_steps)
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
@@ -104,7 +117,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
     overall = summarise(per_sequence)
     write_json_atomically(args.json, {
         "method": args.method, "particles": particles, "seed": args.seed,
-        "likelihood": args.likelihood, "train": args.train, "test": args.test,
+        "likelihood": args.likelihood, "refine_steps": refine_steps,
+        "train": args.train, "test": args.test,
         "prior": prior.description,
         "overall": overall, "sequences": per_sequence})
     print(compare_methods({f"{args.method} (N={particles})": overall}))

@@ -92,6 +92,10 @@ def add_track(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--likelihood", choices=("limbs+edges", "limbs", "markers"),
                         default="limbs+edges", help="limb strips and their edges (default), "
                         "limb strips alone, or the paper's patches at the markers")
+    parser.add_argument("--refine-steps", type=int, default=None, metavar="N",
+                        help="latent tracker: Gauss-Newton steps of the full-state refinement "
+                        "of its reported pose (default 10, none with --likelihood markers; 0: "
+                        "the paper's estimate)")
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
@@ -196,6 +200,8 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         raise user_error(f"--particles must be positive, got {args.particles}")
     if args.max_size < 32:
         raise user_error(f"--max-size must be at least 32, got {args.max_size}")
+    if args.refine_steps is not None and args.refine_steps < 0:
+        raise user_error(f"--refine-steps must be 0 or more, got {args.refine_steps}")
     if args.out.exists() and not args.out.is_dir():
         raise user_error(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model, user_error)
@@ -223,7 +229,8 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
           + ")")
     grey = to_grey(frames)
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
-                             fps=fps, likelihood=args.likelihood)
+                             fps=fps, likelihood=args.likelihood,
+                             refine_steps=args.refine_steps)
     result = track(tracker, jr.PRNGKey(args.seed), grey)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
@@ -252,6 +259,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         "video": str(args.video), "model": str(args.model), "size": [width, height],
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
         "particles": args.particles, "seed": args.seed, "likelihood": args.likelihood,
+        "refine_steps": tracker.refine_steps,
         "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})

@@ -148,17 +148,18 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
 
 
 def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int,
-                  likelihood: str = DEFAULT_LIKELIHOOD):
+                  likelihood: str = DEFAULT_LIKELIHOOD, refine_steps: int | None = None):
     """The tracker ``method`` initialised on the sequence's first frame (ground truth), scored
     by ``likelihood`` (``"limbs+edges"``, ``"limbs"`` or ``"markers"``, the same for every
-    method)."""
+    method); ``refine_steps``: the latent tracker's full-state refinement (None: its default,
+    0: the paper's estimate; the other methods ignore it)."""
     from jaxtrack import trackers
 
     frame, markers = sequence.frames[0], sequence.truth[0]
     if method == "latent":
         return trackers.latent_tracker(prior.model, prior.template, frame, markers,
                                        num_particles=particles, fps=sequence.fps,
-                                       likelihood=likelihood)
+                                       likelihood=likelihood, refine_steps=refine_steps)
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES]),
                                           prior.template))
     if method == "condensation":
@@ -172,11 +173,12 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
 
 def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
                particles: int | None = None, seed: int = 0, likelihood: str = DEFAULT_LIKELIHOOD,
-               progress: bool = True):
-    """Track a test sequence with one method; returns the :class:`TrackResult`."""
+               refine_steps: int | None = None, progress: bool = True):
+    """Track a test sequence with one method; returns the :class:`TrackResult`
+    (``refine_steps``: see :func:`build_tracker`)."""
     from jaxtrack.trackers import track
 
     particles = particles or DEFAULT_PARTICLES[method]
-    tracker = build_tracker(method, prior, sequence, particles, likelihood)
+    tracker = build_tracker(method, prior, sequence, particles, likelihood, refine_steps)
     return track(tracker, jr.PRNGKey(seed), sequence.frames, progress=progress,
                  description=f"{method} N={particles}")

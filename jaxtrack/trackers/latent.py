@@ -77,7 +77,7 @@ from jaxtrack.trackers.condensation import default_noise_floor
 from jaxtrack.trackers.mht import refine_pose
 
 __all__ = ["DEFAULT_JUMP_PROBABILITY", "DEFAULT_REFINE_STEPS", "LatentModel", "LatentState",
-           "LatentTracker", "latent_tracker"]
+           "LatentTracker", "default_refine_steps", "latent_tracker"]
 
 DEFAULT_JUMP_PROBABILITY = 0.2
 """ε of the jump proposal (module docstring). On the demo's held-out wave (limb strips, 200
@@ -94,6 +94,12 @@ and 89 %), and from 14.5 % and 57 % to 12.3 % and 67 % with the strips alone. Wi
 marker patches, whose NCC has nothing for Gauss–Newton to climb (see the MHT baseline), it lost
 the subject in 8 of the 12 runs instead of 2, so ``likelihood="markers"`` defaults to the
 paper's estimate (``refine_steps = 0``)."""
+
+
+def default_refine_steps(likelihood: str) -> int:
+    """``refine_steps`` when none is given: :data:`DEFAULT_REFINE_STEPS`, or 0 (the paper's
+    estimate) with the marker patches."""
+    return 0 if likelihood == "markers" else DEFAULT_REFINE_STEPS
 
 
 class LatentModel(smc.StateSpaceModel):
@@ -350,7 +356,7 @@ def latent_tracker(
         raise ValueError(f"mode_radius must be positive (inf for all particles), got "
                          f"{mode_radius}")
     if refine_steps is None:
-        refine_steps = 0 if likelihood == "markers" else DEFAULT_REFINE_STEPS
+        refine_steps = default_refine_steps(likelihood)
     if int(refine_steps) != refine_steps or refine_steps < 0:
         raise ValueError(f"refine_steps must be a non-negative integer, got {refine_steps}")
     if refine_std is None:

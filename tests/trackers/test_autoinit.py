@@ -95,6 +95,7 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
                  "--max-size", "160"]) == 0
     record = json.loads((out / "track.json").read_text())
     assert len(record["frames"]) == 10 and record["tracked_size"] == [160, 120]
+    assert record["refine_steps"] == 10  # the default with the default likelihood
     markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
                         for frame in record["frames"]])
     assert np.all(np.isfinite(markers))
@@ -125,6 +126,9 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     code, error = run("--model", str(model_file), "--video", str(tmp_path / "none.mp4"),
                       "--out", str(out))
     assert code == 2 and "none.mp4" in error
+    code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                      "--refine-steps", "-1")
+    assert code == 2 and "--refine-steps must be 0 or more" in error
     corrupt = tmp_path / "corrupt.mp4"
     corrupt.write_bytes(b"not a video" * 100)
     code, error = run("--model", str(model_file), "--video", str(corrupt), "--out", str(out))

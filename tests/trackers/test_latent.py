@@ -136,6 +136,9 @@ def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
     assert main(["evaluate", "--method", "latent", "--train", HELD_OUT, "--test", HELD_OUT,
                  "--json", out]) == 2
     assert "must be held out" in capsys.readouterr().err
+    assert main(["evaluate", "--method", "latent", "--train", "animateddrawings/fair1_wave_hello",
+                 "--test", HELD_OUT, "--json", out, "--refine-steps", "-2"]) == 2
+    assert "--refine-steps must be 0 or more" in capsys.readouterr().err
     assert not (tmp_path / "out.json").exists()
 
 
