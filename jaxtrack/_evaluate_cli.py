@@ -86,7 +86,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
     particles = args.particles or DEFAULT_PARTICLES[args.method]
-    refine_steps = None  # only the latent tracker refines its pose
+    refine_steps = None  # only the latent tracker refines its pose; recorded as it ran
     if args.method == "latent":
         from jaxtrack.trackers.latent import default_refine_steps
 
@@ -100,7 +100,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
                                               max_frames=args.max_frames):
             result = run_method(args.method, prior, sequence, particles=particles,
                                 seed=args.seed, likelihood=args.likelihood,
-                                refine_steps=args.refine_steps)
+                                refine_steps=refine_steps)
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
