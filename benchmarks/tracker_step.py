@@ -18,8 +18,12 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     step        one whole ``smc.step`` (select, propagate, decode, measure)
     estimate    the tracker's per-frame estimate (μ of the local mode's mean latent, best
                 particle)
-    refine      the full-state refinement of the reported pose (two candidates, Gauss–Newton,
-                ``refine_steps`` = 10)
+    arm search  the arm search that starts each refinement, for one candidate (5 × 5
+                upper-arm × forearm angles per arm, scored by the likelihood)
+    refine      the full-state refinement of the reported pose (two candidates, each arm
+                searched, then Gauss–Newton, ``refine_steps`` = 10)
+    refine, no arm search
+                the same with ``arm_grid = 0`` (Gauss–Newton alone)
     update      ``step`` + ``estimate`` + ``refine``: one frame of the tracker
     track       the per-frame cost inside ``track``'s compiled scan of 64-frame chunks
     track, paper's estimate
@@ -186,8 +190,15 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
     def estimate(state, info):
         return tracker._estimate(state, info)
 
+    def search(pose, frame):
+        return tracker.search_arms(pose, frame)
+
     def refine(carried, filtered, estimate, frame):
         return tracker._refined(carried, filtered, estimate, frame)
+
+    def refine_only(carried, filtered, estimate, frame):
+        return dataclasses.replace(tracker, arm_grid=0)._refined(carried, filtered, estimate,
+                                                                 frame)
 
     def update(key, state, frame):
         return tracker.update(key, state, frame)
@@ -205,7 +216,10 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
         "resample": (resample, key, log_weights),
         "step": (step, key, state, frame),
         "estimate": (estimate, state, info),
+        "arm search": (search, tracker_state.pose, frame),
         "refine": (refine, tracker_state.pose, filtered, frame_estimate, frame),
+        "refine, no arm search": (refine_only, tracker_state.pose, filtered, frame_estimate,
+                                  frame),
         "update": (update, key, tracker_state, frame),
     }
     rows = {}

@@ -33,6 +33,9 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
                         help="latent tracker: Gauss-Newton steps of the full-state refinement "
                         "of its reported pose (default 10, none with --likelihood markers; 0: "
                         "the paper's estimate)")
+    parser.add_argument("--arm-grid", type=int, default=None, metavar="N",
+                        help="latent tracker: angle offsets per arm joint of the arm search "
+                        "that starts each refinement (odd; default 5; 0: no search)")
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"))
@@ -81,17 +84,20 @@ def _run(args: argparse.Namespace, user_error) -> int:
         raise user_error(f"--views must be positive, got {args.views}")
     if args.refine_steps is not None and args.refine_steps < 0:
         raise user_error(f"--refine-steps must be 0 or more, got {args.refine_steps}")
+    if args.arm_grid not in (None, 0) and (args.arm_grid < 0 or args.arm_grid % 2 == 0):
+        raise user_error(f"--arm-grid must be 0 or odd, got {args.arm_grid}")
     if args.json.suffix != ".json" or not args.json.parent.exists():
         raise user_error(f"--json {args.json}: must be a .json path in an existing folder")
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
     particles = args.particles or DEFAULT_PARTICLES[args.method]
-    refine_steps = None  # only the latent tracker refines its pose; recorded as it ran
+    refine_steps = arm_grid = None  # only the latent tracker refines; recorded as it ran
     if args.method == "latent":
-        from jaxtrack.trackers.latent import default_refine_steps
+        from jaxtrack.trackers.latent import DEFAULT_ARM_GRID, default_refine_steps
 
         refine_steps = (default_refine_steps(args.likelihood) if args.refine_steps is None
                         else args.refine_steps)
+        arm_grid = DEFAULT_ARM_GRID if args.arm_grid is None else args.arm_grid
     prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed)
     per_sequence = []
     for clip in args.test:
@@ -100,7 +106,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
                                               max_frames=args.max_frames):
             result = run_method(args.method, prior, sequence, particles=particles,
                                 seed=args.seed, likelihood=args.likelihood,
-                                refine_steps=refine_steps)
+                                refine_steps=refine_steps, arm_grid=arm_grid)
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
@@ -118,6 +124,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
     write_json_atomically(args.json, {
         "method": args.method, "particles": particles, "seed": args.seed,
         "likelihood": args.likelihood, "refine_steps": refine_steps,
+        "arm_grid": arm_grid,
         "train": args.train, "test": args.test,
         "prior": prior.description,
         "overall": overall, "sequences": per_sequence})

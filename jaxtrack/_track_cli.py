@@ -96,6 +96,9 @@ def add_track(subparsers, user_error: type[Exception]) -> None:
                         help="latent tracker: Gauss-Newton steps of the full-state refinement "
                         "of its reported pose (default 10, none with --likelihood markers; 0: "
                         "the paper's estimate)")
+    parser.add_argument("--arm-grid", type=int, default=None, metavar="N",
+                        help="latent tracker: angle offsets per arm joint of the arm search "
+                        "that starts each refinement (odd; default 5; 0: no search)")
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
@@ -202,6 +205,8 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         raise user_error(f"--max-size must be at least 32, got {args.max_size}")
     if args.refine_steps is not None and args.refine_steps < 0:
         raise user_error(f"--refine-steps must be 0 or more, got {args.refine_steps}")
+    if args.arm_grid not in (None, 0) and (args.arm_grid < 0 or args.arm_grid % 2 == 0):
+        raise user_error(f"--arm-grid must be 0 or odd, got {args.arm_grid}")
     if args.out.exists() and not args.out.is_dir():
         raise user_error(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model, user_error)
@@ -230,7 +235,8 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     grey = to_grey(frames)
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
                              fps=fps, likelihood=args.likelihood,
-                             refine_steps=args.refine_steps)
+                             refine_steps=args.refine_steps,
+                             **({} if args.arm_grid is None else {"arm_grid": args.arm_grid}))
     result = track(tracker, jr.PRNGKey(args.seed), grey)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
@@ -259,7 +265,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         "video": str(args.video), "model": str(args.model), "size": [width, height],
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
         "particles": args.particles, "seed": args.seed, "likelihood": args.likelihood,
-        "refine_steps": tracker.refine_steps,
+        "refine_steps": tracker.refine_steps, "arm_grid": tracker.arm_grid,
         "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})

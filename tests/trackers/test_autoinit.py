@@ -96,6 +96,7 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
     record = json.loads((out / "track.json").read_text())
     assert len(record["frames"]) == 10 and record["tracked_size"] == [160, 120]
     assert record["refine_steps"] == 10  # the default with the default likelihood
+    assert record["arm_grid"] == 5
     markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
                         for frame in record["frames"]])
     assert np.all(np.isfinite(markers))
@@ -129,6 +130,9 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--refine-steps", "-1")
     assert code == 2 and "--refine-steps must be 0 or more" in error
+    code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                      "--arm-grid", "2")
+    assert code == 2 and "--arm-grid must be 0 or odd, got 2" in error
     corrupt = tmp_path / "corrupt.mp4"
     corrupt.write_bytes(b"not a video" * 100)
     code, error = run("--model", str(model_file), "--video", str(corrupt), "--out", str(out))

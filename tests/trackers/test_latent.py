@@ -187,6 +187,11 @@ def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
     assert main(["evaluate", "--method", "latent", "--train", "animateddrawings/fair1_wave_hello",
                  "--test", HELD_OUT, "--json", out, "--refine-steps", "-2"]) == 2
     assert "--refine-steps must be 0 or more" in capsys.readouterr().err
+    for grid in ("4", "-3"):
+        assert main(["evaluate", "--method", "latent", "--train",
+                     "animateddrawings/fair1_wave_hello", "--test", HELD_OUT, "--json", out,
+                     "--arm-grid", grid]) == 2
+        assert f"--arm-grid must be 0 or odd, got {grid}" in capsys.readouterr().err
     assert not (tmp_path / "out.json").exists()
 
 
