@@ -174,6 +174,9 @@ def test_latent_tracker_rejects_bad_input(prior, sequence):
     with pytest.raises(ValueError, match="arm_span"):
         latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                        arm_span=0.0)
+    with pytest.raises(ValueError, match="arm_margin"):
+        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                       arm_margin=-1.0)
 
 
 def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
