@@ -107,7 +107,7 @@ docstring), the MHT baseline's default; the default of the strip likelihoods. On
 held-out take (4 sequences × 3 seeds, 200 particles) it took the tracker from 9.9 % of the torso
 and 73 % of frames within 15 % to 7.9 % and 90 % with strips + oriented edges (20 steps: 7.8 %
 and 89 %; on another CPU, stop 14: 11.0 % and 70.5 % to 8.7 % and 83 %, and with the arm search
-that now starts each refinement 6.3 % and 97 %), and from 14.5 % and 57 % to 12.3 % and 67 %
+that now starts each refinement 6.4 % and 98.7 %), and from 14.5 % and 57 % to 12.3 % and 67 %
 with the strips alone. With eq. 7's
 marker patches, whose NCC has nothing for Gauss–Newton to climb (see the MHT baseline), it lost
 the subject in 8 of the 12 runs instead of 2, so ``likelihood="markers"`` defaults to the
