@@ -235,8 +235,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     grey = to_grey(frames)
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
                              fps=fps, likelihood=args.likelihood,
-                             refine_steps=args.refine_steps,
-                             **({} if args.arm_grid is None else {"arm_grid": args.arm_grid}))
+                             refine_steps=args.refine_steps, arm_grid=args.arm_grid)
     result = track(tracker, jr.PRNGKey(args.seed), grey)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))

@@ -162,7 +162,7 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
         return trackers.latent_tracker(prior.model, prior.template, frame, markers,
                                        num_particles=particles, fps=sequence.fps,
                                        likelihood=likelihood, refine_steps=refine_steps,
-                                       **({} if arm_grid is None else {"arm_grid": arm_grid}))
+                                       arm_grid=arm_grid)
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES]),
                                           prior.template))
     if method == "condensation":

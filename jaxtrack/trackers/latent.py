@@ -359,7 +359,7 @@ def latent_tracker(
     mode_radius: float = 3.0,
     refine_steps: int | None = None,
     refine_std: Float[ArrayLike, " 25"] | None = None,
-    arm_grid: int = DEFAULT_ARM_GRID,
+    arm_grid: int | None = None,
     arm_span: float = DEFAULT_ARM_SPAN,
     arm_margin: float = DEFAULT_ARM_MARGIN,
     nearest: bool = True,
@@ -396,7 +396,7 @@ def latent_tracker(
             in log scale, angles and log lengths, 8 % of the torso in the neck position).
         arm_grid: offsets per arm angle of the arm search that starts each refinement (module
             docstring); odd, so that offset 0 is among them; 0 switches the search off (it
-            runs only where ``refine_steps`` > 0).
+            runs only where ``refine_steps`` > 0); None: :data:`DEFAULT_ARM_GRID`.
         arm_span: the search's largest angle offset in radians.
         arm_margin: nats by which the search's best offset must beat the arm as it was.
         nearest: nearest-pixel sampling (fast) rather than bilinear.
@@ -447,6 +447,8 @@ def latent_tracker(
     refine_std = np.broadcast_to(np.asarray(refine_std, np.float64), (SPM_STATE_SIZE,))
     if not np.all(np.isfinite(refine_std) & (refine_std > 0)):
         raise ValueError(f"refine_std must be positive and finite, got {refine_std}")
+    if arm_grid is None:
+        arm_grid = DEFAULT_ARM_GRID
     if int(arm_grid) != arm_grid or arm_grid < 0 or (arm_grid > 0 and arm_grid % 2 == 0):
         raise ValueError(f"arm_grid must be 0 or an odd positive integer (offset 0 on the "
                          f"grid), got {arm_grid}")
