@@ -34,6 +34,12 @@ CPU seconds (all threads of the process, or of the GPy subprocess) are reported 
     run; held-out error moves by ±0.5 px between subsets for both, so the verdict is taken on
     the medians over subsets (time, error and their ratios).
 
+(g) ``--inverse reconstruction``: jaxtrack's held-out error through μ⁻¹ = argmin ½|y − μ(x)|²
+    instead of eq. 5. With ``--gpy-model full`` GPy's trained model (its latents, α, γ and
+    noise: the same kernel as eq. 1) is also loaded into a jaxtrack ``GPLVM`` (μ equal to
+    GPy's to ~1e-5) and its held-out poses inverted by the same μ⁻¹ as jaxtrack's, so the
+    two learned manifolds are compared through one inverse as well as each through its own.
+
     python -m benchmarks.gplvm                 # full run (~4 minutes on 2 cores, GPy ~1 of them)
     python -m benchmarks.gplvm --skip-gpy      # without the GPy reference
     python -m benchmarks.gplvm --quick         # small sizes, no GPy: a 1–2 minute smoke test
@@ -48,6 +54,7 @@ import resource
 import statistics
 import threading
 import time
+from functools import partial
 from pathlib import Path
 
 import jax
@@ -65,7 +72,13 @@ from benchmarks._common import (
 )
 from benchmarks._gpy import run_gpy_reference
 from jaxtrack.body import SPM_MARKERS, marker_edges
-from jaxtrack.priors.gplvm import fit_gplvm, initial_latents, plot_latent_space
+from jaxtrack.priors.gplvm import (
+    GPLVM,
+    KernelParameters,
+    fit_gplvm,
+    initial_latents,
+    plot_latent_space,
+)
 from jaxtrack.priors.poses import (
     PoseSet,
     clip_motions,
@@ -181,13 +194,13 @@ def pca_reconstruction(train: np.ndarray, test: np.ndarray, latent_dim: int) -> 
 
 # Compiled ahead by time_compiled (GPLVM.inverse is not jitted: called eagerly it retraces and
 # recompiles its solve on every call). A GPLVM is a pytree of arrays only, so it is an argument.
-def _inverse(model, poses):
-    result = model.inverse(poses)
+def _inverse(model, poses, objective="posterior"):
+    result = model.inverse(poses, objective=objective)
     return result.latents, result.result == optx.RESULTS.successful
 
 
-def _reconstruct(model, poses):
-    latents, converged = _inverse(model, poses)
+def _reconstruct(model, poses, objective="posterior"):
+    latents, converged = _inverse(model, poses, objective)
     return jax.vmap(model.mean)(latents), converged
 
 
@@ -203,7 +216,7 @@ def fit_options(args) -> dict:
     """``fit_gplvm`` arguments from the command line."""
     options = dict(latent_dim=args.latent_dim, active_size=args.active_size,
                    iterations=args.iterations, active_steps=args.active_steps,
-                   inactive_steps=args.inactive_steps)
+                   inactive_steps=args.inactive_steps, optimiser=args.optimiser)
     return options
 
 
@@ -222,21 +235,22 @@ def train_jaxtrack(features: np.ndarray, args, label: str):
     return fit, compile_s, cpu
 
 
-def held_out_jaxtrack(fit, held_out_features: np.ndarray, held_out: PoseSet) -> dict:
+def held_out_jaxtrack(fit, held_out_features: np.ndarray, held_out: PoseSet,
+                      objective: str = "posterior") -> dict:
     with jax.enable_x64(True):
         poses = jnp.asarray(held_out_features)
         compile_s, run_s, cpu, (reconstructions, converged) = time_compiled(
-            _reconstruct, fit.model, poses, repeats=3)
+            partial(_reconstruct, objective=objective), fit.model, poses, repeats=3)
     return {"inverse_compile_s": compile_s, "inverse_s": run_s, "inverse_cpu_s": cpu,
             "converged": float(np.mean(np.asarray(converged))),
             **marker_errors(np.asarray(reconstructions), held_out)}
 
 
-def inverse_timing(fit, poses: np.ndarray, label: str) -> dict:
+def inverse_timing(fit, poses: np.ndarray, label: str, objective: str = "posterior") -> dict:
     with jax.enable_x64(True):
-        compile_s, run_s, cpu, (_, converged) = time_compiled(_inverse, fit.model,
-                                                         jnp.asarray(poses), repeats=3)
-    return {"what": "μ⁻¹ (float64)", "model": label, "count": len(poses),
+        compile_s, run_s, cpu, (_, converged) = time_compiled(
+            partial(_inverse, objective=objective), fit.model, jnp.asarray(poses), repeats=3)
+    return {"what": f"μ⁻¹ (float64, {objective})", "model": label, "count": len(poses),
             "compile_s": compile_s, "run_s": run_s, "cpu_s": cpu,
             "per_1000_ms": 1e3 * run_s / len(poses) * 1e3,
             "throughput_per_s": len(poses) / run_s, "converged": float(np.mean(converged))}
@@ -311,8 +325,36 @@ def run_gpy(train_features: np.ndarray, held_out_features: np.ndarray, held_out:
         return {"skipped": result["skipped"]}
     errors = marker_errors(np.asarray(result["reconstructions"]) + mean, held_out)
     keep = {key: value for key, value in result.items() if not isinstance(value, np.ndarray)}
-    return {**keep, **errors, "init": description, "subprocess_wall_s": wall,
+    same = {}
+    if args.gpy_model == "full":
+        model = gpy_full_model(result, centred, mean)
+        with jax.enable_x64(True):
+            reconstructions, _ = jax.jit(partial(_reconstruct, objective=args.inverse))(
+                model, jnp.asarray(held_out_features))
+            check = jax.vmap(model.mean)(jnp.asarray(result["test_latents"]))
+        same = {"same_inverse": args.inverse,
+                "same_inverse_error_px": marker_errors(np.asarray(reconstructions),
+                                                       held_out)["error_px"],
+                "transplant_max_abs_diff": float(np.max(np.abs(
+                    np.asarray(check) - result["reconstructions"] - mean)))}
+    return {**keep, **errors, **same, "init": description, "subprocess_wall_s": wall,
             "subprocess_cpu_s": cpu, "blas_threads": args.gpy_blas_threads or "default"}
+
+
+def gpy_full_model(result: dict, centred: np.ndarray, mean: np.ndarray) -> GPLVM:
+    """GPy's trained exact GPLVM as a jaxtrack :class:`GPLVM` (every pose active).
+
+    Same kernel (isotropic RBF + Gaussian noise): α = GPy's RBF variance, γ = 1/lengthscale²,
+    β = 1/noise variance, X = GPy's latents. μ then equals GPy's ``predict`` (checked on its
+    test latents: ``transplant_max_abs_diff``), so both models can be inverted by one μ⁻¹.
+    """
+    with jax.enable_x64(True):
+        kernel = KernelParameters.create(alpha=result["rbf_variance"],
+                                         beta=1.0 / result["noise_variance"],
+                                         gamma=1.0 / result["rbf_lengthscale"] ** 2)
+        latents = jnp.asarray(result["train_latents"])
+        return GPLVM.from_active_set(kernel, jnp.asarray(centred), jnp.asarray(mean), latents,
+                                     jnp.arange(latents.shape[0]))
 
 
 def subset_record(seed: int, ours: dict, gpy: dict | None, load: float | None = None) -> dict:
@@ -325,6 +367,10 @@ def subset_record(seed: int, ours: dict, gpy: dict | None, load: float | None = 
             "gpy_train_s": gpy["train_seconds"],
             "gpy_total_s": gpy["train_seconds"] + gpy["inverse_seconds"],
             "gpy_error_px": gpy["error_px"]})
+        if "same_inverse_error_px" in gpy:
+            record["gpy_same_inverse_error_px"] = gpy["same_inverse_error_px"]
+            record["error_gpy_same_inverse_over_jaxtrack"] = (gpy["same_inverse_error_px"]
+                                                              / ours["error_px"])
         record.update({
             "train_time_gpy_over_jaxtrack": record["gpy_train_s"] / record["jaxtrack_train_s"],
             "time_gpy_over_jaxtrack": record["gpy_total_s"] / record["jaxtrack_total_s"],
@@ -345,6 +391,9 @@ def subset_medians(subsets: list[dict]) -> dict:
                 medians["gpy_total_s"] / medians["jaxtrack_total_s"],
             "ratio_of_medians_error_gpy_over_jaxtrack":
                 medians["gpy_error_px"] / medians["jaxtrack_error_px"]})
+    if "gpy_same_inverse_error_px" in medians:
+        medians["ratio_of_medians_error_gpy_same_inverse_over_jaxtrack"] = (
+            medians["gpy_same_inverse_error_px"] / medians["jaxtrack_error_px"])
     return medians
 
 
@@ -363,6 +412,13 @@ def main(argv=None) -> int:
         default = defaults[name].default
         parser.add_argument("--" + name.replace("_", "-"), type=int, default=default,
                             help=f"{what} ({default}, fit_gplvm's default)")
+    parser.add_argument("--optimiser", choices=("bfgs", "lbfgs"), default="bfgs",
+                        help="eq. 1's minimiser (bfgs, fit_gplvm's default)")
+    parser.add_argument("--inverse", choices=("posterior", "reconstruction"),
+                        default="posterior",
+                        help="jaxtrack's μ⁻¹ for the held-out error: eq. 5 (posterior, the "
+                             "default) or argmin ½|y − μ(x)|²; with --gpy-model full GPy's "
+                             "model is also inverted this way")
     parser.add_argument("--subsets", type=int, default=5,
                         help="training subsets of the first size (other frames of every "
                              "sequence) on which jaxtrack and GPy both run; medians compared (5)")
@@ -439,10 +495,11 @@ def main(argv=None) -> int:
         tqdm.write(f"[jaxtrack N={size}] train {fit.seconds:.1f} s wall, {train_cpu_s:.1f} s CPU: "
                    f"init {fit.init_seconds:.1f} s, "
                    + ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in stages.items()))
-        held = held_out_jaxtrack(fit, held_out_features, held_out)
+        held = held_out_jaxtrack(fit, held_out_features, held_out, args.inverse)
         rows.append({
             "method": "jaxtrack", "poses": size,
-            "setting": f"active {args.active_size}, T={args.iterations}",
+            "setting": f"active {min(args.active_size, size)}, T={args.iterations}, "
+                       f"{args.optimiser} {args.active_steps}, μ⁻¹ {args.inverse}",
             "train_compile_s": compile_s, "train_s": fit.seconds, "init_s": fit.init_seconds,
             "objective": fit.trace[-1]["objective"], **held,
             "first_run_s": compile_s + fit.seconds + held["inverse_compile_s"] + held["inverse_s"],
@@ -454,7 +511,7 @@ def main(argv=None) -> int:
         rows.append({"method": "PCA", "poses": size, "setting": f"q={args.latent_dim}",
                      "train_s": time.perf_counter() - tick, **marker_errors(pca, held_out)})
         tqdm.write(f"[jaxtrack N={size}] μ⁻¹ of {len(timing_features)} poses")
-        speed_rows.append(inverse_timing(fit, timing_features, f"N={size}"))
+        speed_rows.append(inverse_timing(fit, timing_features, f"N={size}", args.inverse))
         speed_rows += mean_timing(fit, args.mean_counts, args.mean_repeats, f"N={size}")
 
     gpy = None
@@ -475,6 +532,10 @@ def main(argv=None) -> int:
                 "cpu_s": gpy["subprocess_cpu_s"],
                 **{key: gpy[key] for key in ("error_px", "error_p95_px", "error_torso",
                                              "error_max_px")}})
+            if "same_inverse_error_px" in gpy:
+                rows.append({"method": "GPy model, jaxtrack's μ⁻¹", "poses": size,
+                             "setting": f"full, μ⁻¹ {args.inverse}",
+                             "error_px": gpy["same_inverse_error_px"]})
 
     # the same comparison on more training subsets of the first size (other frames of every
     # sequence), jaxtrack and GPy one after the other on each; medians over all subsets
@@ -487,7 +548,7 @@ def main(argv=None) -> int:
         tqdm.write(f"[subset {seed}] jaxtrack fit on {size} poses (compiled by the first)")
         load = os.getloadavg()[0]
         fit = fit_gplvm(features, progress=False, **fit_options(args))
-        held = held_out_jaxtrack(fit, held_out_features, held_out)
+        held = held_out_jaxtrack(fit, held_out_features, held_out, args.inverse)
         ours = {"train_s": fit.seconds, "total_s": fit.seconds + held["inverse_s"], **held}
         theirs = None if args.skip_gpy else run_gpy(features, held_out_features, held_out, args)
         subsets.append(subset_record(seed, ours, theirs, load))
@@ -546,6 +607,9 @@ def main(argv=None) -> int:
             "train_time_gpy_over_jaxtrack": theirs["train_s"] / ours["train_s"],
             "cpu_gpy_over_jaxtrack": theirs["cpu_s"] / ours["cpu_s"],
             "error_gpy_over_jaxtrack": theirs["error_px"] / ours["error_px"],
+            **({"error_gpy_same_inverse_over_jaxtrack":
+                gpy["same_inverse_error_px"] / ours["error_px"]}
+               if "same_inverse_error_px" in gpy else {}),
             "error_gpy_over_pca": theirs["error_px"] / pca_row["error_px"],
         })
     print()
@@ -563,9 +627,11 @@ def main(argv=None) -> int:
                       ("jaxtrack_error_px", "err px", ".2f"),
                       ("gpy_train_s", "GPy train s", ".2f"), ("gpy_total_s", "total s", ".2f"),
                       ("gpy_error_px", "err px", ".2f"),
+                      ("gpy_same_inverse_error_px", "same μ⁻¹ px", ".2f"),
                       ("train_time_gpy_over_jaxtrack", "train ×", ".2f"),
                       ("time_gpy_over_jaxtrack", "total ×", ".2f"),
-                      ("error_gpy_over_jaxtrack", "GPy/jaxtrack err", ".3f")]
+                      ("error_gpy_over_jaxtrack", "GPy/jaxtrack err", ".3f"),
+                      ("error_gpy_same_inverse_over_jaxtrack", "same μ⁻¹", ".3f")]
     print_table([*({**record, "subset": str(record["subset"])} for record in subsets),
                  {**medians, "subset": "median"}], subset_columns)
     for key, value in medians.items():

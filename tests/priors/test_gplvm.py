@@ -209,11 +209,13 @@ def test_save_load_round_trip_and_damaged_files(trained, tmp_path):
                                                           "truncated.npz"]
 
 
-def test_active_set_of_every_pose_is_the_exact_gplvm():
+@pytest.mark.parametrize("optimiser", ["bfgs", "lbfgs"])
+def test_active_set_of_every_pose_is_the_exact_gplvm(optimiser):
     # active_size = n skips the IVM (it would select every point) and optimises eq. 1 over all
     # poses: the objective in the trace is eq. 1 of every latent, and μ fits the poses
     _, poses = sample_gp_data(3, 40)
-    fit = fit_gplvm(poses, active_size=40, iterations=1, active_steps=60, progress=False)
+    fit = fit_gplvm(poses, active_size=40, iterations=1, active_steps=60, optimiser=optimiser,
+                    progress=False)
     model = fit.model
     assert np.array_equal(np.sort(np.asarray(model.active_indices)), np.arange(40))
     centred = poses - poses.mean(axis=0)
@@ -233,26 +235,57 @@ def test_bad_training_input_is_named():
         fit_gplvm(np.ones((30, 4)), active_size=2, progress=False)
     with pytest.raises(ValueError, match="init must be"):
         initial_latents(np.ones((30, 4)), 2, "tsne")
+    with pytest.raises(ValueError, match="optimiser must be one of"):
+        fit_gplvm(np.ones((30, 4)), active_size=10, optimiser="adam", progress=False)
 
 
-def test_solver_objective_has_the_derivatives_of_point_objective(trained):
-    # μ⁻¹'s BFGS minimises a custom-JVP copy of L′ (gradient in x from the forward pass); its
-    # value, x-gradient, x-Hessian and model/pose gradients must be those of L′ itself
+@pytest.mark.parametrize("objective", ["posterior", "reconstruction"])
+def test_solver_objective_has_the_derivatives_of_its_objective(trained, objective):
+    # μ⁻¹'s BFGS minimises a custom-JVP copy of L′ (or of ½|y − μ|²), its gradient in x from
+    # the forward pass; value, x-gradient, x-Hessian and model/pose gradients must be those of
+    # the plain objective
     from jaxtrack.priors.gplvm._model import _solver_objective
 
     model, _, test = trained[0].model, trained[1], trained[2]
     latent, pose = model.latents[7] + 0.05, jnp.asarray(test[0])
-    plain = lambda x, m, y: m.point_objective(x, y)  # noqa: E731
-    assert _solver_objective(latent, model, pose) == pytest.approx(
+    if objective == "posterior":
+        plain = lambda x, m, y: m.point_objective(x, y)  # noqa: E731
+    else:
+        plain = lambda x, m, y: 0.5 * jnp.sum((y - m.mean(x)) ** 2)  # noqa: E731
+    ours_fn = lambda x, m, y: _solver_objective(x, m, y, objective)  # noqa: E731
+    assert ours_fn(latent, model, pose) == pytest.approx(
         float(plain(latent, model, pose)), rel=1e-12)
     for argnums in (0, (0, 1, 2)):
-        ours = jax.grad(_solver_objective, argnums=argnums, allow_int=True)(latent, model, pose)
+        ours = jax.grad(ours_fn, argnums=argnums, allow_int=True)(latent, model, pose)
         theirs = jax.grad(plain, argnums=argnums, allow_int=True)(latent, model, pose)
         for a, b in zip(jax.tree.leaves(ours), jax.tree.leaves(theirs), strict=True):
             if jnp.issubdtype(a.dtype, jnp.inexact):
                 np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(jax.hessian(_solver_objective)(latent, model, pose),
+    np.testing.assert_allclose(jax.hessian(ours_fn)(latent, model, pose),
                                jax.hessian(plain)(latent, model, pose), rtol=1e-9, atol=1e-9)
+
+
+def test_reconstruction_inverse_finds_the_nearest_decoded_pose(trained):
+    # argmin_x ½|y − μ(x)|²: no point of a fine latent grid (nor any training latent) decodes
+    # closer to the held-out pose than the solution, and the solution is no further than eq. 5's
+    model, _, test = trained[0].model, trained[1], trained[2]
+    poses = jnp.asarray(test[:6])
+    found = model.inverse(poses, objective="reconstruction", max_steps=200)
+    assert found.objective.shape == (6,)
+    distances = np.linalg.norm(np.asarray(jax.vmap(model.mean)(found.latents)) - test[:6],
+                               axis=1)
+    np.testing.assert_allclose(0.5 * distances**2, found.objective, rtol=1e-9)
+    low, high = np.min(model.latents, 0) - 0.5, np.max(model.latents, 0) + 0.5
+    grid = np.stack(np.meshgrid(*[np.linspace(low[i], high[i], 150) for i in range(2)]),
+                    -1).reshape(-1, 2)
+    candidates = jnp.asarray(np.concatenate([grid, np.asarray(model.latents)]))
+    decoded = np.asarray(jax.vmap(model.mean)(candidates))
+    best = np.min(np.linalg.norm(decoded[None] - test[:6, None], axis=2), axis=1)
+    assert np.all(distances <= best + 1e-6), (distances, best)
+    posterior = np.asarray(model.reconstruct(poses))
+    assert np.all(distances <= np.linalg.norm(posterior - test[:6], axis=1) + 1e-6)
+    with pytest.raises(ValueError, match="objective must be one of"):
+        model.inverse(poses, objective="likelihood")
 
 
 def test_all_poses_model_is_the_projected_process_written_out_with_numpy(trained):
