@@ -6,6 +6,8 @@ variance) and γ (inverse squared length scale) kept positive by storing their l
 
 from __future__ import annotations
 
+from functools import partial
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -105,14 +107,15 @@ def _term_forward(gram, poses):
     return value, (factor, solved)
 
 
-def _lapack_inverse(factor) -> np.ndarray:
-    factor = np.asarray(factor)
+def _lapack_inverse(bits, dtype) -> np.ndarray:
+    factor = np.ascontiguousarray(bits).view(dtype).reshape(bits.shape[:2])
     potri = scipy.linalg.lapack.get_lapack_funcs("potri", (factor,))
     inverse, info = potri(factor, lower=True)
     if info != 0:  # a factor from a successful Cholesky has a positive diagonal
         inverse = np.full_like(factor, np.nan)
     lower = np.tril(inverse)
-    return lower + np.tril(lower, -1).T
+    inverse = np.ascontiguousarray(lower + np.tril(lower, -1).T, dtype)
+    return inverse.view(np.int32).reshape(bits.shape)
 
 
 def inverse_from_factor(factor: Float[Array, "n n"]) -> Array:
@@ -121,10 +124,22 @@ def inverse_from_factor(factor: Float[Array, "n n"]) -> Array:
     On CPU by LAPACK's potri through a host callback: 2n³/3 flops, where ``cho_solve(L, I)``
     (two triangular solves with n right-hand sides, what XLA offers) costs 2n³: 23 against
     50 ms at n = 1 000 in float64. Elsewhere (GPU) by ``cho_solve``.
+
+    The callback's input and output travel as 32-bit words: JAX casts float64 callback
+    arguments and results to float32 unless x64 is enabled in the thread that runs the
+    callback, and ``jax.enable_x64`` (how training enables it) is a context of the calling
+    thread only.
     """
+    dtype = jnp.dtype(factor.dtype)
+
     def host(factor):
-        shape = jax.ShapeDtypeStruct(factor.shape, factor.dtype)
-        return jax.pure_callback(_lapack_inverse, shape, factor, vmap_method="sequential")
+        bits = jax.lax.bitcast_convert_type(factor, jnp.int32)
+        bits = bits.reshape(*factor.shape, -1)  # (n, n, words)
+        shape = jax.ShapeDtypeStruct(bits.shape, jnp.int32)
+        bits = jax.pure_callback(partial(_lapack_inverse, dtype=dtype), shape, bits,
+                                 vmap_method="sequential")
+        return jax.lax.bitcast_convert_type(bits if bits.shape[-1] > 1 else bits[..., 0],
+                                            dtype)
 
     def device(factor):
         return cho_solve((factor, True), jnp.eye(factor.shape[0], dtype=factor.dtype))
