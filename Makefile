@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench bench-gplvm bench-tracking bench-gpy-env install clean
+.PHONY: demo test lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,12 @@ bench-gpy-env:
 
 bench-gplvm: $(STAMP)
 	$(BIN)/python -m benchmarks.gplvm
+
+# the exact GPLVM (every pose active, L-BFGS) against GPy's exact GPLVM, both inverted by
+# reconstruction as well as GPy by its own infer_newX (README, Benchmarks)
+bench-gplvm-exact: $(STAMP)
+	$(BIN)/python -m benchmarks.gplvm --sizes 1000 --active-size 1000 --iterations 1 \
+		--active-steps 150 --optimiser lbfgs --inverse reconstruction --gpy-model full --subsets 3
 
 # tracking error and ms/frame of latent / CONDENSATION / MHT vs N (~15 minutes on 2 cores)
 bench-tracking: $(STAMP)

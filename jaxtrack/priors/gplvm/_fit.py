@@ -190,10 +190,11 @@ def fit_gplvm(
         poses: ``(n, dims)`` training poses (e.g. SPM states); centred inside.
         latent_dim: latent dimension q (2 in the paper).
         active_size: size d of the IVM active set (capped at n). At n (or more) every pose is
-            active, the IVM is skipped and eq. 1 is optimised over all poses: the exact GPLVM
-            (benchmark, 1 000 poses: 5.05 px held out in 6.6 s with ``iterations=1,
-            active_steps=300`` against 6.10 px in 1.2 s with the defaults; μ and μ⁻¹ then cost
-            4–15× more per point, since every pose is a kernel centre).
+            active, the IVM is skipped and eq. 1 is optimised over all poses: the exact GPLVM.
+            Benchmark, 1 000 poses, held out through the reconstruction μ⁻¹: 4.68 px in 8.2 s
+            with ``iterations=1, optimiser="lbfgs", active_steps=150``, against 5.58 px in
+            0.8 s with the defaults (GPy's exact GPLVM: 4.91 px in 28 s). μ and eq. 5's μ⁻¹
+            then cost 4–15× more per point, since every pose is a kernel centre.
         iterations: outer iterations T. 2 and ``active_steps`` 150 (were 4 and 300): on a
             validation split of the training clips (two clips left out, three 1 000-pose
             subsets) median error 3.39 px against 3.44 px, in half the time; more iterations
@@ -204,11 +205,12 @@ def fit_gplvm(
         optimiser: eq. 1's optimistix minimiser, ``"bfgs"`` or ``"lbfgs"`` (history 10).
             Both backtrack (Armijo) from a unit step. BFGS's dense inverse Hessian starts at
             the identity and never learns the gradient's scale (thousands here), so most of
-            its steps are halvings and 300 of them move eq. 1 little: −53 000 where L-BFGS
-            reaches −72 000 in 100 (exact model, 1 000 poses, validation split). That early
-            stop suits eq. 5's μ⁻¹; the better-fitted L-BFGS model is the better manifold
-            (held-out 7.3–7.6 px against 7.8 px through the reconstruction μ⁻¹) but
-            reconstructs worse through eq. 5 (10.5 px): see :meth:`GPLVM.inverse`.
+            its steps are halvings: 300 steps accept ~20 and reach eq. 1 ≈ −53 000, where
+            L-BFGS reaches ≈ −72 000 in 100 (exact model, 1 000 poses, validation split).
+            The better-fitted L-BFGS model is the better manifold through the reconstruction
+            μ⁻¹ (held-out 7.2–7.6 px against 7.7–8.1 px) and the worse through eq. 5 (9.4–11.1
+            against 7.8–8.3 px): see :meth:`GPLVM.inverse`. Algorithm 1 with an active set
+            of 200 gains nothing from it (8.4 against 8.3 px).
         inactive_dtype: float type of the eq. 2 solves (float32; eq. 1 and the model stay
             float64). Validation error unchanged against float64 (3.59, 3.29, 3.39 px against
             3.60, 3.26, 3.39 px on three subsets), that stage 20–35 % faster; more of the
