@@ -198,7 +198,7 @@ def fit_gplvm(
         iterations: outer iterations T. 2 and ``active_steps`` 150 (were 4 and 300): on a
             validation split of the training clips (two clips left out, three 1 000-pose
             subsets) median error 3.39 px against 3.44 px, in half the time; more iterations
-            or steps do not help (eq. 1 overfits the 200 active points).
+            or steps did not help there (errors through eq. 5's μ⁻¹).
         init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
         neighbours: k of Isomap's nearest-neighbour graph.
         active_steps, inactive_steps: step caps for eq. 1 and for each eq. 2 solve.
