@@ -4,6 +4,9 @@
     >>> model = fit.model
     >>> jax.vmap(model.mean)(particles)                               # eq. 3, per particle
     >>> model.inverse(poses).latents                                  # eq. 5, μ⁻¹
+    >>> model.inverse(poses, objective="reconstruction").latents      # argmin |y − μ(x)|²
+    >>> fit_gplvm(poses, active_size=len(poses), iterations=1,        # the exact GPLVM
+    ...           optimiser="lbfgs", active_steps=150)
 """
 
 from jaxtrack.priors.gplvm._fit import GPLVMFit, estimate_dynamics, fit_gplvm
