@@ -6,13 +6,9 @@ variance) and γ (inverse squared length scale) kept positive by storing their l
 
 from __future__ import annotations
 
-from functools import partial
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
-import scipy.linalg
 from jax.scipy.linalg import cho_solve
 from jaxtyping import Array, Float
 
@@ -81,10 +77,9 @@ def squared_distances(x1: Float[Array, "... latent"], x2: Float[Array, "... late
 
 def kernel_matrix(kernel: KernelParameters, latents: Float[Array, "n latent"]) -> Array:
     """K with the noise (and a small relative jitter) on the diagonal, ``(n, n)``."""
-    # elementwise (one fused pass, exact zeros on the diagonal), not |x|² + |x′|² − 2 x·x′:
-    # that dot of inner dimension 2 and the clamp cost 3× the fusion, and in eq. 1's gradient
-    # at n = 1 000 ~14 ms of ~80
-    gram = rbf(kernel, latents[:, None, :], latents[None, :, :])
+    squared = jnp.sum(latents**2, axis=-1)
+    distances = squared[:, None] + squared[None, :] - 2.0 * latents @ latents.T
+    gram = kernel.alpha * jnp.exp(-0.5 * kernel.gamma * jnp.maximum(distances, 0.0))
     diagonal = kernel.noise_variance + JITTER * kernel.alpha
     return gram + diagonal * jnp.eye(latents.shape[0], dtype=latents.dtype)
 
@@ -108,51 +103,9 @@ def _term_forward(gram, poses):
     return value, (factor, solved)
 
 
-def _lapack_inverse(bits, dtype) -> np.ndarray:
-    # bits: U = Lᵀ in C order (= L in Fortran order, what LAPACK reads without a copy), as words
-    upper = np.ascontiguousarray(bits).view(dtype).reshape(bits.shape[:2])
-    potri = scipy.linalg.lapack.get_lapack_funcs("potri", (upper,))
-    inverse, info = potri(upper.T, lower=True)  # K⁻¹ in the lower triangle, Fortran order
-    if info != 0:  # a factor from a successful Cholesky has a positive diagonal
-        inverse = np.full_like(upper, np.nan)
-    # in C order the transpose holds K⁻¹ in its upper triangle; the caller symmetrises
-    return np.ascontiguousarray(inverse.T, dtype).view(np.int32).reshape(bits.shape)
-
-
-def inverse_from_factor(factor: Float[Array, "n n"]) -> Array:
-    """K⁻¹ from the lower Cholesky factor L of K.
-
-    On CPU by LAPACK's potri through a host callback: 2n³/3 flops, where ``cho_solve(L, I)``
-    (two triangular solves with n right-hand sides, what XLA offers) costs 2n³. Cholesky and
-    K⁻¹ at n = 1 000, float64, one thread: 46 ms against 71 ms. Elsewhere (GPU) by
-    ``cho_solve``.
-
-    The factor goes to LAPACK as Lᵀ (XLA's Cholesky leaves L column-major, so Lᵀ row-major is
-    the same memory) and comes back as one triangle, symmetrised here where XLA can fuse it
-    into its consumer. Both travel as 32-bit words: JAX casts float64 callback arguments and
-    results to float32 unless x64 is enabled in the thread that runs the callback, and
-    ``jax.enable_x64`` (how training enables it) is a context of the calling thread only.
-    """
-    dtype = jnp.dtype(factor.dtype)
-
-    def host(factor):
-        bits = jax.lax.bitcast_convert_type(factor.T, jnp.int32)
-        bits = bits.reshape(*factor.shape, -1)  # (n, n, words)
-        shape = jax.ShapeDtypeStruct(bits.shape, jnp.int32)
-        bits = jax.pure_callback(partial(_lapack_inverse, dtype=dtype), shape, bits,
-                                 vmap_method="sequential")
-        raw = jax.lax.bitcast_convert_type(bits if bits.shape[-1] > 1 else bits[..., 0], dtype)
-        return jnp.triu(raw) + jnp.triu(raw, 1).T
-
-    def device(factor):
-        return cho_solve((factor, True), jnp.eye(factor.shape[0], dtype=factor.dtype))
-
-    return jax.lax.platform_dependent(factor, cpu=host, default=device)
-
-
 def _term_backward(residuals, cotangent):
     factor, solved = residuals
-    inverse = inverse_from_factor(factor)
+    inverse = cho_solve((factor, True), jnp.eye(factor.shape[0], dtype=factor.dtype))
     gram_cotangent = 0.5 * (solved.shape[1] * inverse - solved @ solved.T)
     return cotangent * gram_cotangent, cotangent * solved
 
