@@ -1,6 +1,8 @@
 """GPLVM: objective and gradients against NumPy, IVM, training on a known GP, μ⁻¹, files."""
 
 import json
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -71,6 +73,64 @@ def test_objective_and_gradient_match_numpy_and_finite_differences():
         numeric = (numpy_objective(*np.exp(up), latents, poses)
                    - numpy_objective(*np.exp(down), latents, poses)) / (2 * step)
         assert getattr(gradient_kernel, name) == pytest.approx(numeric, rel=1e-6, abs=1e-7)
+
+
+_INVERSE_SCRIPT = """
+import jax, jax.numpy as jnp, numpy as np
+from jaxtrack.priors.gplvm._kernel import inverse_from_factor
+a = np.random.default_rng(0).normal(size=(30, 30))
+matrix = a @ a.T + 30 * np.eye(30)
+for x64 in (True, False):
+    with jax.enable_x64(x64):
+        dtype = jnp.float64 if x64 else jnp.float32
+        factor = jnp.linalg.cholesky(jnp.asarray(matrix, dtype))
+        inverse = jax.jit(inverse_from_factor)(factor)
+        batched = jax.vmap(inverse_from_factor)(jnp.stack([factor, 2 * factor]))
+        assert inverse.dtype == dtype, inverse.dtype
+        expected = np.linalg.inv(matrix)
+        tolerance = (1e-12 if x64 else 1e-5) * np.abs(expected).max()
+        np.testing.assert_allclose(inverse, expected, rtol=0, atol=tolerance)
+        np.testing.assert_allclose(batched[1], expected / 4, rtol=0, atol=tolerance)
+# inside a solver's loop the callback runs in another thread (where the float32 cast struck);
+# an exact GPLVM of FAST_SIZE poses is the smallest fit that calls it
+from jaxtrack.priors.gplvm import fit_gplvm
+from jaxtrack.priors.gplvm._kernel import FAST_SIZE
+poses = np.random.default_rng(1).normal(size=(FAST_SIZE, 5))
+fit = fit_gplvm(poses, active_size=FAST_SIZE, iterations=1, active_steps=3, progress=False)
+print(repr(fit.trace[-1]["objective"]))
+"""
+
+
+def test_inverse_from_factor_is_the_inverse_in_either_precision():
+    # eq. 1's VJP takes K⁻¹ from LAPACK's potri through a host callback on CPU. The callback
+    # runs in a thread that does not see a ``jax.enable_x64`` context (how training enables
+    # float64), which once cast its float64 result to float32 and failed the fit. This test
+    # process enables x64 globally, which would hide that: a fresh interpreter, x64 off
+    # globally and on in a context, as in any user's script.
+    done = subprocess.run([sys.executable, "-c", _INVERSE_SCRIPT], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    from jaxtrack.priors.gplvm._kernel import FAST_SIZE
+
+    poses = np.random.default_rng(1).normal(size=(FAST_SIZE, 5))
+    fit = fit_gplvm(poses, active_size=FAST_SIZE, iterations=1, active_steps=3, progress=False)
+    assert float(done.stdout.strip().splitlines()[-1]) == pytest.approx(
+        fit.trace[-1]["objective"], rel=1e-9)
+
+
+def test_kernel_matrix_is_the_same_kernel_on_either_side_of_the_fast_size():
+    # from FAST_SIZE points on K is built elementwise; below, from |x|² + |x′|² − 2x·x′
+    from jaxtrack.priors.gplvm._kernel import FAST_SIZE, kernel_matrix
+
+    latents = np.random.default_rng(2).normal(size=(FAST_SIZE, 2))
+    kernel = KernelParameters.create(0.7, 50.0, 1.3)
+    with jax.enable_x64(True):
+        large = np.asarray(kernel_matrix(kernel, jnp.asarray(latents)))
+        small = np.asarray(kernel_matrix(kernel, jnp.asarray(latents[:FAST_SIZE - 1])))
+    distances = np.sum((latents[:, None] - latents[None]) ** 2, axis=-1)
+    expected = 0.7 * np.exp(-0.65 * distances) + (1 / 50.0 + 1e-8 * 0.7) * np.eye(FAST_SIZE)
+    np.testing.assert_allclose(large, expected, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(small, expected[:-1, :-1], rtol=1e-12, atol=1e-14)
 
 
 def test_ivm_beats_random_active_sets_on_held_out_point_objective():
