@@ -9,7 +9,7 @@
     ...           optimiser="lbfgs", active_steps=150)
 """
 
-from jaxtrack.priors.gplvm._fit import GPLVMFit, estimate_dynamics, fit_gplvm
+from jaxtrack.priors.gplvm._fit import OPTIMISERS, GPLVMFit, estimate_dynamics, fit_gplvm
 from jaxtrack.priors.gplvm._init import initial_latents, isomap, pca
 from jaxtrack.priors.gplvm._io import GPLVMFormatError, SavedGPLVM, load_gplvm, save_gplvm
 from jaxtrack.priors.gplvm._ivm import entropy_reductions, select_active_set
@@ -20,11 +20,13 @@ from jaxtrack.priors.gplvm._kernel import (
     kernel_matrix,
     rbf,
 )
-from jaxtrack.priors.gplvm._model import GPLVM, InverseResult
+from jaxtrack.priors.gplvm._model import GPLVM, INVERSE_OBJECTIVES, InverseResult
 from jaxtrack.priors.gplvm._plot import plot_latent_space
 
 __all__ = [
     "GPLVM",
+    "INVERSE_OBJECTIVES",
+    "OPTIMISERS",
     "GPLVMFit",
     "GPLVMFormatError",
     "SavedGPLVM",

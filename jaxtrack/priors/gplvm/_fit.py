@@ -36,7 +36,7 @@ from jaxtrack.priors.gplvm._ivm import select_active_set
 from jaxtrack.priors.gplvm._kernel import KernelParameters, active_objective
 from jaxtrack.priors.gplvm._model import GPLVM
 
-__all__ = ["GPLVMFit", "fit_gplvm", "estimate_dynamics"]
+__all__ = ["GPLVMFit", "OPTIMISERS", "fit_gplvm", "estimate_dynamics"]
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 
 from jaxtrack.priors.gplvm._kernel import KernelParameters, kernel_matrix, rbf
 
-__all__ = ["GPLVM", "InverseResult"]
+__all__ = ["GPLVM", "INVERSE_OBJECTIVES", "InverseResult"]
 
 
 class InverseResult(eqx.Module):
@@ -182,8 +182,8 @@ class GPLVM(eqx.Module):
     def objective(self, name: str):
         """The per-point objective of μ⁻¹ by name: ``"posterior"`` (L′, eq. 2, whose argmin is
         eq. 5) or ``"reconstruction"``."""
-        if name not in _OBJECTIVES:
-            raise ValueError(f"objective must be one of {_OBJECTIVES}, got {name!r}")
+        if name not in INVERSE_OBJECTIVES:
+            raise ValueError(f"objective must be one of {INVERSE_OBJECTIVES}, got {name!r}")
         return self.point_objective if name == "posterior" else self.reconstruction_objective
 
     def initial_latents(self, poses: Float[ArrayLike, "poses dims"], grid: int = 64,
@@ -272,7 +272,7 @@ class GPLVM(eqx.Module):
         return jax.vmap(self.mean)(self.inverse(poses, **options).latents)
 
 
-_OBJECTIVES = ("posterior", "reconstruction")
+INVERSE_OBJECTIVES = ("posterior", "reconstruction")
 
 
 @partial(jax.custom_jvp, nondiff_argnums=(3,))
