@@ -205,6 +205,8 @@ def main(argv=None) -> int:
     stem += {"markers": "_markers", "limbs": "_strips"}.get(args.likelihood, "")
     args.json = args.json or str(RESULTS / f"{stem}.json")
     args.plot = args.plot or str(RESULTS / f"{stem}.png")
+    for output in (args.json, args.plot):  # results/ is ignored by git: a fresh clone lacks it
+        Path(output).parent.mkdir(parents=True, exist_ok=True)
     caps = {"mht": args.max_mht}
     load_start = os.getloadavg()
 

@@ -75,6 +75,67 @@ def test_objective_and_gradient_match_numpy_and_finite_differences():
         assert getattr(gradient_kernel, name) == pytest.approx(numeric, rel=1e-6, abs=1e-7)
 
 
+def test_exact_objective_gradient_matches_autodiff_through_the_cholesky():
+    # from FAST_SIZE points on eq. 1 takes its written-out gradient (exact_objective); check it
+    # against plain autodiff through jnp.linalg.cholesky and against finite differences
+    from jaxtrack.priors.gplvm._kernel import FAST_SIZE
+
+    rng = np.random.default_rng(3)
+    latents, poses = rng.normal(size=(FAST_SIZE, 2)), rng.normal(size=(FAST_SIZE, 3))
+    alpha, beta, gamma = 1.3, 20.0, 0.7
+    kernel = KernelParameters.create(alpha, beta, gamma)
+
+    def autodiff_objective(kernel, latents, poses):
+        squared = jnp.sum((latents[:, None] - latents[None]) ** 2, axis=-1)
+        gram = kernel.alpha * jnp.exp(-0.5 * kernel.gamma * squared) + (
+            kernel.noise_variance + 1e-8 * kernel.alpha) * jnp.eye(len(latents))
+        factor = jnp.linalg.cholesky(gram)
+        solved = jax.scipy.linalg.cho_solve((factor, True), poses)
+        return (poses.shape[1] * jnp.sum(jnp.log(jnp.diagonal(factor)))
+                + 0.5 * jnp.sum(poses * solved) + 0.5 * jnp.sum(latents**2))
+
+    arguments = (kernel, jnp.asarray(latents), jnp.asarray(poses))
+    value, (gradient_kernel, gradient_latents) = jax.jit(
+        jax.value_and_grad(active_objective, argnums=(0, 1)))(*arguments)
+    expected_value, (expected_kernel, expected_latents) = jax.jit(
+        jax.value_and_grad(autodiff_objective, argnums=(0, 1)))(*arguments)
+    assert value == pytest.approx(numpy_objective(alpha, beta, gamma, latents, poses), rel=1e-10)
+    assert value == pytest.approx(float(expected_value), rel=1e-10)
+    np.testing.assert_allclose(gradient_latents, expected_latents, rtol=1e-8,
+                               atol=1e-8 * np.abs(expected_latents).max())
+    for name in ("log_alpha", "log_beta", "log_gamma"):
+        assert float(getattr(gradient_kernel, name)) == pytest.approx(
+            float(getattr(expected_kernel, name)), rel=1e-8)
+    step = 1e-6
+    for i, j in [(0, 0), (FAST_SIZE - 1, 1)]:
+        up, down = latents.copy(), latents.copy()
+        up[i, j] += step
+        down[i, j] -= step
+        numeric = (numpy_objective(alpha, beta, gamma, up, poses)
+                   - numpy_objective(alpha, beta, gamma, down, poses)) / (2 * step)
+        assert gradient_latents[i, j] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
+
+
+def test_lbfgs_first_step_is_scaled_by_the_gradient():
+    # L-BFGS's first trial step is −∇L; from the Isomap start |∇L| is ~2 600 here (~10⁵ on
+    # 1 000 real poses), so unscaled it is halved many times before anything is accepted, as
+    # BFGS's still is (its arithmetic is what the tracking priors were validated with). With
+    # eq. 1 divided by max|∇L(start)| L-BFGS's first trial is accepted.
+    from jaxtrack.priors.gplvm._fit import _optimise_active
+
+    _, poses = sample_gp_data(0, 60)
+    centred = poses - poses.mean(axis=0)
+    start_latents, _ = initial_latents(centred, 2, "isomap", neighbours=10, seed=0)
+    signal = float(np.mean(np.var(centred, axis=0)))
+    kernel = KernelParameters.create(signal, 100.0 / signal, 1.0)
+    arguments = (kernel, jnp.asarray(start_latents), jnp.asarray(centred))
+    start = float(active_objective(*arguments))
+    lbfgs = _optimise_active(*arguments, max_steps=2, tolerance=1e-6, optimiser="lbfgs")
+    bfgs = _optimise_active(*arguments, max_steps=2, tolerance=1e-6, optimiser="bfgs")
+    assert float(lbfgs[2]) < 0.5 * start
+    assert float(bfgs[2]) == pytest.approx(start, rel=1e-12)
+
+
 _INVERSE_SCRIPT = """
 import jax, jax.numpy as jnp, numpy as np
 from jaxtrack.priors.gplvm._kernel import inverse_from_factor

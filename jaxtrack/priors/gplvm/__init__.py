@@ -6,7 +6,7 @@
     >>> model.inverse(poses).latents                                  # eq. 5, μ⁻¹
     >>> model.inverse(poses, objective="reconstruction").latents      # argmin |y − μ(x)|²
     >>> fit_gplvm(poses, active_size=len(poses), iterations=1,        # the exact GPLVM
-    ...           optimiser="lbfgs", active_steps=150)
+    ...           optimiser="lbfgs", active_steps=100)
 """
 
 from jaxtrack.priors.gplvm._fit import OPTIMISERS, GPLVMFit, estimate_dynamics, fit_gplvm
@@ -16,6 +16,7 @@ from jaxtrack.priors.gplvm._ivm import entropy_reductions, select_active_set
 from jaxtrack.priors.gplvm._kernel import (
     KernelParameters,
     active_objective,
+    exact_objective,
     gaussian_process_term,
     kernel_matrix,
     rbf,
@@ -33,6 +34,7 @@ __all__ = [
     "InverseResult",
     "KernelParameters",
     "active_objective",
+    "exact_objective",
     "entropy_reductions",
     "estimate_dynamics",
     "fit_gplvm",

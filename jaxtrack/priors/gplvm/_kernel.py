@@ -19,6 +19,7 @@ from jaxtyping import Array, Float
 __all__ = [
     "KernelParameters",
     "active_objective",
+    "exact_objective",
     "gaussian_process_term",
     "kernel_matrix",
     "rbf",
@@ -137,19 +138,19 @@ def _lapack_inverse(bits, dtype) -> np.ndarray:
     return np.ascontiguousarray(inverse.T, dtype).view(np.int32).reshape(bits.shape)
 
 
-def inverse_from_factor(factor: Float[Array, "n n"]) -> Array:
-    """K⁻¹ from the lower Cholesky factor L of K.
+def _inverse_upper(factor: Float[Array, "n n"]) -> Array:
+    """A matrix whose upper triangle (diagonal included) is K⁻¹, from K's lower factor L.
 
     On CPU by LAPACK's potri through a host callback: 2n³/3 flops, where ``cho_solve(L, I)``
     (two triangular solves with n right-hand sides, what XLA offers) costs 2n³. Cholesky and
-    K⁻¹ at n = 1 000, float64, one thread: 46 ms against 71 ms. Elsewhere (GPU) by
-    ``cho_solve``.
+    K⁻¹ at n = 1 000, float64, one thread: 46 ms against 71 ms. The strict lower triangle is
+    then left over from L. Elsewhere (GPU) the whole K⁻¹ by ``cho_solve``.
 
     The factor goes to LAPACK as Lᵀ (XLA's Cholesky leaves L column-major, so Lᵀ row-major is
-    the same memory) and comes back as one triangle, symmetrised here where XLA can fuse it
-    into its consumer. Both travel as 32-bit words: JAX casts float64 callback arguments and
-    results to float32 unless x64 is enabled in the thread that runs the callback, and
-    ``jax.enable_x64`` (how training enables it) is a context of the calling thread only.
+    the same memory) and comes back as one triangle. Both travel as 32-bit words: JAX casts
+    float64 callback arguments and results to float32 unless x64 is enabled in the thread that
+    runs the callback, and ``jax.enable_x64`` (how training enables it) is a context of the
+    calling thread only.
     """
     dtype = jnp.dtype(factor.dtype)
 
@@ -159,10 +160,16 @@ def inverse_from_factor(factor: Float[Array, "n n"]) -> Array:
         shape = jax.ShapeDtypeStruct(bits.shape, jnp.int32)
         bits = jax.pure_callback(partial(_lapack_inverse, dtype=dtype), shape, bits,
                                  vmap_method="sequential")
-        raw = jax.lax.bitcast_convert_type(bits if bits.shape[-1] > 1 else bits[..., 0], dtype)
-        return jnp.triu(raw) + jnp.triu(raw, 1).T
+        return jax.lax.bitcast_convert_type(bits if bits.shape[-1] > 1 else bits[..., 0], dtype)
 
     return jax.lax.platform_dependent(factor, cpu=host, default=_cholesky_inverse)
+
+
+def inverse_from_factor(factor: Float[Array, "n n"]) -> Array:
+    """K⁻¹ from the lower Cholesky factor L of K (LAPACK's potri on CPU, see
+    :func:`_inverse_upper`), symmetrised here where XLA can fuse it into its consumer."""
+    upper = _inverse_upper(factor)
+    return jnp.triu(upper) + jnp.triu(upper, 1).T
 
 
 def _term_backward(residuals, cotangent):
@@ -177,5 +184,64 @@ gaussian_process_term.defvjp(_term_forward, _term_backward)
 
 def active_objective(kernel: KernelParameters, latents: Float[Array, "n latent"],
                      poses: Float[Array, "n dims"]) -> Array:
-    """Eq. 1: L = D/2 ln|K| + ½ Σ_m Y_mᵀ K⁻¹ Y_m + ½ Σ_i |x_i|² (poses centred)."""
+    """Eq. 1: L = D/2 ln|K| + ½ Σ_m Y_mᵀ K⁻¹ Y_m + ½ Σ_i |x_i|² (poses centred).
+
+    From ``FAST_SIZE`` points on (the exact GPLVM) through :func:`exact_objective`, whose
+    gradient is written out; the value is the same either way.
+    """
+    if latents.shape[0] >= FAST_SIZE:
+        return exact_objective(kernel, latents, poses)
     return gaussian_process_term(kernel_matrix(kernel, latents), poses) + 0.5 * jnp.sum(latents**2)
+
+
+@jax.custom_vjp
+def exact_objective(kernel: KernelParameters, latents: Float[Array, "n latent"],
+                    poses: Float[Array, "n dims"]) -> Array:
+    """Eq. 1 with its gradient in closed form, for large n (the exact GPLVM).
+
+    With G = ∂L/∂K = ½(D K⁻¹ − AAᵀ), A = K⁻¹Y, and W = G ∘ αE (E_ij = exp(−γ/2 |x_i − x_j|²),
+    symmetric), the chain rule through K gives
+        ∂L/∂x_i     = −2γ Σ_j W_ij (x_i − x_j) + x_i
+        ∂L/∂ln α    = Σ_ij W_ij + jitter · α tr G
+        ∂L/∂ln β    = −β⁻¹ tr G
+        ∂L/∂ln γ    = −γ/2 Σ_ij W_ij |x_i − x_j|²
+    which reads K⁻¹ in one triangle, straight from LAPACK's potri (:func:`_inverse_upper`), in
+    one fused pass and two (n × 3) products: no symmetrised K⁻¹ and no K cotangent are built,
+    where :func:`gaussian_process_term`'s VJP into :func:`kernel_matrix` builds both (value +
+    gradient at n = 1 000: 54 → 48 ms). Agrees with autodiff through the Cholesky to ~1e-12.
+    """
+    value, _ = _exact_forward(kernel, latents, poses)
+    return value
+
+
+def _exact_forward(kernel, latents, poses):
+    value, (factor, solved) = _term_forward(kernel_matrix(kernel, latents), poses)
+    return value + 0.5 * jnp.sum(latents**2), (kernel, latents, factor, solved)
+
+
+def _exact_backward(residuals, cotangent):
+    kernel, latents, factor, solved = residuals
+    n, dims = solved.shape
+    upper = _inverse_upper(factor)  # K⁻¹ in the upper triangle
+    rows = jax.lax.broadcasted_iota(jnp.int32, (n, n), 0)
+    columns = jax.lax.broadcasted_iota(jnp.int32, (n, n), 1)
+    squared = squared_distances(latents[:, None, :], latents[None, :, :])
+    gram_gradient = 0.5 * (dims * upper - solved @ solved.T)
+    # W over the strict upper triangle (the diagonal's part cancels in ∂L/∂x, the rest below)
+    weights = jnp.where(rows < columns,
+                        gram_gradient * (kernel.alpha * jnp.exp(-0.5 * kernel.gamma * squared)),
+                        0.0)
+    trace = 0.5 * jnp.sum(dims * jnp.diagonal(upper) - jnp.sum(solved**2, axis=1))  # tr G
+    # Σ_j W_ij (x_j, 1) over both triangles
+    augmented = jnp.concatenate([latents, jnp.ones_like(latents[:, :1])], axis=1)
+    sums = weights @ augmented + weights.T @ augmented
+    d_latents = -2.0 * kernel.gamma * (latents * sums[:, -1:] - sums[:, :-1]) + latents
+    d_kernel = KernelParameters(
+        log_alpha=2.0 * jnp.sum(weights) + (1.0 + JITTER) * kernel.alpha * trace,
+        log_beta=-kernel.noise_variance * trace,
+        log_gamma=-kernel.gamma * jnp.sum(weights * squared))
+    d_kernel = jax.tree.map(lambda leaf: cotangent * leaf, d_kernel)
+    return d_kernel, cotangent * d_latents, cotangent * solved
+
+
+exact_objective.defvjp(_exact_forward, _exact_backward)
