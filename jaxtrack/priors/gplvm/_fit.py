@@ -202,10 +202,11 @@ def fit_gplvm(
         latent_dim: latent dimension q (2 in the paper).
         active_size: size d of the IVM active set (capped at n). At n (or more) every pose is
             active, the IVM is skipped and eq. 1 is optimised over all poses: the exact GPLVM.
-            Benchmark, 1 000 poses, held out through the reconstruction μ⁻¹: 4.68 px in 8.2 s
-            with ``iterations=1, optimiser="lbfgs", active_steps=150``, against 5.58 px in
-            0.8 s with the defaults (GPy's exact GPLVM: 4.91 px in 28 s). μ and eq. 5's μ⁻¹
-            then cost 4–15× more per point, since every pose is a kernel centre.
+            Benchmark, 1 000 poses, held out through the reconstruction μ⁻¹: 4.50 px in 4.3 s
+            with ``iterations=1, optimiser="lbfgs", active_steps=100`` (steps chosen on the
+            validation split), against 5.58 px in 0.8 s with the defaults (GPy's exact GPLVM
+            in the same run: 4.84 px in 22 s). μ and eq. 5's μ⁻¹ then cost 4–15× more per
+            point, since every pose is a kernel centre.
         iterations: outer iterations T. 2 and ``active_steps`` 150 (were 4 and 300): on a
             validation split of the training clips (two clips left out, three 1 000-pose
             subsets) median error 3.39 px against 3.44 px, in half the time; more iterations
@@ -218,6 +219,10 @@ def fit_gplvm(
             the identity and never learns the gradient's scale (thousands here), so most of
             its steps are halvings: 300 steps accept ~20 and reach eq. 1 ≈ −53 000, where
             L-BFGS reaches ≈ −72 000 in 100 (exact model, 1 000 poses, validation split).
+            L-BFGS minimises eq. 1 / max|∇L(start)|, so that its first trial step (−∇L) is
+            not halved ~15 times first; BFGS keeps the unscaled arithmetic that the trackers'
+            priors were validated with. The numbers in the rest of this paragraph predate
+            that scaling.
             The better-fitted L-BFGS model is the better manifold through the reconstruction
             μ⁻¹ (held-out 7.2–7.6 px against 7.7–8.1 px) and the worse through eq. 5 (9.4–11.1
             against 7.8–8.3 px): see :meth:`GPLVM.inverse`. Algorithm 1 with an active set
