@@ -208,7 +208,7 @@ def exact_objective(kernel: KernelParameters, latents: Float[Array, "n latent"],
     which reads K⁻¹ in one triangle, straight from LAPACK's potri (:func:`_inverse_upper`), in
     one fused pass and two (n × 3) products: no symmetrised K⁻¹ and no K cotangent are built,
     where :func:`gaussian_process_term`'s VJP into :func:`kernel_matrix` builds both (value +
-    gradient at n = 1 000: 54 → 48 ms). Agrees with autodiff through the Cholesky to ~1e-12.
+    gradient at n = 1 000: 54 → 47–50 ms). Agrees with autodiff through the Cholesky to ~1e-12.
     """
     value, _ = _exact_forward(kernel, latents, poses)
     return value
