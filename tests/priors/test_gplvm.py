@@ -35,6 +35,15 @@ def numpy_objective(alpha, beta, gamma, latents, poses):
     return 0.5 * poses.shape[1] * log_determinant + 0.5 * trace + 0.5 * np.sum(latents**2)
 
 
+def latent_finite_difference(alpha, beta, gamma, latents, poses, i, j, step):
+    """Central difference of :func:`numpy_objective` in latent coordinate ``[i, j]``."""
+    up, down = latents.copy(), latents.copy()
+    up[i, j] += step
+    down[i, j] -= step
+    return (numpy_objective(alpha, beta, gamma, up, poses)
+            - numpy_objective(alpha, beta, gamma, down, poses)) / (2 * step)
+
+
 def sample_gp_data(seed, n, dims=6, noise=0.02):
     """Poses drawn from a GP over a known 2-D latent space (ring-shaped, so PCA folds it)."""
     rng = np.random.default_rng(seed)
@@ -59,11 +68,7 @@ def test_objective_and_gradient_match_numpy_and_finite_differences():
         kernel, jnp.asarray(latents), jnp.asarray(poses))
     step = 1e-6
     for i, j in [(0, 0), (4, 1), (8, 0)]:
-        up, down = latents.copy(), latents.copy()
-        up[i, j] += step
-        down[i, j] -= step
-        numeric = (numpy_objective(alpha, beta, gamma, up, poses)
-                   - numpy_objective(alpha, beta, gamma, down, poses)) / (2 * step)
+        numeric = latent_finite_difference(alpha, beta, gamma, latents, poses, i, j, step)
         assert gradient_latents[i, j] == pytest.approx(numeric, rel=1e-6, abs=1e-7)
     for name, index in (("log_alpha", 0), ("log_beta", 1), ("log_gamma", 2)):
         logs = np.log([alpha, beta, gamma])
@@ -106,13 +111,8 @@ def test_exact_objective_gradient_matches_autodiff_through_the_cholesky():
     for name in ("log_alpha", "log_beta", "log_gamma"):
         assert float(getattr(gradient_kernel, name)) == pytest.approx(
             float(getattr(expected_kernel, name)), rel=1e-8)
-    step = 1e-6
     for i, j in [(0, 0), (FAST_SIZE - 1, 1)]:
-        up, down = latents.copy(), latents.copy()
-        up[i, j] += step
-        down[i, j] -= step
-        numeric = (numpy_objective(alpha, beta, gamma, up, poses)
-                   - numpy_objective(alpha, beta, gamma, down, poses)) / (2 * step)
+        numeric = latent_finite_difference(alpha, beta, gamma, latents, poses, i, j, 1e-6)
         assert gradient_latents[i, j] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
 
 
