@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from jaxtrack._tracker_options import add_tracker_options, check_tracker_options
+from jaxtrack.priors.gplvm import OPTIMISERS
 
 __all__ = ["add_evaluate", "check_clips"]
 
@@ -28,6 +29,9 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--particles", type=int, default=None,
                         help="particles (modes for mht); default 200 / 1000 / 10")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--prior-optimiser", choices=OPTIMISERS, default="bfgs",
+                        help="eq. 1's minimiser when training the GPLVM (default bfgs, what the "
+                             "README's results used; lbfgs: see benchmarks/RESULTS.md, stop 17)")
     add_tracker_options(parser)
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
@@ -88,7 +92,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
         refine_steps = (default_refine_steps(args.likelihood) if args.refine_steps is None
                         else args.refine_steps)
         arm_grid = DEFAULT_ARM_GRID if args.arm_grid is None else args.arm_grid
-    prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed)
+    prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed,
+                        optimiser=args.prior_optimiser)
     per_sequence = []
     for clip in args.test:
         for sequence in render_test_sequences(clip, views=args.views,
