@@ -158,10 +158,10 @@ class EdgeLimbTemplates(eqx.Module):
             border = _borders(pixels)
             distances = jnp.take(flat, border + height * width, mode="clip")
         else:
-            samples = bilinear_sample(observation[0], x, y)
+            samples = bilinear_sample(observation, x, y, channel=0)
             border_x, border_y = _borders(x), _borders(y)
             border = _nearest_pixels(border_x, border_y, height, width)
-            distances = bilinear_sample(observation[1], border_x, border_y)
+            distances = bilinear_sample(observation, border_x, border_y, channel=1)
         tangents = jnp.take(flat, border + 2 * height * width, mode="clip")
         # |sin(φ − θ)| ≤ sin(tolerance), as the angle between the two lines (mod π) within the
         # tolerance of 0 or of π: no sine per point

@@ -19,6 +19,7 @@ from scipy import ndimage
 from jaxtrack.likelihoods import (
     DEFAULT_NCC_SHARPNESS,
     NCCTemplates,
+    bilinear_sample,
     make_templates,
     ncc_log_likelihood,
     ncc_log_likelihood_nearest,
@@ -83,6 +84,23 @@ def test_sample_patches_is_bilinear_with_clamped_border():
     # at integer centres the samples are the pixels themselves
     np.testing.assert_array_equal(patches_of(image, np.array([[12.0, 9.0]]), 2)[0],
                                   image[7:12, 10:15])
+
+
+def test_bilinear_sample_reads_one_channel_in_place():
+    stack = np.random.default_rng(1).random((3, 23, 31))
+    x = np.array([10.3, 20.8, 0.0, 30.0, -4.2, 33.7, 15.5])
+    y = np.array([7.8, 3.6, 0.0, 22.0, 11.5, -2.1, 25.9])
+    sample = jax.jit(bilinear_sample, static_argnames="channel")
+    for channel in range(3):
+        expected = ndimage.map_coordinates(stack[channel], [y, x], order=1, mode="nearest")
+        np.testing.assert_allclose(sample(stack, x, y, channel=channel), expected, rtol=0,
+                                   atol=1e-12)
+        np.testing.assert_array_equal(sample(stack, x, y, channel=channel),
+                                      sample(stack[channel], x, y))
+    with pytest.raises(ValueError, match="channel"):
+        bilinear_sample(jnp.asarray(stack), x, y)
+    with pytest.raises(ValueError, match="channel 3"):
+        bilinear_sample(jnp.asarray(stack), x, y, channel=3)
 
 
 def test_templates_are_zero_mean_unit_norm_and_match_their_own_frame():
