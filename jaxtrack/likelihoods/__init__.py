@@ -10,10 +10,13 @@ from jaxtrack.likelihoods.appearance import (
     needs_edges,
 )
 from jaxtrack.likelihoods.edges import (
+    DEFAULT_BORDER_MARGIN,
+    DEFAULT_BORDER_SCALES,
     DEFAULT_EDGE_SCALE,
     DEFAULT_EDGE_TOLERANCE,
     DEFAULT_EDGE_WEIGHT,
     EdgeLimbTemplates,
+    fit_border_widths,
     limb_edge_distances,
     make_edge_limb_templates,
 )
@@ -42,11 +45,13 @@ from jaxtrack.likelihoods.ncc import (
 )
 
 __all__ = [
-    "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD",
+    "DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE",
+    "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD",
     "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS",
     "LIMB_SEGMENTS",
     "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates",
-    "bilinear_sample", "check_observations", "default_sharpness", "limb_edge_distances",
+    "bilinear_sample", "check_observations", "default_sharpness", "fit_border_widths",
+    "limb_edge_distances",
     "make_edge_limb_templates", "needs_edges",
     "limb_ncc_log_likelihood", "limb_ncc_scores", "limb_points", "make_appearance_templates",
     "make_limb_templates", "make_templates", "ncc_log_likelihood", "ncc_log_likelihood_nearest",

@@ -13,6 +13,7 @@ from jaxtrack.likelihoods import (
     DEFAULT_LIMB_SHARPNESS,
     LIMB_SEGMENTS,
     EdgeLimbTemplates,
+    fit_border_widths,
     limb_edge_distances,
     limb_ncc_log_likelihood,
     limb_points,
@@ -73,7 +74,7 @@ def test_the_edge_term_adds_to_the_strips_and_residuals_are_the_cost():
     strips_only = limb_ncc_log_likelihood(pose, observations[4, 0], templates.strips, sharpness)
     combined = templates.log_likelihood(pose, observations[4], sharpness)
     unweighted = EdgeLimbTemplates(templates.strips, jnp.float32(0.0), templates.edge_scale,
-                                   templates.edge_tolerance)
+                                   templates.edge_tolerance, templates.border_widths)
     np.testing.assert_allclose(unweighted.log_likelihood(pose, observations[4], sharpness),
                                strips_only, rtol=1e-6)
     assert combined < strips_only  # the edge penalty is never a reward
@@ -96,7 +97,9 @@ def test_edge_term_is_the_documented_formula_written_out_with_numpy(tolerance):
     height, width = observation.shape[1:]
     for pose in [markers[6], *wrong_poses(markers[6])[::3]]:
         points = np.asarray(limb_points(pose), np.float64)  # (segments, along, across, 2)
-        borders = points[:, 1:-1, [0, -1]].reshape(len(LIMB_SEGMENTS), -1, 2)
+        # the borders at each strip's fitted half width (fit_border_widths)
+        borders = np.asarray(limb_points(pose, across=2, width=templates.border_widths),
+                             np.float64)[:, 1:-1].reshape(len(LIMB_SEGMENTS), -1, 2)
         column = np.clip(np.floor(borders[..., 0] + 0.5), 0, width - 1).astype(int)
         row = np.clip(np.floor(borders[..., 1] + 0.5), 0, height - 1).astype(int)
         distances, tangents = observation[1][row, column], observation[2][row, column]
@@ -152,3 +155,37 @@ def test_chosen_by_name_and_misuse_is_reported():
         make_edge_limb_templates(observations[0], markers[0], edge_tolerance=120.0)
     with pytest.raises(ValueError, match="likelihood must be one of"):
         needs_edges("edges")
+
+
+def test_border_widths_are_fitted_to_the_limbs_outlines_at_initialisation():
+    """The rendered forearms are narrower than the strips: their borders are fitted inwards on
+    frame 0, the spine (whose borders lie on no outline) keeps the strips' half width, and the
+    true pose's edge penalty is lower on every later frame than with the strips' own width."""
+    observations, markers, templates = wave()
+    unfitted = make_edge_limb_templates(observations[0], markers[0], border_scales=None)
+    strip_width = float(templates.strips.width)
+    np.testing.assert_array_equal(unfitted.border_widths, strip_width)
+    factors = np.asarray(templates.border_widths) / strip_width
+    names = [segment[0] for segment in LIMB_SEGMENTS]
+    assert factors[names.index("right forearm and hand")] < 1
+    assert factors[names.index("left forearm and hand")] < 1
+    assert factors[names.index("upper spine")] == factors[names.index("lower spine")] == 1
+
+    def edge_penalty(templates, t):
+        return float(templates.strips.log_likelihood(markers[t], observations[t, 0], 4.0)
+                     - templates.log_likelihood(markers[t], observations[t], 4.0))
+
+    for t in range(1, len(markers)):
+        assert edge_penalty(templates, t) < edge_penalty(unfitted, t), t
+    # the same fit from the grey frame alone (its edge maps made by jaxtrack.vision)
+    from_grey = make_edge_limb_templates(observations[0, 0], markers[0])
+    np.testing.assert_array_equal(from_grey.border_widths, templates.border_widths)
+    # a margin no fit can beat keeps every border at the strips' width
+    kept = fit_border_widths(unfitted, observations[0], markers[0], margin=4.0)
+    np.testing.assert_array_equal(kept.border_widths, strip_width)
+    with pytest.raises(ValueError, match="scales"):
+        fit_border_widths(unfitted, observations[0], markers[0], scales=(0.5, -1.0))
+    with pytest.raises(ValueError, match="margin"):
+        fit_border_widths(unfitted, observations[0], markers[0], margin=float("nan"))
+    with pytest.raises(ValueError, match="12 finite"):
+        fit_border_widths(unfitted, observations[0], np.full((12, 2), np.nan))
