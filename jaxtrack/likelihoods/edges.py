@@ -38,7 +38,7 @@ borders lie on no outline, keeps its width); the NCC strips keep theirs, so that
 holds the limb's outline against its surroundings. Measured with 200 particles (README,
 "Tracking"): on the protocol's take (24 runs, prior seeds 0–2 and 10–12) 6.40 → 5.90 % of the
 torso and 93.6 → 95.6 % of frames within 15 %; on two validation splits of another subject
-(the Bandai waves, 48 runs), where most fitted widths stay at 1 ×, 7.09 → 7.10 % and 91.1 →
+(the Bandai waves, 48 runs), where most fitted widths stay at 1 ×, 7.08 → 7.09 % and 91.2 →
 91.4 %: no change.
 
 Observations are ``(3, height, width)``: the grey frame, its edge distance map and the nearest
