@@ -186,14 +186,9 @@ class EdgeLimbTemplates(eqx.Module):
         markers, observation = markers.astype(dtype), observation.astype(dtype)
         strips = self.strips
         x, y = _strip_points(markers, strips.along, strips.across, strips.width)
-        if nearest:
-            height, width = observation.shape[1:]
-            samples = jnp.take(observation.reshape(-1), _nearest_pixels(x, y, height, width),
-                               mode="clip")
-        else:
-            samples = bilinear_sample(observation, x, y, channel=0)
-        return samples, _border_values(markers, observation, strips.along,
-                                       self.border_widths.astype(dtype), self, nearest)
+        samples = _read_strips(observation, x, y, nearest, channel=0)
+        return samples, _border_values(markers, observation, self.border_widths.astype(dtype),
+                                       self, nearest)
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
@@ -213,7 +208,7 @@ class EdgeLimbTemplates(eqx.Module):
         return jnp.concatenate([appearance, (weight * scaled).reshape(-1)])
 
 
-def _border_values(markers: Array, observation: Array, along: int, widths: Array,
+def _border_values(markers: Array, observation: Array, widths: Array,
                    templates: EdgeLimbTemplates, nearest: bool) -> Array:
     """``e_i`` of the border points ``(segments, 2 (along − 2))`` of one pose's strips at half
     widths ``widths`` (``(segments,)``, over the spine): ``min(d/σ, 2)`` where the nearest
@@ -221,7 +216,7 @@ def _border_values(markers: Array, observation: Array, along: int, widths: Array
     dtype = observation.dtype
     height, width = observation.shape[1:]
     border_x, border_y = (_borders(values) for values in
-                          _strip_points(markers, along, 2, widths))
+                          _strip_points(markers, templates.strips.along, 2, widths))
     border = _nearest_pixels(border_x, border_y, height, width)
     flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
     if nearest:
@@ -249,8 +244,8 @@ def _border_costs(templates: EdgeLimbTemplates, markers: Array, observation: Arr
     markers = markers.astype(scales.dtype)
     widths = scales[:, None] * templates.strips.width.astype(scales.dtype) * jnp.ones(
         len(LIMB_SEGMENTS), scales.dtype)
-    values = jax.vmap(lambda w: _border_values(markers, observation, templates.strips.along, w,
-                                               templates, False))(widths)
+    values = jax.vmap(lambda w: _border_values(markers, observation, w, templates, False))(
+        widths)
     return jnp.mean(values**2, axis=-1)
 
 
