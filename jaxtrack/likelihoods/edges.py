@@ -62,9 +62,11 @@ from jaxtrack.likelihoods.limbs import (
     _STARTS,
     DEFAULT_STRIP_WIDTH,
     LIMB_SEGMENTS,
+    PART_MARKERS,
     LimbTemplates,
     _nearest_pixels,
     _read_strips,
+    _segments,
     _strip_points,
     make_limb_templates,
 )
@@ -123,9 +125,11 @@ def _borders(values: Array) -> Array:
     return values[:, 1:-1, :: values.shape[2] - 1].reshape(values.shape[0], -1)
 
 
-def _axis_angles(markers: Array) -> Array:
+def _axis_angles(markers: Array, segments: tuple[int, ...] | None = None) -> Array:
     """Direction of each strip's axis (start to end marker), ``(segments,)`` radians."""
-    axis = markers[jnp.asarray(_ENDS)] - markers[jnp.asarray(_STARTS)]
+    chosen = _segments(segments)
+    axis = (markers[jnp.asarray([_ENDS[index] for index in chosen])]
+            - markers[jnp.asarray([_STARTS[index] for index in chosen])])
     return jnp.arctan2(axis[:, 1], axis[:, 0])
 
 
@@ -171,10 +175,17 @@ class EdgeLimbTemplates(eqx.Module):
             raise ValueError(f"border_widths must be ({len(LIMB_SEGMENTS)},), got "
                              f"{self.border_widths.shape}")
 
-    def _read(self, markers_2d, observation, nearest: bool) -> tuple[Array, Array]:
+    @property
+    def part_markers(self) -> tuple[tuple[int, ...], ...]:
+        """The markers each part (strip and its borders) depends on:
+        :data:`jaxtrack.likelihoods.limbs.PART_MARKERS`."""
+        return PART_MARKERS
+
+    def _read(self, markers_2d, observation, nearest: bool,
+              segments: tuple[int, ...] | None = None) -> tuple[Array, Array]:
         """The strips' samples ``(segments, along, across)`` and ``e_i`` of their border points
         ``(segments, points)``: ``min(d/σ, 2)`` where the nearest edge runs along the strip,
-        else 2.
+        else 2 (the strips ``segments`` picks, None: all).
 
         Both read the flattened observation in place (the maps at offsets of a channel).
         Samples and distances are read bilinearly unless ``nearest``; orientations always at
@@ -185,10 +196,12 @@ class EdgeLimbTemplates(eqx.Module):
         dtype = _float_dtype(observation, markers)
         markers, observation = markers.astype(dtype), observation.astype(dtype)
         strips = self.strips
-        x, y = _strip_points(markers, strips.along, strips.across, strips.width)
+        x, y = _strip_points(markers, strips.along, strips.across, strips.width, segments)
         samples = _read_strips(observation, x, y, nearest, channel=0)
-        return samples, _border_values(markers, observation, self.border_widths.astype(dtype),
-                                       self, nearest)
+        widths = self.border_widths.astype(dtype)
+        if segments is not None:
+            widths = widths[jnp.asarray(_segments(segments))]
+        return samples, _border_values(markers, observation, widths, self, nearest, segments)
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
@@ -207,16 +220,36 @@ class EdgeLimbTemplates(eqx.Module):
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
         return jnp.concatenate([appearance, (weight * scaled).reshape(-1)])
 
+    def part_log_likelihoods(self, markers_2d, observation, sharpness, nearest: bool = True,
+                             parts: tuple[int, ...] | None = None) -> Array:
+        """``−λ (1 − NCC_s) − κ mean_i e_i²`` of each strip ``parts`` picks (static indices
+        into ``LIMB_SEGMENTS``; None: all): the terms :meth:`log_likelihood` sums, computed
+        for the picked strips alone."""
+        samples, scaled = self._read(markers_2d, observation, nearest, parts)
+        scores = _correlation(samples, self.strips.strips[jnp.asarray(_segments(parts))])
+        appearance = -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
+        return appearance - self.edge_weight.astype(scores.dtype) * jnp.mean(scaled**2, axis=-1)
+
+    def part_residuals(self, markers_2d, observation, sharpness) -> Array:
+        """:meth:`residuals` grouped by strip, ``(segments, along · across + points)``: each
+        row (a strip's samples, then its border points) depends only on the markers
+        :attr:`part_markers` names for it."""
+        residuals = self.residuals(markers_2d, observation, sharpness)
+        split = len(LIMB_SEGMENTS) * self.strips.along * self.strips.across
+        return jnp.concatenate([residuals[:split].reshape(len(LIMB_SEGMENTS), -1),
+                                residuals[split:].reshape(len(LIMB_SEGMENTS), -1)], axis=1)
+
 
 def _border_values(markers: Array, observation: Array, widths: Array,
-                   templates: EdgeLimbTemplates, nearest: bool) -> Array:
+                   templates: EdgeLimbTemplates, nearest: bool,
+                   segments: tuple[int, ...] | None = None) -> Array:
     """``e_i`` of the border points ``(segments, 2 (along − 2))`` of one pose's strips at half
     widths ``widths`` (``(segments,)``, over the spine): ``min(d/σ, 2)`` where the nearest
-    edge runs along the strip, else 2."""
+    edge runs along the strip, else 2 (the strips ``segments`` picks, None: all)."""
     dtype = observation.dtype
     height, width = observation.shape[1:]
     border_x, border_y = (_borders(values) for values in
-                          _strip_points(markers, templates.strips.along, 2, widths))
+                          _strip_points(markers, templates.strips.along, 2, widths, segments))
     border = _nearest_pixels(border_x, border_y, height, width)
     flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
     if nearest:
@@ -226,7 +259,7 @@ def _border_values(markers: Array, observation: Array, widths: Array,
     tangents = jnp.take(flat, border + 2 * height * width, mode="clip")
     # |sin(φ − θ)| ≤ sin(tolerance), as the angle between the two lines (mod π) within the
     # tolerance of 0 or of π: no sine per point
-    difference = tangents - _axis_angles(markers)[:, None]
+    difference = tangents - _axis_angles(markers, segments)[:, None]
     difference = difference - jnp.pi * jnp.floor(difference / jnp.pi)  # [0, π)
     tolerance = jnp.deg2rad(templates.edge_tolerance.astype(dtype)) + 1e-6
     along_limb = (difference <= tolerance) | (difference >= jnp.pi - tolerance)

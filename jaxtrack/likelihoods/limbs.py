@@ -54,6 +54,7 @@ __all__ = [
     "DEFAULT_STRIP_WIDTH",
     "LIMB_SEGMENTS",
     "LimbTemplates",
+    "PART_MARKERS",
     "limb_ncc_log_likelihood",
     "limb_ncc_scores",
     "limb_points",
@@ -90,6 +91,12 @@ effective sample size of ~5 of 200)."""
 
 _SPINE = (1, 3)  # neck, pelvis in SPM_MARKERS order
 _NUM_MARKERS = 12
+
+PART_MARKERS: tuple[tuple[int, ...], ...] = tuple(
+    (segment[1], segment[2], *_SPINE) for segment in LIMB_SEGMENTS)
+"""The markers (``SPM_MARKERS`` indices) each strip's terms depend on: its two ends, and the
+neck and pelvis, whose distance sets its width. What the arm search and the refinement's
+Gauss–Newton Jacobian use to touch only the strips a change reaches."""
 _STARTS = tuple(segment[1] for segment in LIMB_SEGMENTS)
 _ENDS = tuple(segment[2] for segment in LIMB_SEGMENTS)
 _BEFORE = tuple(segment[3] for segment in LIMB_SEGMENTS)
@@ -119,27 +126,43 @@ def limb_points(
 
 
 @functools.cache
-def _point_matrix(along: int, across: int, dtype: str) -> np.ndarray:
+def _point_matrix(along: int, across: int, dtype: str, segments: tuple[int, ...] | None = None
+                  ) -> np.ndarray:
     """The constant ``(markers + segments, points)`` matrix of :func:`_point_coordinates`.
 
     Its first 12 rows put each point at its fraction of its segment, ``start + u (end −
     start)`` (linear in the markers); the last rows add ``v ×`` the segment's scaled normal.
-    Points are ordered ``(segments, along, across)``.
+    Points are ordered ``(segments, along, across)``; ``segments`` (indices into
+    :data:`LIMB_SEGMENTS`, None for all) picks the strips.
     """
-    segments = len(LIMB_SEGMENTS)
+    chosen = _segments(segments)
     fraction = np.linspace(0, 1, along)
     v = np.linspace(-1, 1, across)
-    matrix = np.zeros((_NUM_MARKERS + segments, segments, along, across))
-    for index, (_, start, end, before, after) in enumerate(LIMB_SEGMENTS):
+    matrix = np.zeros((_NUM_MARKERS + len(chosen), len(chosen), along, across))
+    for row, index in enumerate(chosen):
+        _, start, end, before, after = LIMB_SEGMENTS[index]
         u = -before + fraction * (1 + before + after)
-        matrix[start, index] += (1 - u)[:, None]
-        matrix[end, index] += u[:, None]
-        matrix[_NUM_MARKERS + index, index] = v[None, :]
-    return matrix.reshape(_NUM_MARKERS + segments, -1).astype(dtype)
+        matrix[start, row] += (1 - u)[:, None]
+        matrix[end, row] += u[:, None]
+        matrix[_NUM_MARKERS + row, row] = v[None, :]
+    return matrix.reshape(_NUM_MARKERS + len(chosen), -1).astype(dtype)
 
 
-def _point_coordinates(markers: Array, along: int, across: int, width) -> Array:
-    """``(2, segments · along · across)``: x and y of :func:`limb_points`.
+def _segments(segments: tuple[int, ...] | None) -> tuple[int, ...]:
+    """The strips a static ``segments`` argument picks (None: all of :data:`LIMB_SEGMENTS`)."""
+    if segments is None:
+        return tuple(range(len(LIMB_SEGMENTS)))
+    segments = tuple(int(index) for index in segments)
+    if not segments or any(not 0 <= index < len(LIMB_SEGMENTS) for index in segments):
+        raise ValueError(f"segments must be indices into LIMB_SEGMENTS (0 to "
+                         f"{len(LIMB_SEGMENTS) - 1}), got {segments}")
+    return segments
+
+
+def _point_coordinates(markers: Array, along: int, across: int, width,
+                       segments: tuple[int, ...] | None = None) -> Array:
+    """``(2, segments · along · across)``: x and y of :func:`limb_points` (of the strips
+    ``segments`` picks; ``width`` a scalar or one half width per picked strip).
 
     One ``(2, 21) @ (21, points)`` matrix product per pose (:func:`_point_matrix`), which XLA
     on CPU runs several times faster than the same points broadcast elementwise into
@@ -149,7 +172,9 @@ def _point_coordinates(markers: Array, along: int, across: int, width) -> Array:
         raise ValueError(f"markers must be (12, 2) in SPM_MARKERS order, got {markers.shape}")
     dtype = _float_dtype(markers)
     markers = markers.astype(dtype)
-    axis = markers[jnp.asarray(_ENDS)] - markers[jnp.asarray(_STARTS)]  # (segments, 2)
+    chosen = _segments(segments)
+    axis = (markers[jnp.asarray([_ENDS[index] for index in chosen])]
+            - markers[jnp.asarray([_STARTS[index] for index in chosen])])  # (segments, 2)
     spine = jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
     length = jnp.sqrt(jnp.sum(axis**2, axis=-1))
     # the unit normal times the half width; a segment of zero length gets a zero normal (its
@@ -157,7 +182,8 @@ def _point_coordinates(markers: Array, along: int, across: int, width) -> Array:
     scale = jnp.asarray(width, dtype) * spine / jnp.where(length > 0, length, jnp.inf)
     normal = jnp.stack([-axis[:, 1] * scale, axis[:, 0] * scale])  # (2, segments)
     coefficients = jnp.concatenate([markers.T, normal], axis=1)
-    return coefficients @ jnp.asarray(_point_matrix(along, across, jnp.dtype(dtype).name))
+    matrix = _point_matrix(along, across, jnp.dtype(dtype).name, segments)
+    return coefficients @ jnp.asarray(matrix)
 
 
 def _nearest_pixels(x: Array, y: Array, height: int, width: int) -> Array:
@@ -182,22 +208,23 @@ def _read_strips(image: Array, x: Array, y: Array, nearest: bool, channel: int |
                     mode="clip")
 
 
-def _strip_points(markers: Array, along: int, across: int, width) -> tuple[Array, Array]:
+def _strip_points(markers: Array, along: int, across: int, width,
+                  segments: tuple[int, ...] | None = None) -> tuple[Array, Array]:
     """x and y of :func:`limb_points`, each ``(segments, along, across)``."""
-    x, y = _point_coordinates(markers, along, across, width)
-    shape = (len(LIMB_SEGMENTS), along, across)
+    x, y = _point_coordinates(markers, along, across, width, segments)
+    shape = (len(_segments(segments)), along, across)
     return x.reshape(shape), y.reshape(shape)
 
 
-def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool
-            ) -> Array:
+def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool,
+            segments: tuple[int, ...] | None = None) -> Array:
     image = jnp.asarray(image)
     if image.ndim != 2:
         raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
                          f"convert colour frames with jaxtrack.vision.to_grey")
     markers = jnp.asarray(markers)
     dtype = _float_dtype(image, markers)
-    x, y = _strip_points(markers.astype(dtype), along, across, width)
+    x, y = _strip_points(markers.astype(dtype), along, across, width, segments)
     return _read_strips(image.astype(dtype), x, y, nearest)
 
 
@@ -235,6 +262,25 @@ class LimbTemplates(eqx.Module):
         ``λ Σ_s (1 − NCC_s)``, the cost as a sum of squares for Gauss–Newton."""
         strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest=False)
         return _template_residuals(strips, self.strips, sharpness)
+
+    @property
+    def part_markers(self) -> tuple[tuple[int, ...], ...]:
+        """The markers each part (strip) of the likelihood depends on: :data:`PART_MARKERS`."""
+        return PART_MARKERS
+
+    def part_log_likelihoods(self, markers_2d, image, sharpness, nearest: bool = True,
+                             parts: tuple[int, ...] | None = None) -> Array:
+        """``−λ (1 − NCC_s)`` of each strip ``parts`` picks (static indices into
+        :data:`LIMB_SEGMENTS`; None: all): the terms :meth:`log_likelihood` sums, computed
+        for the picked strips alone."""
+        strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest, parts)
+        scores = _correlation(strips, self.strips[jnp.asarray(_segments(parts))])
+        return -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
+
+    def part_residuals(self, markers_2d, image, sharpness) -> Array:
+        """:meth:`residuals` grouped by strip, ``(segments, along · across)``: each row
+        depends only on the markers :attr:`part_markers` names for it."""
+        return self.residuals(markers_2d, image, sharpness).reshape(len(LIMB_SEGMENTS), -1)
 
 
 def make_limb_templates(

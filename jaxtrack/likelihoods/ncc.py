@@ -241,6 +241,32 @@ class NCCTemplates(eqx.Module):
         return _template_residuals(sample_patches(image, markers_2d, self.half_size),
                                    self.patches, sharpness)
 
+    @property
+    def part_markers(self) -> tuple[tuple[int, ...], ...]:
+        """The marker each part (patch) of the likelihood depends on: its own."""
+        return tuple((marker,) for marker in range(self.num_markers))
+
+    def part_log_likelihoods(self, markers_2d, image, sharpness, nearest: bool = True,
+                             parts: tuple[int, ...] | None = None) -> Array:
+        """``−λ (1 − NCC_m)`` of each patch ``parts`` picks (static marker indices; None:
+        all): the terms :meth:`log_likelihood` sums, computed for the picked patches alone."""
+        markers, templates = jnp.asarray(markers_2d), self
+        if parts is not None:
+            parts = tuple(int(part) for part in parts)
+            if not parts or any(not 0 <= part < self.num_markers for part in parts):
+                raise ValueError(f"parts must be marker indices (0 to {self.num_markers - 1}), "
+                                 f"got {parts}")
+            index = jnp.asarray(parts)
+            markers, templates = markers[index], NCCTemplates(self.patches[index],
+                                                              self.half_size)
+        scores = (ncc_scores_nearest if nearest else ncc_scores)(markers, image, templates)
+        return -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
+
+    def part_residuals(self, markers_2d, image, sharpness) -> Array:
+        """:meth:`residuals` grouped by patch, ``(markers, size²)``: each row depends only on
+        its own marker."""
+        return self.residuals(markers_2d, image, sharpness).reshape(self.num_markers, -1)
+
 
 def make_templates(
     image: Float[ArrayLike, "height width"],

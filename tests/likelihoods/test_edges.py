@@ -189,3 +189,37 @@ def test_border_widths_are_fitted_to_the_limbs_outlines_at_initialisation():
         fit_border_widths(unfitted, observations[0], markers[0], margin=float("nan"))
     with pytest.raises(ValueError, match="12 finite"):
         fit_border_widths(unfitted, observations[0], np.full((12, 2), np.nan))
+
+
+@pytest.mark.parametrize("likelihood", ["limbs+edges", "limbs", "markers"])
+def test_parts_are_the_likelihood_term_by_term(likelihood):
+    """``part_log_likelihoods`` are the terms ``log_likelihood`` sums, a picked part's term is
+    computed alone with the same value, ``part_residuals`` are ``residuals`` grouped by part,
+    and each part's row moves only with the markers ``part_markers`` names for it (what the
+    arm search and the refinement's Gauss–Newton rely on)."""
+    observations, markers, _ = wave()
+    observation = observations[4] if likelihood == "limbs+edges" else observations[4, 0]
+    templates = make_appearance_templates(likelihood, observations[0] if likelihood ==
+                                          "limbs+edges" else observations[0, 0], markers[0])
+    pose = jnp.asarray(markers[4] + np.float32(0.6))
+    for nearest in (True, False):
+        terms = templates.part_log_likelihoods(pose, observation, 4.0, nearest)
+        assert terms.shape == (len(templates.part_markers),)
+        np.testing.assert_allclose(jnp.sum(terms),
+                                   templates.log_likelihood(pose, observation, 4.0, nearest),
+                                   rtol=1e-5)
+        picked = (4, 1)
+        np.testing.assert_allclose(
+            templates.part_log_likelihoods(pose, observation, 4.0, nearest, picked),
+            terms[jnp.asarray(picked)], rtol=1e-6)
+    rows = templates.part_residuals(pose, observation, 4.0)
+    assert rows.shape[0] == len(templates.part_markers)
+    np.testing.assert_array_equal(np.sort(rows.reshape(-1)),
+                                  np.sort(templates.residuals(pose, observation, 4.0)))
+    jacobian = jax.jacfwd(lambda m: templates.part_residuals(m, observation, 4.0))(pose)
+    reads = np.abs(np.asarray(jacobian)).sum(axis=(1, 3)) > 0  # (parts, markers)
+    for part, named in enumerate(templates.part_markers):
+        assert set(np.flatnonzero(reads[part])) <= set(named), (part, named)
+    assert reads.any(axis=0).all()  # and every marker is read by some part
+    with pytest.raises(ValueError, match="parts|segments"):
+        templates.part_log_likelihoods(pose, observation, 4.0, True, (len(templates.part_markers),))

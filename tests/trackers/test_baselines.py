@@ -335,3 +335,43 @@ def test_mht_rejects_bad_input(wave):
         mht_tracker(wave["template"], wave["frames"][0], wave["truth"][0], wave["states"][:1])
     with pytest.raises(ValueError, match="num_modes"):
         mht_tracker(wave["template"], wave["frames"][0], wave["truth"][0], num_modes=0)
+
+
+def test_marker_colours_never_put_two_markers_of_one_part_together():
+    from jaxtrack.likelihoods.limbs import PART_MARKERS
+    from jaxtrack.trackers._parts_gauss_newton import marker_colours
+
+    colours = marker_colours(PART_MARKERS, 12)
+    for markers in PART_MARKERS:
+        assert len({colours[marker] for marker in set(markers)}) == len(set(markers)), markers
+    # neck and pelvis (read by every strip) alone, the other ten in two colours: 8 tangents
+    assert max(colours) + 1 == 4
+    assert marker_colours([(m,) for m in range(12)], 12) == (0,) * 12
+    with pytest.raises(ValueError, match="below 12"):
+        marker_colours([(0, 12)], 12)
+
+
+@pytest.mark.parametrize("likelihood", ["markers", "limbs+edges"])
+def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
+    """``refine_pose(solver="parts")`` (Jacobian blocks per likelihood part, own Armijo loop)
+    reaches the iterate of optimistix's Armijo Gauss–Newton from the same start (float64)."""
+    from jaxtrack.likelihoods import make_appearance_templates
+
+    template, frame, templates, _, start = _refinement_problem(wave, jnp.float64)
+    if likelihood == "limbs+edges":
+        frames = edge_observations(wave["frames"][:2])
+        templates = make_appearance_templates(likelihood, frames[0], wave["truth"][0])
+        frame = jnp.asarray(frames[1], jnp.float64)
+    std = jnp.full(25, 0.3, jnp.float64).at[1:3].set(5.0)
+
+    def refined(solver):
+        return jax.jit(lambda s: refine_pose(s, frame, templates, template, s, std, 4.0,
+                                             max_steps=8, solver=solver))(start)
+
+    (reference, reference_result), (parts, parts_result) = refined("optimistix"), refined("parts")
+    np.testing.assert_allclose(parts, reference, atol=1e-8)
+    assert parts_result == reference_result
+    assert float(refinement_cost(parts, frame, templates, template, start, std, 4.0)) < float(
+        refinement_cost(start, frame, templates, template, start, std, 4.0))
+    with pytest.raises(ValueError, match="solver"):
+        refine_pose(start, frame, templates, template, start, std, solver="lbfgs")
