@@ -37,7 +37,8 @@ switchable back:
   space: the tracker carries one full 25-d SPM pose from frame to frame and refines two
   candidates on the new frame by the MHT baseline's damped Gauss–Newton
   (:func:`~jaxtrack.trackers.mht.refine_pose`, same likelihood, Gaussian prior about each
-  start): the pose carried from the previous frame, and μ of the particles' estimate. The
+  start; ``solver="parts"``, its Jacobian built part by part, the same iterates in half the
+  time): the pose carried from the previous frame, and μ of the particles' estimate. The
   better-scoring refined pose is reported and carried. The particles stay in the latent space
   (the refinement does not feed back into them), so the latent tracker's robustness is kept and
   a carried pose that drifts off the subject is replaced as soon as the latent estimate scores
