@@ -123,6 +123,7 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     model = tracker.latent_model
     search = jax.jit(lambda pose, image: tracker.search_arms(pose, image))
     score = jax.jit(lambda pose, image: tracker._score(pose, image))
+    arm_score = jax.jit(lambda pose, image: tracker._score(pose, image, (3, 4)))
     wrist = 6  # SPM_MARKERS: right_wrist
     before, after = [], []
     for index in range(24, 48, 4):  # the right arm raised, waving
@@ -138,6 +139,11 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
         before.append(off(displaced))
         after.append(off(found))
         assert float(score(found, frame)) >= float(score(displaced, frame))
+        # the search scores the right arm's two strips alone: the other terms cancel
+        moved = displaced.at[11].set(found[11]).at[13].set(found[13])
+        gain = float(score(moved, frame)) - float(score(displaced, frame))
+        arm_gain = float(arm_score(moved, frame)) - float(arm_score(displaced, frame))
+        np.testing.assert_allclose(arm_gain, gain, atol=2e-3 * max(1.0, abs(gain)))
         left_arm = [19, 21]
         np.testing.assert_allclose(np.asarray(found)[left_arm], np.asarray(truth)[left_arm],
                                    atol=0.31)
