@@ -18,8 +18,8 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     step        one whole ``smc.step`` (select, propagate, decode, measure)
     estimate    the tracker's per-frame estimate (μ of the local mode's mean latent, best
                 particle)
-    arm search  the arm search that starts each refinement, for one candidate (5 × 5
-                upper-arm × forearm angles per arm, scored by the likelihood)
+    arm search  the arm search that starts each refinement, for one candidate (7 × 7
+                upper-arm × forearm angles per arm, scored by the arm's two strips)
     refine      the full-state refinement of the reported pose (two candidates, each arm
                 searched, then Gauss–Newton, ``refine_steps`` = 10)
     refine, no arm search
