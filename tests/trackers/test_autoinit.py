@@ -11,6 +11,7 @@ from jaxtrack.cli import main
 from jaxtrack.data import load_clip
 from jaxtrack.priors.gplvm import save_gplvm
 from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise, search_poses
+from jaxtrack.trackers.latent import DEFAULT_ARM_GRID
 from jaxtrack.vision import foreground_mask, head_boxes, median_background
 
 HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
@@ -96,7 +97,7 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
     record = json.loads((out / "track.json").read_text())
     assert len(record["frames"]) == 10 and record["tracked_size"] == [160, 120]
     assert record["refine_steps"] == 10  # the default with the default likelihood
-    assert record["arm_grid"] == 5
+    assert record["arm_grid"] == DEFAULT_ARM_GRID
     markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
                         for frame in record["frames"]])
     assert np.all(np.isfinite(markers))
