@@ -58,14 +58,13 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from jaxtrack.likelihoods.limbs import (
-    _ENDS,
-    _STARTS,
     DEFAULT_STRIP_WIDTH,
     LIMB_SEGMENTS,
     PART_MARKERS,
     LimbTemplates,
     _nearest_pixels,
     _read_strips,
+    _segment_axes,
     _segments,
     _strip_points,
     make_limb_templates,
@@ -127,9 +126,7 @@ def _borders(values: Array) -> Array:
 
 def _axis_angles(markers: Array, segments: tuple[int, ...] | None = None) -> Array:
     """Direction of each strip's axis (start to end marker), ``(segments,)`` radians."""
-    chosen = _segments(segments)
-    axis = (markers[jnp.asarray([_ENDS[index] for index in chosen])]
-            - markers[jnp.asarray([_STARTS[index] for index in chosen])])
+    axis = _segment_axes(markers, segments)
     return jnp.arctan2(axis[:, 1], axis[:, 0])
 
 

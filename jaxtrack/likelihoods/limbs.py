@@ -159,6 +159,13 @@ def _segments(segments: tuple[int, ...] | None) -> tuple[int, ...]:
     return segments
 
 
+def _segment_axes(markers: Array, segments: tuple[int, ...] | None = None) -> Array:
+    """``(segments, 2)``: each picked strip's axis, its end marker minus its start marker."""
+    chosen = _segments(segments)
+    return (markers[jnp.asarray([_ENDS[index] for index in chosen])]
+            - markers[jnp.asarray([_STARTS[index] for index in chosen])])
+
+
 def _point_coordinates(markers: Array, along: int, across: int, width,
                        segments: tuple[int, ...] | None = None) -> Array:
     """``(2, segments · along · across)``: x and y of :func:`limb_points` (of the strips
@@ -172,9 +179,7 @@ def _point_coordinates(markers: Array, along: int, across: int, width,
         raise ValueError(f"markers must be (12, 2) in SPM_MARKERS order, got {markers.shape}")
     dtype = _float_dtype(markers)
     markers = markers.astype(dtype)
-    chosen = _segments(segments)
-    axis = (markers[jnp.asarray([_ENDS[index] for index in chosen])]
-            - markers[jnp.asarray([_STARTS[index] for index in chosen])])  # (segments, 2)
+    axis = _segment_axes(markers, segments)  # (segments, 2)
     spine = jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
     length = jnp.sqrt(jnp.sum(axis**2, axis=-1))
     # the unit normal times the half width; a segment of zero length gets a zero normal (its

@@ -84,9 +84,8 @@ def _linearise(state: Array, to_markers: Callable, parts: Callable, prior_mean: 
     dtype = state.dtype
     markers, marker_tangent = jax.linearize(to_markers, state)
     num_markers = markers.shape[0]
-    tangents, rows, mask = (jnp.asarray(array, dtype) if array.dtype != np.int32
-                            else jnp.asarray(array)
-                            for array in _structure(part_markers, num_markers))
+    tangents, rows, mask = _structure(part_markers, num_markers)
+    tangents, mask = jnp.asarray(tangents, dtype), jnp.asarray(mask, dtype)
     # ∂m/∂y, (2 markers, 25): small, so all 25 tangents
     marker_jacobian = jax.vmap(marker_tangent, out_axes=-1)(
         jnp.eye(state.shape[0], dtype=dtype)).reshape(2 * num_markers, -1)
