@@ -19,7 +19,8 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     estimate    the tracker's per-frame estimate (μ of the local mode's mean latent, best
                 particle)
     arm search  the arm search that starts each refinement, for one candidate (7 × 7
-                upper-arm × forearm angles per arm, scored by the arm's two strips)
+                upper-arm × forearm angles per arm about the carried arm and 7 × 7 about
+                its constant-velocity prediction, scored by the arm's two strips)
     refine      the full-state refinement of the reported pose (two candidates, each arm
                 searched, then Gauss–Newton, ``refine_steps`` = 10)
     refine, no arm search
@@ -190,8 +191,8 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
     def estimate(state, info):
         return tracker._estimate(state, info)
 
-    def search(pose, frame):
-        return tracker.search_arms(pose, frame)
+    def search(carried, frame):
+        return tracker.search_arms(carried.pose, frame, tracker._predicted(carried))
 
     def refine(carried, filtered, estimate, frame):
         return tracker._refined(carried, filtered, estimate, frame)
@@ -216,9 +217,9 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
         "resample": (resample, key, log_weights),
         "step": (step, key, state, frame),
         "estimate": (estimate, state, info),
-        "arm search": (search, tracker_state.pose, frame),
-        "refine": (refine, tracker_state.pose, filtered, frame_estimate, frame),
-        "refine, no arm search": (refine_only, tracker_state.pose, filtered, frame_estimate,
+        "arm search": (search, tracker_state, frame),
+        "refine": (refine, tracker_state, filtered, frame_estimate, frame),
+        "refine, no arm search": (refine_only, tracker_state, filtered, frame_estimate,
                                   frame),
         "update": (update, key, tracker_state, frame),
     }

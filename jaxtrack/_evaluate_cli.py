@@ -85,13 +85,19 @@ def _run(args: argparse.Namespace, user_error) -> int:
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
     particles = args.particles or DEFAULT_PARTICLES[args.method]
-    refine_steps = arm_grid = None  # only the latent tracker refines; recorded as it ran
+    refine_steps = arm_grid = arm_momentum = None  # only the latent tracker refines
     if args.method == "latent":
-        from jaxtrack.trackers.latent import DEFAULT_ARM_GRID, default_refine_steps
+        from jaxtrack.trackers.latent import (
+            DEFAULT_ARM_GRID,
+            DEFAULT_ARM_MOMENTUM,
+            default_refine_steps,
+        )
 
         refine_steps = (default_refine_steps(args.likelihood) if args.refine_steps is None
                         else args.refine_steps)
         arm_grid = DEFAULT_ARM_GRID if args.arm_grid is None else args.arm_grid
+        arm_momentum = (DEFAULT_ARM_MOMENTUM if args.arm_momentum is None
+                        else args.arm_momentum)
     prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed,
                         optimiser=args.prior_optimiser)
     per_sequence = []
@@ -101,7 +107,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
                                               max_frames=args.max_frames):
             result = run_method(args.method, prior, sequence, particles=particles,
                                 seed=args.seed, likelihood=args.likelihood,
-                                refine_steps=refine_steps, arm_grid=arm_grid)
+                                refine_steps=refine_steps, arm_grid=arm_grid,
+                                arm_momentum=arm_momentum)
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
@@ -119,7 +126,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
     write_json_atomically(args.json, {
         "method": args.method, "particles": particles, "seed": args.seed,
         "likelihood": args.likelihood, "refine_steps": refine_steps,
-        "arm_grid": arm_grid,
+        "arm_grid": arm_grid, "arm_momentum": arm_momentum,
         "train": args.train, "test": args.test,
         "prior": prior.description,
         "overall": overall, "sequences": per_sequence})

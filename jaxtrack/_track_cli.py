@@ -225,7 +225,8 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     grey = to_grey(frames)
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
                              fps=fps, likelihood=args.likelihood,
-                             refine_steps=args.refine_steps, arm_grid=args.arm_grid)
+                             refine_steps=args.refine_steps, arm_grid=args.arm_grid,
+                             arm_momentum=args.arm_momentum)
     result = track(tracker, jr.PRNGKey(args.seed), grey)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
@@ -255,6 +256,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
         "particles": args.particles, "seed": args.seed, "likelihood": args.likelihood,
         "refine_steps": tracker.refine_steps, "arm_grid": tracker.arm_grid,
+        "arm_momentum": tracker.arm_momentum,
         "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})

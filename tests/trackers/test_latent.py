@@ -10,6 +10,7 @@ from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.cli import main
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.trackers import latent_tracker, track
+from jaxtrack.trackers.latent import LatentState
 from jaxtrack.vision import edge_observations
 
 HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
@@ -155,6 +156,57 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
                           arm_grid=0).arm_grid == 0
 
 
+def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_prior,
+                                                                           whole_take):
+    """A waving forearm can turn further in a frame than the search's span: from a right arm
+    0.9 and 1.2 rad away from the truth the search about the pose alone cannot reach it, while
+    the same grid about a constant-velocity prediction near the truth (here 0.1 rad off) does;
+    the score never drops either way. The prediction extrapolates the arm angles of the last
+    two reported poses, wrapped across ±π, and nothing else."""
+    from jaxtrack.body import spm_forward, spm_initial_state
+
+    prior, sequence = wave_prior, whole_take
+    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                             num_particles=8, fps=sequence.fps)
+    model = tracker.latent_model
+    search = jax.jit(lambda pose, image, predicted: tracker.search_arms(pose, image, predicted))
+    search_alone = jax.jit(lambda pose, image: tracker.search_arms(pose, image))
+    score = jax.jit(lambda pose, image: tracker._score(pose, image))
+    wrist = 6  # SPM_MARKERS: right_wrist
+    alone, predicted_off = [], []
+    for index in range(24, 48, 8):  # the right arm raised, waving
+        frame = jnp.asarray(edge_observations(sequence.frames[index:index + 1])[0])
+        truth = spm_initial_state(jnp.asarray(sequence.truth[index], jnp.float32),
+                                  model.template)
+        displaced = truth.at[11].add(0.9).at[13].add(-1.2)  # right upper arm, right forearm
+        predicted = truth.at[11].add(-0.1).at[13].add(0.1)
+        torso = float(np.exp(truth[0]))
+        off = lambda pose, truth=truth, torso=torso: float(jnp.linalg.norm(  # noqa: E731
+            spm_forward(pose, model.template)[wrist] - spm_forward(truth, model.template)[wrist]
+        )) / torso
+        found_alone, found = search_alone(displaced, frame), search(displaced, frame, predicted)
+        for pose in (found_alone, found):
+            assert float(score(pose, frame)) >= float(score(displaced, frame))
+        alone.append(off(found_alone))
+        predicted_off.append(off(found))
+    alone, predicted_off = np.array(alone), np.array(predicted_off)
+    assert np.all(alone > 0.3), alone
+    assert np.all(predicted_off < 0.12), predicted_off
+
+    # the prediction: arm angles moved on by their change, wrapped; the rest is the pose
+    pose = tracker.initial_pose.at[13].set(3.1).at[11].set(0.2).at[1].add(5.0)
+    previous = tracker.initial_pose.at[13].set(-3.1).at[11].set(0.3)
+    state = LatentState(None, pose, previous)  # the prediction reads the poses alone
+    extrapolated = np.asarray(tracker._predicted(state))
+    np.testing.assert_allclose(extrapolated[13], 3.1 + (6.2 - 2 * np.pi), atol=1e-5)
+    np.testing.assert_allclose(extrapolated[11], 0.1, atol=1e-5)
+    others = np.setdiff1d(np.arange(25), [11, 13, 19, 21])
+    np.testing.assert_array_equal(extrapolated[others], np.asarray(pose)[others])
+    still = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                           num_particles=8, arm_momentum=0.0)
+    assert still._predicted(state) is None
+
+
 def test_latent_tracker_rejects_bad_input(prior, sequence):
     with pytest.raises(ValueError, match="12 finite"):
         latent_tracker(prior.model, prior.template, sequence.frames[0],
@@ -183,6 +235,10 @@ def test_latent_tracker_rejects_bad_input(prior, sequence):
     with pytest.raises(ValueError, match="arm_margin"):
         latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                        arm_margin=-1.0)
+    for momentum in (-0.5, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="arm_momentum"):
+            latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
+                           arm_momentum=momentum)
 
 
 def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
