@@ -146,7 +146,8 @@ DEFAULT_ARM_MOMENTUM = 1.0
 """Factor on the arm angles' change over the last frame that gives the arm search's second
 centre (module docstring): 1, constant velocity; 0, no second centre. Chosen at stop 20 on the
 Bandai validation splits (48 runs, prior seeds 0–2): 6.63 → 6.11 % of the torso, 91.7 →
-91.6 % of frames within 15 %, 4 → 3 runs lost; only 1 was tried. Twice the arm search's
+91.6 % of frames within 15 %, 4 → 3 runs lost (0.5: 6.22 %, 91.6 %, 4 lost); then on the
+protocol (60 runs) 5.72 → 5.35 %, 94.1 → 95.6 %, 1 → 0 lost. Twice the arm search's
 evaluations (~0.4 ms more per candidate and frame)."""
 
 DEFAULT_ARM_MARGIN = 2.0
