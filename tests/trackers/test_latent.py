@@ -109,6 +109,25 @@ def test_full_state_refinement_leaves_the_latent_space_and_lowers_the_error(wave
                           likelihood="markers").refine_steps == 0
 
 
+def _waving_frames(tracker, sequence, indices):
+    """For frames of the whole take where the right arm waves: the edge observation, the true
+    SPM pose, and the right wrist's distance from the truth (in torso lengths) of a pose."""
+    from jaxtrack.body import spm_forward, spm_initial_state
+
+    template = tracker.latent_model.template
+    wrist = 6  # SPM_MARKERS: right_wrist
+    for index in indices:
+        frame = jnp.asarray(edge_observations(sequence.frames[index:index + 1])[0])
+        truth = spm_initial_state(jnp.asarray(sequence.truth[index], jnp.float32), template)
+        torso = float(np.exp(truth[0]))
+        true_wrist = spm_forward(truth, template)[wrist]
+
+        def off(pose, true_wrist=true_wrist, torso=torso):
+            return float(jnp.linalg.norm(spm_forward(pose, template)[wrist] - true_wrist)) / torso
+
+        yield frame, truth, off
+
+
 def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     """The arm search before the refinement is global over each arm's two image angles: on the
     waving frames, a right arm turned 0.5 and −0.55 rad away from the truth (its wrist 20–30 %
@@ -116,27 +135,16 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     within 10 % of the torso on 5 of these 6 frames, 25 % on frame 40 whose near-truth grid
     cell scores below another), the score never drops, and the left arm, already right, stays
     within one grid step."""
-    from jaxtrack.body import spm_forward, spm_initial_state
-
     prior, sequence = wave_prior, whole_take
     tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                              num_particles=8, fps=sequence.fps)
-    model = tracker.latent_model
     search = jax.jit(lambda pose, image: tracker.search_arms(pose, image))
     score = jax.jit(lambda pose, image: tracker._score(pose, image))
     arm_score = jax.jit(lambda pose, image: tracker._score(pose, image, (3, 4)))
-    wrist = 6  # SPM_MARKERS: right_wrist
     before, after = [], []
-    for index in range(24, 48, 4):  # the right arm raised, waving
-        frame = jnp.asarray(edge_observations(sequence.frames[index:index + 1])[0])
-        truth = spm_initial_state(jnp.asarray(sequence.truth[index], jnp.float32),
-                                  model.template)
+    for frame, truth, off in _waving_frames(tracker, sequence, range(24, 48, 4)):
         displaced = truth.at[11].add(0.5).at[13].add(-0.55)  # right upper arm, right forearm
         found = search(displaced, frame)
-        torso = float(np.exp(truth[0]))
-        off = lambda pose, truth=truth, torso=torso: float(jnp.linalg.norm(  # noqa: E731
-            spm_forward(pose, model.template)[wrist] - spm_forward(truth, model.template)[wrist]
-        )) / torso
         before.append(off(displaced))
         after.append(off(found))
         assert float(score(found, frame)) >= float(score(displaced, frame))
@@ -163,27 +171,16 @@ def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_p
     the same grid about a constant-velocity prediction near the truth (here 0.1 rad off) does;
     the score never drops either way. The prediction extrapolates the arm angles of the last
     two reported poses, wrapped across ±π, and nothing else."""
-    from jaxtrack.body import spm_forward, spm_initial_state
-
     prior, sequence = wave_prior, whole_take
     tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
                              num_particles=8, fps=sequence.fps)
-    model = tracker.latent_model
     search = jax.jit(lambda pose, image, predicted: tracker.search_arms(pose, image, predicted))
     search_alone = jax.jit(lambda pose, image: tracker.search_arms(pose, image))
     score = jax.jit(lambda pose, image: tracker._score(pose, image))
-    wrist = 6  # SPM_MARKERS: right_wrist
     alone, predicted_off = [], []
-    for index in range(24, 48, 8):  # the right arm raised, waving
-        frame = jnp.asarray(edge_observations(sequence.frames[index:index + 1])[0])
-        truth = spm_initial_state(jnp.asarray(sequence.truth[index], jnp.float32),
-                                  model.template)
+    for frame, truth, off in _waving_frames(tracker, sequence, range(24, 48, 8)):
         displaced = truth.at[11].add(0.9).at[13].add(-1.2)  # right upper arm, right forearm
         predicted = truth.at[11].add(-0.1).at[13].add(0.1)
-        torso = float(np.exp(truth[0]))
-        off = lambda pose, truth=truth, torso=torso: float(jnp.linalg.norm(  # noqa: E731
-            spm_forward(pose, model.template)[wrist] - spm_forward(truth, model.template)[wrist]
-        )) / torso
         found_alone, found = search_alone(displaced, frame), search(displaced, frame, predicted)
         for pose in (found_alone, found):
             assert float(score(pose, frame)) >= float(score(displaced, frame))
