@@ -148,7 +148,7 @@ centre (module docstring): 1, constant velocity; 0, no second centre. Chosen at 
 Bandai validation splits (48 runs, prior seeds 0–2): 6.63 → 6.11 % of the torso, 91.7 →
 91.6 % of frames within 15 %, 4 → 3 runs lost (0.5: 6.22 %, 91.6 %, 4 lost); then on the
 protocol (60 runs) 5.72 → 5.35 %, 94.1 → 95.6 %, 1 → 0 lost. Twice the arm search's
-evaluations (~0.4 ms more per candidate and frame)."""
+evaluations (~0.3 ms more per candidate and frame)."""
 
 DEFAULT_ARM_MARGIN = 2.0
 """Nats by which the arm search's best offset must beat the arm as it was before it moves it.
@@ -267,7 +267,9 @@ class LatentTracker(ParticleTracker):
             (module docstring); 0 reports the paper's estimate.
         arm_grid: static offsets per arm angle of the arm search before each refinement
             (odd; 0: no search); ``arm_span``: the largest offset in radians; ``arm_margin``:
-            the nats by which the best offset must beat offset 0 to be taken.
+            the nats by which the best offset must beat offset 0 to be taken;
+            ``arm_momentum``: the factor on the arm angles' last change that gives the search's
+            second centre (0: none).
     """
 
     latent_model: LatentModel
@@ -467,6 +469,9 @@ def latent_tracker(
             runs only where ``refine_steps`` > 0); None: :data:`DEFAULT_ARM_GRID`.
         arm_span: the search's largest angle offset in radians.
         arm_margin: nats by which the search's best offset must beat the arm as it was.
+        arm_momentum: the search also runs about the arm angles moved on by this factor (in
+            [0, 1]) times their change over the last frame; 0: about the carried arm alone;
+            None: :data:`DEFAULT_ARM_MOMENTUM`.
         nearest: nearest-pixel sampling (fast) rather than bilinear.
     """
     first_markers = np.asarray(first_markers, np.float64)
