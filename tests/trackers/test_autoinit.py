@@ -134,6 +134,9 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--arm-grid", "2")
     assert code == 2 and "--arm-grid must be 0 or odd, got 2" in error
+    code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                      "--arm-momentum", "-0.5")
+    assert code == 2 and "--arm-momentum must be in [0, 1], got -0.5" in error
     corrupt = tmp_path / "corrupt.mp4"
     corrupt.write_bytes(b"not a video" * 100)
     code, error = run("--model", str(model_file), "--video", str(corrupt), "--out", str(out))

@@ -254,6 +254,9 @@ def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
                      "animateddrawings/fair1_wave_hello", "--test", HELD_OUT, "--json", out,
                      "--arm-grid", grid]) == 2
         assert f"--arm-grid must be 0 or odd, got {grid}" in capsys.readouterr().err
+    assert main(["evaluate", "--method", "latent", "--train", "animateddrawings/fair1_wave_hello",
+                 "--test", HELD_OUT, "--json", out, "--arm-momentum", "1.5"]) == 2
+    assert "--arm-momentum must be in [0, 1], got 1.5" in capsys.readouterr().err
     assert not (tmp_path / "out.json").exists()
 
 
