@@ -56,7 +56,7 @@ switchable back:
 * **Constant-velocity arm centre.** A waving forearm turns up to ~0.5 rad per frame, at the
   edge of the search's span, and once the search lags a swing the arm is left where it was
   while the truth oscillates more than the span away (the protocol's failing frames, 50–95, were
-  mostly this: right elbow and wrist 40–125 % of the torso off, the truth 2–8 nats above).
+  mostly this: right elbow and wrist 40–135 % of the torso off, the truth 2–8 nats above).
   So the same grid of offsets is searched a second time about the arm angles extrapolated from
   the last two reported poses (``arm_momentum`` × their change over the last frame), and the
   best of both grids is compared with the arm as it was. ``arm_momentum = 0`` searches about
