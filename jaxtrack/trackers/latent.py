@@ -48,7 +48,7 @@ switchable back:
   more between frames than its strip is wide, both candidates keep the wrist where it was and
   the refinement cannot reach the truth, which scores 5–9 nats above them (the protocol's lost
   frames were 90 % in the raised-arm stretch). So each candidate's arms are first searched
-  globally: for the right and then the left arm, every combination of ``arm_grid`` offsets of
+  globally: for each arm, every combination of ``arm_grid`` offsets of
   the upper-arm and forearm image angles in ``[−arm_span, arm_span]`` is scored by the
   likelihood, and the best is kept if it scores at least ``arm_margin`` nats above the arm as
   it was (so the score never drops, and a right arm is not traded for a marginally better-
@@ -339,20 +339,24 @@ class LatentTracker(ParticleTracker):
 
     def search_arms(self, pose: Float[Array, " 25"], frame,
                     predicted: Float[Array, " 25"] | None = None) -> Float[Array, " 25"]:
-        """The arm search (module docstring): for the right and then the left arm, the best of
-        ``arm_grid²`` offsets of its upper-arm and forearm angles if it beats offset 0 (the
-        middle of the grid) by ``arm_margin`` nats, the rest of ``pose`` kept. With
-        ``predicted`` (a pose whose arm angles are the constant-velocity prediction), the same
-        grid of offsets about the predicted arm angles is searched too.
+        """The arm search (module docstring): for each arm, the best of ``arm_grid²`` offsets
+        of its upper-arm and forearm angles if it beats offset 0 (the middle of the grid) by
+        ``arm_margin`` nats, the rest of ``pose`` kept. With ``predicted`` (a pose whose arm
+        angles are the constant-velocity prediction), the same grid of offsets about the
+        predicted arm angles is searched too.
 
         The offsets move only the elbow and the wrist, so only the likelihood's terms that
         depend on them (``part_markers``: the arm's two strips) are computed: the others are
         the same for every offset and cancel from the comparison (a quarter of the work of
-        whole-pose scores with the limb strips, the same choice to rounding)."""
+        whole-pose scores with the limb strips, the same choice to rounding). For the same
+        reason one arm's search does not see the other arm's angles, so both arms are searched
+        from ``pose`` as given, independently (XLA may run the two side by side): the same
+        result as searching the right arm and then the left from the right's outcome."""
         half = self.arm_grid // 2  # offset 0 exactly in the middle
         offsets = (self.arm_span / max(half, 1)) * jnp.arange(-half, half + 1, dtype=pose.dtype)
         upper, fore = (grid.ravel() for grid in jnp.meshgrid(offsets, offsets))
         part_markers = self.latent_model.templates.part_markers
+        searched = pose
         for (upper_index, fore_index), moved in zip(_ARM_ANGLES, _ARM_MARKERS, strict=True):
             parts = tuple(part for part, markers in enumerate(part_markers)
                           if moved.intersection(markers))
@@ -367,8 +371,11 @@ class LatentTracker(ParticleTracker):
             values = jax.vmap(lambda trial, parts=parts: self._score(trial, frame, parts))(trials)
             best = jnp.argmax(values)
             better = values[best] - values[upper.size // 2] >= self.arm_margin
-            pose = jnp.where(better, trials[best], pose)
-        return pose
+            searched = (searched.at[upper_index].set(jnp.where(better, trials[best, upper_index],
+                                                               pose[upper_index]))
+                        .at[fore_index].set(jnp.where(better, trials[best, fore_index],
+                                                      pose[fore_index])))
+        return searched
 
     def _refine(self, start: Array, frame, predicted: Array | None = None
                 ) -> tuple[Array, Array]:
