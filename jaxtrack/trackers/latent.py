@@ -161,6 +161,8 @@ _ARM_ANGLES = tuple(
     (SPM_STATE_NAMES.index(f"angle_{side}_shoulder_{side}_elbow"),
      SPM_STATE_NAMES.index(f"angle_{side}_elbow_{side}_wrist"))
     for side in ("right", "left"))
+# True at those entries of the SPM state
+_ARM_ANGLE_MASK = np.isin(np.arange(SPM_STATE_SIZE), np.ravel(_ARM_ANGLES))
 # the markers those angles move (elbow and wrist), right arm then left
 _ARM_MARKERS = tuple(
     frozenset(SPM_MARKERS.index(f"{side}_{joint}") for joint in ("elbow", "wrist"))
@@ -396,9 +398,7 @@ class LatentTracker(ParticleTracker):
             return None
         change = state.pose - state.previous
         change = jnp.arctan2(jnp.sin(change), jnp.cos(change))
-        arm = np.zeros(SPM_STATE_SIZE, bool)
-        arm[np.ravel(_ARM_ANGLES)] = True
-        return state.pose + jnp.where(arm, self.arm_momentum * change, 0)
+        return state.pose + jnp.where(_ARM_ANGLE_MASK, self.arm_momentum * change, 0)
 
     def _refined(self, state: LatentState, filtered: smc.FilterState, estimate: FrameEstimate,
                  frame) -> tuple[LatentState, FrameEstimate]:
