@@ -108,7 +108,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
             result = run_method(args.method, prior, sequence, particles=particles,
                                 seed=args.seed, likelihood=args.likelihood,
                                 refine_steps=refine_steps, arm_grid=arm_grid,
-                                arm_momentum=arm_momentum)
+                                arm_momentum=arm_momentum,
+                                background=args.foreground == "median")
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
@@ -127,6 +128,7 @@ def _run(args: argparse.Namespace, user_error) -> int:
         "method": args.method, "particles": particles, "seed": args.seed,
         "likelihood": args.likelihood, "refine_steps": refine_steps,
         "arm_grid": arm_grid, "arm_momentum": arm_momentum,
+        "foreground": args.foreground if args.likelihood == "limbs+edges" else None,
         "train": args.train, "test": args.test,
         "prior": prior.description,
         "overall": overall, "sequences": per_sequence})

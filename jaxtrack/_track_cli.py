@@ -189,7 +189,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.evaluation import write_overlay_video
     from jaxtrack.trackers import latent_tracker, track
-    from jaxtrack.vision import VideoError, read_video, to_grey
+    from jaxtrack.vision import VideoError, median_grey_background, read_video, to_grey
 
     started = time.perf_counter()
     if args.particles < 1:
@@ -223,8 +223,11 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
           + (f", {init['source']} box, overlap {init['score']:.2f}" if "score" in init else "")
           + ")")
     grey = to_grey(frames)
+    foreground = (args.foreground == "median" and args.likelihood == "limbs+edges"
+                  and len(grey) >= 3)  # a median of one or two frames holds the person
     tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
                              fps=fps, likelihood=args.likelihood,
+                             background=median_grey_background(grey) if foreground else None,
                              refine_steps=args.refine_steps, arm_grid=args.arm_grid,
                              arm_momentum=args.arm_momentum)
     result = track(tracker, jr.PRNGKey(args.seed), grey)
@@ -256,7 +259,7 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
         "particles": args.particles, "seed": args.seed, "likelihood": args.likelihood,
         "refine_steps": tracker.refine_steps, "arm_grid": tracker.arm_grid,
-        "arm_momentum": tracker.arm_momentum,
+        "arm_momentum": tracker.arm_momentum, "foreground": "median" if foreground else "none",
         "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})

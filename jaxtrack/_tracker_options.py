@@ -1,5 +1,6 @@
 """The latent tracker's command-line options, shared by ``jaxtrack evaluate`` and ``jaxtrack
-track``: the likelihood, the full-state refinement and its arm search."""
+track``: the likelihood and its foreground term, the full-state refinement and its arm
+search."""
 
 from __future__ import annotations
 
@@ -9,8 +10,8 @@ __all__ = ["add_tracker_options", "check_tracker_options"]
 
 
 def add_tracker_options(parser: argparse.ArgumentParser) -> None:
-    """``--likelihood``, ``--refine-steps``, ``--arm-grid`` and ``--arm-momentum`` (None: the
-    tracker's defaults)."""
+    """``--likelihood``, ``--refine-steps``, ``--arm-grid``, ``--foreground`` and
+    ``--arm-momentum`` (None: the tracker's defaults)."""
     parser.add_argument("--likelihood", choices=("limbs+edges", "limbs", "markers"),
                         default="limbs+edges", help="limb strips and their edges (default), "
                         "limb strips alone, or the paper's patches at the markers")
@@ -21,6 +22,10 @@ def add_tracker_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--arm-grid", type=int, default=None, metavar="N",
                         help="latent tracker: angle offsets per arm joint of the arm search "
                         "that starts each refinement (odd; default 7; 0: no search)")
+    parser.add_argument("--foreground", choices=("median", "none"), default="median",
+                        help="limbs+edges: also score the arm strips by whether their centre "
+                        "lines differ from the video's median background, for a static camera "
+                        "(default median; none: off)")
     parser.add_argument("--arm-momentum", type=float, default=None, metavar="M",
                         help="latent tracker: the arm search also searches about the arm "
                         "angles moved on by M times their change over the last frame (0 to 1; "

@@ -57,12 +57,18 @@ def make_appearance_templates(
     likelihood: str,
     image: Float[ArrayLike, "height width"] | Float[ArrayLike, "3 height width"],
     markers_2d: Float[ArrayLike, "markers 2"],
+    background: Float[ArrayLike, "height width"] | None = None,
 ) -> AppearanceTemplates:
     """The templates of ``likelihood`` cut from a reference frame at its ``(12, 2)`` markers
-    (for ``"limbs+edges"`` the grey frame or its ``(3, height, width)`` observation)."""
+    (for ``"limbs+edges"`` the grey frame or its ``(3, height, width)`` observation), with the
+    static camera's grey ``background`` for ``"limbs+edges"``'s foreground term (None: none;
+    the other likelihoods take none)."""
     _check(likelihood)
     if likelihood == "limbs+edges":
-        return make_edge_limb_templates(image, markers_2d)
+        return make_edge_limb_templates(image, markers_2d, background=background)
+    if background is not None:
+        raise ValueError(f"a background is used by the 'limbs+edges' likelihood only, not by "
+                         f"{likelihood!r}")
     if likelihood == "limbs":
         return make_limb_templates(image, markers_2d)
     return make_templates(image, markers_2d)

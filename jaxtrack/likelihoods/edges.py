@@ -77,7 +77,8 @@ from jaxtrack.likelihoods.ncc import (
 )
 
 __all__ = ["DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE",
-           "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "EdgeLimbTemplates",
+           "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_FOREGROUND_THRESHOLD",
+           "DEFAULT_FOREGROUND_WEIGHT", "EdgeLimbTemplates", "FOREGROUND_SEGMENTS",
            "fit_border_widths", "limb_edge_distances", "make_edge_limb_templates"]
 
 DEFAULT_EDGE_WEIGHT = 1.0
@@ -103,6 +104,19 @@ DEFAULT_BORDER_SCALES = (0.5, 0.6, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.4, 1.5)
 DEFAULT_BORDER_MARGIN = 0.5
 """How much lower (in mean ``e_i²``, which saturates at 4) a strip's border cost must be at a
 fitted half width than at the strips' own for the fitted one to be taken."""
+
+DEFAULT_FOREGROUND_WEIGHT = 2.0
+"""μ: nats per arm strip whose centre line lies wholly on the background (the foreground term,
+module docstring)."""
+
+DEFAULT_FOREGROUND_THRESHOLD = 20 / 255
+"""How far (grey levels in [0, 1]) a pixel must differ from the background to be foreground."""
+
+FOREGROUND_SEGMENTS = tuple(index for index, segment in enumerate(LIMB_SEGMENTS)
+                            if "arm" in segment[0])
+"""The strips the foreground term scores (indices into ``LIMB_SEGMENTS``): the four arm strips.
+The torso of a subject who stands still is part of a median background, so the spine's,
+shoulders' and hips' strips would be scored against nothing."""
 
 _SPINE = (1, 3)
 _CHANNELS = 3
@@ -159,6 +173,11 @@ class EdgeLimbTemplates(eqx.Module):
         border_widths: ``(segments,)`` half width of each strip's scored borders over the
             spine length: the limb's own half width where the reference frame shows its
             outline (:func:`fit_border_widths`), else the strips' half width.
+        background: ``(height, width)`` grey background of a static camera (the video's
+            median, ``jaxtrack.vision.median_grey_background``), or None: no foreground term.
+        foreground_weight: μ, nats per arm strip whose centre line lies on the background.
+        foreground_threshold: grey-level difference from the background above which a pixel
+            is foreground.
     """
 
     strips: LimbTemplates
@@ -166,11 +185,17 @@ class EdgeLimbTemplates(eqx.Module):
     edge_scale: Float[Array, ""]
     edge_tolerance: Float[Array, ""]
     border_widths: Float[Array, " segments"]
+    background: Float[Array, "height width"] | None = None
+    foreground_weight: Float[Array, ""] = DEFAULT_FOREGROUND_WEIGHT
+    foreground_threshold: Float[Array, ""] = DEFAULT_FOREGROUND_THRESHOLD
 
     def __check_init__(self):
         if self.border_widths.shape != (len(LIMB_SEGMENTS),):
             raise ValueError(f"border_widths must be ({len(LIMB_SEGMENTS)},), got "
                              f"{self.border_widths.shape}")
+        if self.background is not None and jnp.ndim(self.background) != 2:
+            raise ValueError(f"background must be a (height, width) grey image, got shape "
+                             f"{jnp.shape(self.background)}")
 
     @property
     def part_markers(self) -> tuple[tuple[int, ...], ...]:
@@ -179,10 +204,11 @@ class EdgeLimbTemplates(eqx.Module):
         return PART_MARKERS
 
     def _read(self, markers_2d, observation, nearest: bool,
-              segments: tuple[int, ...] | None = None) -> tuple[Array, Array]:
-        """The strips' samples ``(segments, along, across)`` and ``e_i`` of their border points
+              segments: tuple[int, ...] | None = None) -> tuple[Array, Array, Array | None]:
+        """The strips' samples ``(segments, along, across)``, ``e_i`` of their border points
         ``(segments, points)``: ``min(d/σ, 2)`` where the nearest edge runs along the strip,
-        else 2 (the strips ``segments`` picks, None: all).
+        else 2, and (with a background; else None) the foreground term's ``b_s`` per strip
+        (the strips ``segments`` picks, None: all).
 
         Both read the flattened observation in place (the maps at offsets of a channel).
         Samples and distances are read bilinearly unless ``nearest``; orientations always at
@@ -198,43 +224,73 @@ class EdgeLimbTemplates(eqx.Module):
         widths = self.border_widths.astype(dtype)
         if segments is not None:
             widths = widths[jnp.asarray(_segments(segments))]
-        return samples, _border_values(markers, observation, widths, self, nearest, segments)
+        borders = _border_values(markers, observation, widths, self, nearest, segments)
+        return samples, borders, self._off_foreground(samples, x, y, nearest, segments)
+
+    def _off_foreground(self, samples: Array, x: Array, y: Array, nearest: bool,
+                        segments: tuple[int, ...] | None) -> Array | None:
+        """``b_s``: the fraction of each arm strip's centre line (its middle sample across)
+        whose grey level is within ``foreground_threshold`` of the background's there; 0 for
+        the other strips; None without a background. Piecewise constant in the pose, so its
+        gradient is taken as 0."""
+        if self.background is None:
+            return None
+        dtype = samples.dtype
+        centre = samples.shape[-1] // 2
+        background = _read_strips(self.background.astype(dtype), x[..., centre],
+                                  y[..., centre], nearest)
+        still = jnp.abs(samples[..., centre] - background) <= self.foreground_threshold
+        arm = np.isin(_segments(segments), FOREGROUND_SEGMENTS)
+        return jax.lax.stop_gradient(jnp.where(arm, jnp.mean(still.astype(dtype), axis=-1), 0))
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
         """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i²`` for one pose."""
-        samples, scaled = self._read(markers_2d, observation, nearest)
+        samples, scaled, off = self._read(markers_2d, observation, nearest)
         scores = _correlation(samples, self.strips.strips)
         appearance = -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
         edges = jnp.sum(jnp.mean(scaled**2, axis=-1))
-        return appearance - self.edge_weight.astype(appearance.dtype) * edges
+        value = appearance - self.edge_weight.astype(appearance.dtype) * edges
+        if off is not None:
+            value = value - jnp.asarray(self.foreground_weight, value.dtype) * jnp.sum(off)
+        return value
 
     def residuals(self, markers_2d, observation, sharpness) -> Array:
         """The strips' residuals, then ``√(2κ / n) e_i`` per border point (bilinear samples
         and distances): half the squared norm is the negative log-likelihood."""
-        samples, scaled = self._read(markers_2d, observation, nearest=False)
+        samples, scaled, off = self._read(markers_2d, observation, nearest=False)
         appearance = _template_residuals(samples, self.strips.strips, sharpness)
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
-        return jnp.concatenate([appearance, (weight * scaled).reshape(-1)])
+        residuals = [appearance, (weight * scaled).reshape(-1)]
+        if off is not None:  # √(2μ b_s): constant in the pose (stop_gradient before the root)
+            residuals.append(jnp.sqrt(2.0 * jnp.asarray(self.foreground_weight, off.dtype)
+                                      * off))
+        return jnp.concatenate(residuals)
 
     def part_log_likelihoods(self, markers_2d, observation, sharpness, nearest: bool = True,
                              parts: tuple[int, ...] | None = None) -> Array:
         """``−λ (1 − NCC_s) − κ mean_i e_i²`` of each strip ``parts`` picks (static indices
         into ``LIMB_SEGMENTS``; None: all): the terms :meth:`log_likelihood` sums, computed
         for the picked strips alone."""
-        samples, scaled = self._read(markers_2d, observation, nearest, parts)
+        samples, scaled, off = self._read(markers_2d, observation, nearest, parts)
         scores = _correlation(samples, self.strips.strips[jnp.asarray(_segments(parts))])
         appearance = -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
-        return appearance - self.edge_weight.astype(scores.dtype) * jnp.mean(scaled**2, axis=-1)
+        value = appearance - self.edge_weight.astype(scores.dtype) * jnp.mean(scaled**2, axis=-1)
+        if off is not None:
+            value = value - jnp.asarray(self.foreground_weight, value.dtype) * off
+        return value
 
     def part_residuals(self, markers_2d, observation, sharpness) -> Array:
         """:meth:`residuals` grouped by strip, ``(segments, along · across + points)``: each
         row (a strip's samples, then its border points) depends only on the markers
         :attr:`part_markers` names for it."""
         residuals = self.residuals(markers_2d, observation, sharpness)
-        split = len(LIMB_SEGMENTS) * self.strips.along * self.strips.across
-        return jnp.concatenate([residuals[:split].reshape(len(LIMB_SEGMENTS), -1),
-                                residuals[split:].reshape(len(LIMB_SEGMENTS), -1)], axis=1)
+        segments = len(LIMB_SEGMENTS)
+        split = segments * self.strips.along * self.strips.across
+        borders = segments * 2 * (self.strips.along - 2)
+        return jnp.concatenate([residuals[:split].reshape(segments, -1),
+                                residuals[split:split + borders].reshape(segments, -1),
+                                residuals[split + borders:].reshape(segments, -1)], axis=1)
 
 
 def _border_values(markers: Array, observation: Array, widths: Array,
@@ -324,6 +380,9 @@ def make_edge_limb_templates(
     edge_scale: float = DEFAULT_EDGE_SCALE,
     edge_tolerance: float = DEFAULT_EDGE_TOLERANCE,
     border_scales: Sequence[float] | None = DEFAULT_BORDER_SCALES,
+    background: Float[ArrayLike, "height width"] | None = None,
+    foreground_weight: float = DEFAULT_FOREGROUND_WEIGHT,
+    foreground_threshold: float = DEFAULT_FOREGROUND_THRESHOLD,
     **strip_options,
 ) -> EdgeLimbTemplates:
     """Strip templates cut from the reference grey frame (or the grey channel of its
@@ -331,7 +390,10 @@ def make_edge_limb_templates(
     has no template, but each strip's scored borders are fitted to the limb's outline in the
     reference frame (:func:`fit_border_widths` over ``border_scales``; the edge maps of a grey
     frame are made with ``jaxtrack.vision.edge_observations``); ``border_scales=None`` scores
-    every strip's borders at the strips' own half width."""
+    every strip's borders at the strips' own half width. With a ``background`` (a static
+    camera's grey background, the frame's size and grey scale:
+    ``jaxtrack.vision.median_grey_background``) the arm strips are also scored by the
+    foreground term (μ = ``foreground_weight``, module docstring)."""
     image = jnp.asarray(image)
     observation = None
     if image.ndim == 3:
@@ -347,13 +409,29 @@ def make_edge_limb_templates(
     if not (np.isfinite(edge_tolerance) and 0 < edge_tolerance <= 90):
         raise ValueError(f"edge_tolerance must be an angle in (0, 90] degrees, got "
                          f"{edge_tolerance}")
+    if not (np.isfinite(foreground_weight) and foreground_weight >= 0):
+        raise ValueError(f"foreground_weight must be a non-negative number, got "
+                         f"{foreground_weight}")
+    if not (np.isfinite(foreground_threshold) and foreground_threshold > 0):
+        raise ValueError(f"foreground_threshold must be a positive grey-level difference, got "
+                         f"{foreground_threshold}")
+    if background is not None:
+        background = np.asarray(background)
+        if background.shape != tuple(image.shape):
+            raise ValueError(f"background must be a grey image of the frame's size "
+                             f"{tuple(image.shape)}, got shape {background.shape}")
+        if not np.all(np.isfinite(background)):
+            raise ValueError("background holds non-finite values")
     strips = make_limb_templates(image, markers_2d, **strip_options)
     dtype = strips.strips.dtype
     templates = EdgeLimbTemplates(
         strips=strips, edge_weight=jnp.asarray(edge_weight, dtype),
         edge_scale=jnp.asarray(edge_scale, dtype),
         edge_tolerance=jnp.asarray(edge_tolerance, dtype),
-        border_widths=jnp.full(len(LIMB_SEGMENTS), strips.width, dtype))
+        border_widths=jnp.full(len(LIMB_SEGMENTS), strips.width, dtype),
+        background=None if background is None else jnp.asarray(background, dtype),
+        foreground_weight=jnp.asarray(foreground_weight, dtype),
+        foreground_threshold=jnp.asarray(foreground_threshold, dtype))
     if border_scales is None:
         return templates
     if observation is None:

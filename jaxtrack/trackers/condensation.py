@@ -270,7 +270,7 @@ class CondensationTracker(ParticleTracker):
 
 def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_markers,
            num_particles: int, initial_spread: float, likelihood: str, sharpness: float | None,
-           nearest: bool, dtype) -> CondensationTracker:
+           nearest: bool, dtype, background=None) -> CondensationTracker:
     if sharpness is None:
         sharpness = default_sharpness(likelihood)
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
@@ -279,7 +279,9 @@ def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_mark
     dynamics = dynamics.astype(dtype)
     model = CondensationModel(
         dynamics=dynamics, template=template,
-        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers)),
+        templates=make_appearance_templates(
+            likelihood, cast(first_frame), cast(first_markers),
+            None if background is None else cast(background)),
         initial_state=initial, initial_std=jnp.asarray(initial_spread, dtype) * dynamics.noise_std,
         sharpness=cast(sharpness), nearest=bool(nearest),
     )
@@ -309,6 +311,7 @@ def condensation_tracker(
     *,
     num_particles: int = 1000,
     likelihood: str = DEFAULT_LIKELIHOOD,
+    background: Float[ArrayLike, "height width"] | None = None,
     sharpness: float | None = None,
     ridge: float = DEFAULT_RIDGE,
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
@@ -330,6 +333,9 @@ def condensation_tracker(
         num_particles: N.
         likelihood: ``"limbs+edges"``, ``"limbs"`` or ``"markers"``
             (:mod:`jaxtrack.likelihoods.appearance`).
+        background: ``(height, width)`` grey background of a static camera for the
+            ``"limbs+edges"`` likelihood's foreground term
+            (``jaxtrack.vision.median_grey_background``); None: no foreground term.
         sharpness: λ of the likelihood; None for the likelihood's default.
         ridge, max_root: see :func:`fit_ar2`.
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:
@@ -342,7 +348,7 @@ def condensation_tracker(
                                                      min_noise_std)
     dynamics = fit_ar2(training_states, ridge=ridge, min_noise_std=floor, max_root=max_root)
     return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  likelihood, sharpness, nearest, dtype)
+                  likelihood, sharpness, nearest, dtype, background)
 
 
 def random_walk_tracker(
@@ -353,6 +359,7 @@ def random_walk_tracker(
     *,
     num_particles: int = 1000,
     likelihood: str = DEFAULT_LIKELIHOOD,
+    background: Float[ArrayLike, "height width"] | None = None,
     sharpness: float | None = None,
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     step_scale: float = 1.0,
@@ -371,4 +378,4 @@ def random_walk_tracker(
     dynamics = random_walk_dynamics(training_states, min_noise_std=floor)
     dynamics = eqx.tree_at(lambda d: d.noise_std, dynamics, step_scale * dynamics.noise_std)
     return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  likelihood, sharpness, nearest, dtype)
+                  likelihood, sharpness, nearest, dtype, background)

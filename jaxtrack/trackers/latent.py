@@ -430,6 +430,7 @@ def latent_tracker(
     placement_std: tuple[float, float, float] | None = None,
     initial_spread: float = 1.0,
     likelihood: str = DEFAULT_LIKELIHOOD,
+    background: Float[ArrayLike, "height width"] | None = None,
     sharpness: float | None = None,
     jump_probability: float = DEFAULT_JUMP_PROBABILITY,
     mode_radius: float = 3.0,
@@ -459,6 +460,10 @@ def latent_tracker(
         likelihood: ``"limbs+edges"`` (strips along the segments and their edges),
             ``"limbs"`` (the strips alone) or ``"markers"`` (the paper's patches at the
             markers); see :mod:`jaxtrack.likelihoods.appearance`.
+        background: ``(height, width)`` grey background of a static camera (the video's
+            median, ``jaxtrack.vision.median_grey_background``) for the ``"limbs+edges"``
+            likelihood's foreground term, which scores the arm strips' centre lines against
+            it; None: no foreground term.
         sharpness: λ of the likelihood; None for the likelihood's default.
         jump_probability: chance per particle and frame of a jump to a random training
             latent (0: the paper's pure random walk).
@@ -507,7 +512,9 @@ def latent_tracker(
     model = LatentModel(
         prior=prior.astype(dtype),
         template=jax.tree.map(cast, template),
-        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers)),
+        templates=make_appearance_templates(
+            likelihood, cast(first_frame), cast(first_markers),
+            None if background is None else cast(background)),
         initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
         latent_std=cast(std),
         jump_threshold=cast(NormalDist().inv_cdf(jump_probability) if jump_probability > 0

@@ -368,6 +368,7 @@ def mht_tracker(
     *,
     num_modes: int = 10,
     likelihood: str = DEFAULT_LIKELIHOOD,
+    background: Float[ArrayLike, "height width"] | None = None,
     sharpness: float | None = None,
     step_std: Float[ArrayLike, " 25"] | None = None,
     velocity_weight: float = 0.5,
@@ -391,6 +392,8 @@ def mht_tracker(
         num_modes: the pool size (Tian et al. compared with 10).
         likelihood: ``"limbs+edges"``, ``"limbs"`` or ``"markers"``
             (:mod:`jaxtrack.likelihoods.appearance`).
+        background: ``(height, width)`` grey background of a static camera for the
+            ``"limbs+edges"`` likelihood's foreground term; None: none.
         sharpness: λ of the likelihood and of the refinement cost; None for the likelihood's
             default.
         step_std: ``(25,)`` per-frame state std; default from ``training_states`` or, without
@@ -438,7 +441,9 @@ def mht_tracker(
         merge_radius = 0.02 * torso
     return MHTTracker(
         template=template,
-        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers)),
+        templates=make_appearance_templates(
+            likelihood, cast(first_frame), cast(first_markers),
+            None if background is None else cast(background)),
         initial_state=initial, step_std=cast(step_std), sharpness=cast(sharpness),
         velocity_weight=cast(velocity_weight), prior_scale=cast(prior_scale),
         refill_spread=cast(refill_spread), merge_radius=cast(merge_radius),

@@ -13,13 +13,18 @@ from jaxtrack.vision.faces import (
     face_candidates,
     face_detector_available,
 )
-from jaxtrack.vision.foreground import foreground_mask, head_boxes, median_background
+from jaxtrack.vision.foreground import (
+    foreground_mask,
+    head_boxes,
+    median_background,
+    median_grey_background,
+)
 from jaxtrack.vision.video import VideoError, VideoFrames, iter_video_chunks, read_video, to_grey
 
 __all__ = [
     "FaceDetectorUnavailableError", "VideoError", "VideoFrames", "detect_face", "detect_faces",
     "edge_distance_maps", "edge_observations",
     "face_candidates", "face_detector_available", "foreground_mask", "head_boxes",
-    "iter_video_chunks", "median_background", "read_video", "resample_closed_curve",
-    "signed_area", "silhouette_contour", "to_grey",
+    "iter_video_chunks", "median_background", "median_grey_background", "read_video",
+    "resample_closed_curve", "signed_area", "silhouette_contour", "to_grey",
 ]

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["foreground_mask", "head_boxes", "median_background"]
+__all__ = ["foreground_mask", "head_boxes", "median_background", "median_grey_background"]
 
 
 def _check_rgb(images: np.ndarray, name: str, ndim: int) -> np.ndarray:
@@ -46,6 +46,35 @@ def median_background(frames: np.ndarray, *, max_samples: int = 64) -> np.ndarra
         raise ValueError(f"a median background needs at least 3 frames, got {len(frames)}")
     picks = np.unique(np.linspace(0, len(frames) - 1, min(max_samples, len(frames))).round())
     return np.median(frames[picks.astype(int)], axis=0).round().astype(np.uint8)
+
+
+def median_grey_background(frames: np.ndarray, *, max_samples: int = 64) -> np.ndarray:
+    """The per-pixel median of up to ``max_samples`` grey frames spread evenly over the clip:
+    the background the limb-edge likelihood's foreground term compares frames with
+    (``jaxtrack.likelihoods.make_edge_limb_templates(..., background=...)``).
+
+    Args:
+        frames: ``(time, height, width)`` grey frames of a static camera (floats, as the
+            trackers take them, or uint8), at least 3.
+        max_samples: frames used (evenly spaced).
+
+    Returns:
+        ``(height, width)`` float32 background on the frames' grey scale.
+    """
+    frames = np.asarray(frames)
+    if frames.ndim != 3 or not (np.issubdtype(frames.dtype, np.floating)
+                                or frames.dtype == np.uint8):
+        raise ValueError(f"frames must be (time, height, width) grey images, got shape "
+                         f"{frames.shape} dtype {frames.dtype}")
+    if len(frames) < 3:
+        raise ValueError(f"a median background needs at least 3 frames, got {len(frames)}")
+    if int(max_samples) != max_samples or max_samples < 3:
+        raise ValueError(f"max_samples must be an integer of at least 3, got {max_samples}")
+    picks = np.unique(np.linspace(0, len(frames) - 1, min(max_samples, len(frames))).round())
+    background = np.median(frames[picks.astype(int)], axis=0).astype(np.float32)
+    if not np.all(np.isfinite(background)):
+        raise ValueError("frames hold non-finite values")
+    return background
 
 
 def foreground_mask(frame: np.ndarray, background: np.ndarray, *, threshold: int = 30,

@@ -21,7 +21,8 @@ from jaxtrack.likelihoods import (
     make_edge_limb_templates,
     needs_edges,
 )
-from jaxtrack.vision import edge_observations
+from jaxtrack.likelihoods.edges import FOREGROUND_SEGMENTS
+from jaxtrack.vision import edge_observations, median_grey_background
 
 
 @cache
@@ -191,16 +192,20 @@ def test_border_widths_are_fitted_to_the_limbs_outlines_at_initialisation():
         fit_border_widths(unfitted, observations[0], np.full((12, 2), np.nan))
 
 
-@pytest.mark.parametrize("likelihood", ["limbs+edges", "limbs", "markers"])
+@pytest.mark.parametrize("likelihood", ["limbs+edges", "foreground", "limbs", "markers"])
 def test_parts_are_the_likelihood_term_by_term(likelihood):
     """``part_log_likelihoods`` are the terms ``log_likelihood`` sums, a picked part's term is
     computed alone with the same value, ``part_residuals`` are ``residuals`` grouped by part,
     and each part's row moves only with the markers ``part_markers`` names for it (what the
-    arm search and the refinement's Gauss–Newton rely on)."""
+    arm search and the refinement's Gauss–Newton rely on). "foreground": limbs+edges with a
+    background."""
     observations, markers, _ = wave()
-    observation = observations[4] if likelihood == "limbs+edges" else observations[4, 0]
-    templates = make_appearance_templates(likelihood, observations[0] if likelihood ==
-                                          "limbs+edges" else observations[0, 0], markers[0])
+    edges = likelihood in ("limbs+edges", "foreground")
+    observation = observations[4] if edges else observations[4, 0]
+    background = median_grey_background(observations[:, 0]) if likelihood == "foreground" else None
+    templates = make_appearance_templates("limbs+edges" if edges else likelihood,
+                                          observations[0] if edges else observations[0, 0],
+                                          markers[0], background)
     pose = jnp.asarray(markers[4] + np.float32(0.6))
     for nearest in (True, False):
         terms = templates.part_log_likelihoods(pose, observation, 4.0, nearest)
@@ -223,3 +228,69 @@ def test_parts_are_the_likelihood_term_by_term(likelihood):
     assert reads.any(axis=0).all()  # and every marker is read by some part
     with pytest.raises(ValueError, match="parts|segments"):
         templates.part_log_likelihoods(pose, observation, 4.0, True, (len(templates.part_markers),))
+
+
+def _centre_lines_still(templates, pose, grey, background):
+    """NumPy: per strip, the fraction of its centre line's nearest pixels within the
+    threshold of the background (the foreground term's ``b_s`` before the arm mask)."""
+    points = np.asarray(limb_points(pose, along=templates.strips.along,
+                                    across=templates.strips.across,
+                                    width=float(templates.strips.width)))
+    centre = points[:, :, templates.strips.across // 2]  # (segments, along, 2)
+    height, width = grey.shape
+    column = np.clip(np.floor(centre[..., 0] + 0.5), 0, width - 1).astype(int)
+    row = np.clip(np.floor(centre[..., 1] + 0.5), 0, height - 1).astype(int)
+    still = np.abs(grey[row, column] - background[row, column]) <= float(
+        templates.foreground_threshold)
+    return still.mean(axis=-1)
+
+
+def test_foreground_term_scores_the_arm_strips_centre_lines_against_the_background():
+    """−μ Σ_arms b_s written out with NumPy; no background, no term; a background that is the
+    frame itself costs μ per arm strip, one that differs everywhere nothing; the residuals
+    still give the cost, and the term is constant in the pose for Gauss–Newton."""
+    observations, markers, templates = wave()
+    grey = np.asarray(observations[5, 0])
+    background = median_grey_background(observations[:, 0])
+    with_background = make_edge_limb_templates(observations[0], markers[0],
+                                               background=background, foreground_weight=2.0)
+    pose = jnp.asarray(markers[5] + np.float32(0.6))
+    plain = templates.log_likelihood(pose, observations[5], 4.0)
+    still = _centre_lines_still(with_background, np.asarray(pose), grey, background)
+    arms = np.isin(np.arange(len(LIMB_SEGMENTS)), FOREGROUND_SEGMENTS)
+    assert arms.sum() == 4 and 0 < still[arms].sum() < 4  # a mixed case
+    np.testing.assert_allclose(with_background.log_likelihood(pose, observations[5], 4.0),
+                               plain - 2.0 * still[arms].sum(), rtol=1e-5)
+    for scene, expected in ((grey, plain - 2.0 * 4), (grey + 0.5, plain)):
+        shifted = make_edge_limb_templates(observations[0], markers[0], background=scene)
+        np.testing.assert_allclose(shifted.log_likelihood(pose, observations[5], 4.0),
+                                   expected, rtol=1e-5)
+    residuals = residuals_of(with_background, pose, observations[5], 4.0)
+    bilinear = with_background.log_likelihood(pose, observations[5], 4.0, nearest=False)
+    np.testing.assert_allclose(0.5 * jnp.sum(residuals**2), -bilinear, rtol=1e-4)
+    gradient = jax.grad(lambda m: with_background.log_likelihood(m, observations[5], 4.0, False)
+                        - templates.log_likelihood(m, observations[5], 4.0, False))(pose)
+    np.testing.assert_allclose(gradient, 0, atol=1e-5)
+
+
+def test_foreground_term_misuse_is_reported():
+    observations, markers, _ = wave()
+    grey = observations[0, 0]
+    with pytest.raises(ValueError, match="background must be a grey image of the frame's size"):
+        make_edge_limb_templates(observations[0], markers[0], background=grey[:10])
+    with pytest.raises(ValueError, match="background holds non-finite"):
+        make_edge_limb_templates(observations[0], markers[0], background=grey * np.nan)
+    with pytest.raises(ValueError, match="foreground_weight"):
+        make_edge_limb_templates(observations[0], markers[0], background=grey,
+                                 foreground_weight=-1.0)
+    with pytest.raises(ValueError, match="foreground_threshold"):
+        make_edge_limb_templates(observations[0], markers[0], background=grey,
+                                 foreground_threshold=0.0)
+    with pytest.raises(ValueError, match="'limbs\\+edges' likelihood only"):
+        make_appearance_templates("limbs", grey, markers[0], grey)
+    levels = np.float32([0.1, 0.9, 0.2])[:, None, None] * np.ones((3, 4, 5), np.float32)
+    np.testing.assert_allclose(median_grey_background(levels), 0.2)
+    with pytest.raises(ValueError, match="at least 3 frames"):
+        median_grey_background(observations[:2, 0])
+    with pytest.raises(ValueError, match=r"\(time, height, width\)"):
+        median_grey_background(grey)
