@@ -46,17 +46,21 @@ for method, result in results.items():
     print(f"{method:13s} {metrics['mean_error_torso']:.3f} of torso, "
           f"{metrics['frames_tracked']}/{metrics['num_frames']} frames tracked")
 
-# %% The likelihood: limb strips and their edges (default), the strips alone, the paper's patches
-# Every method takes `likelihood=`; with the paper's eq. 7 patches the latent tracker loses the
-# waving arm far more often (README, "Tracking": the patches' best-scoring pose over the whole
-# latent space is 20 % of the torso from the truth, the strips' 8.8 %), and the edge term keeps
-# scoring the limbs when their texture has drifted from the frame-0 strips.
+# %% The likelihood: limb strips, their edges and the arms' foreground (default), the same
+# without the foreground term, the strips alone, the paper's patches. Every method takes
+# `likelihood=`; with the paper's eq. 7 patches the latent tracker loses the waving arm far
+# more often (README, "Tracking": the patches' best-scoring pose over the whole latent space is
+# 20 % of the torso from the truth, the strips' 8.8 %), the edge term keeps scoring the limbs
+# when their texture has drifted from the frame-0 strips, and the foreground term (a static
+# camera's median background) keeps an arm off the place it has left.
+no_foreground = run_method("latent", prior, sequence, particles=200, background=False)
 strips = run_method("latent", prior, sequence, particles=200, likelihood="limbs")
 paper = run_method("latent", prior, sequence, particles=200, likelihood="markers")
-for name, result in (("strips + edges", results["latent"]), ("limb strips", strips),
+for name, result in (("strips + edges + fg", results["latent"]),
+                     ("strips + edges", no_foreground), ("limb strips", strips),
                      ("marker patches", paper)):
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
-    print(f"latent, {name:14s} {metrics['mean_error_torso']:.3f} of torso, "
+    print(f"latent, {name:19s} {metrics['mean_error_torso']:.3f} of torso, "
           f"{metrics['fraction_within_15']:.0%} of frames within 15 %")
 
 # %% The reported pose is refined in the full SPM state (the default), each refinement starting
@@ -66,11 +70,15 @@ for name, result in (("strips + edges", results["latent"]), ("limb strips", stri
 # mean latent. The particles are the same in all four runs: the refinement only leaves the
 # latent space for the pose it reports (README, "Architecture").
 from jaxtrack.trackers import latent_tracker, track  # noqa: E402
+from jaxtrack.vision import median_grey_background  # noqa: E402
+
+scene = median_grey_background(sequence.frames)  # what run_method scores the arms against
 
 
 def latent_run(**options):
     return track(latent_tracker(prior.model, prior.template, sequence.frames[0],
-                                sequence.truth[0], fps=sequence.fps, **options),
+                                sequence.truth[0], fps=sequence.fps, background=scene,
+                                **options),
                  jr.PRNGKey(0), sequence.frames)
 
 
@@ -110,6 +118,7 @@ plt.axis("off")
 from jaxtrack.vision import to_grey  # noqa: E402
 
 grey = to_grey(video.frames)
-tracker = latent_tracker(prior.model, prior.template, grey[0], found.markers, fps=video.fps)
+tracker = latent_tracker(prior.model, prior.template, grey[0], found.markers, fps=video.fps,
+                         background=median_grey_background(grey))
 result = track(tracker, jr.PRNGKey(0), grey)
 print(f"{1e3 * result.seconds_per_frame:.2f} ms/frame, compile {result.compile_seconds:.1f} s")
