@@ -86,7 +86,7 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
     from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
     from jaxtrack.likelihoods import needs_edges
-    from jaxtrack.vision import edge_observations
+    from jaxtrack.vision import edge_observations, median_grey_background
 
     prior = train_prior(TRAIN_CLIPS, cache=RESULTS / "gplvm_waves.npz", seed=seed,
                         progress=False)
@@ -96,9 +96,13 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     # preprocessing that track() does on the host; the "edge maps" row times them)
     observations = (edge_observations(sequence.frames) if needs_edges(likelihood)
                     else np.asarray(sequence.frames, np.float32))
+    # as jaxtrack evaluate builds it: with limbs+edges, the foreground term against the
+    # sequence's median background
+    background = (median_grey_background(sequence.frames) if needs_edges(likelihood) else None)
     tracker = trackers.latent_tracker(prior.model, prior.template, observations[0],
                                       sequence.truth[0], num_particles=num_particles,
-                                      fps=sequence.fps, likelihood=likelihood)
+                                      fps=sequence.fps, likelihood=likelihood,
+                                      background=background)
     return tracker, observations, np.asarray(sequence.frames, np.float32)
 
 
