@@ -258,12 +258,16 @@ class EdgeLimbTemplates(eqx.Module):
         if self.background is None:
             return None
         dtype = samples.dtype
+        off = jnp.zeros(samples.shape[0], dtype)
+        # only the arm strips' centre lines are read (a hot path: every particle, every frame)
+        arms = np.flatnonzero(np.isin(_segments(segments), FOREGROUND_SEGMENTS))
+        if arms.size == 0:
+            return off
         centre = samples.shape[-1] // 2
-        background = _read_strips(self.background.astype(dtype), x[..., centre],
-                                  y[..., centre], nearest)
-        still = jnp.abs(samples[..., centre] - background) <= self.foreground_threshold
-        arm = np.isin(_segments(segments), FOREGROUND_SEGMENTS)
-        return jax.lax.stop_gradient(jnp.where(arm, jnp.mean(still.astype(dtype), axis=-1), 0))
+        background = _read_strips(self.background.astype(dtype), x[arms, :, centre],
+                                  y[arms, :, centre], nearest)
+        still = jnp.abs(samples[arms, :, centre] - background) <= self.foreground_threshold
+        return jax.lax.stop_gradient(off.at[arms].set(jnp.mean(still.astype(dtype), axis=-1)))
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:

@@ -27,6 +27,12 @@ def _check_rgb(images: np.ndarray, name: str, ndim: int) -> np.ndarray:
     return images
 
 
+def _evenly_spaced(frames: np.ndarray, max_samples: int) -> np.ndarray:
+    """Up to ``max_samples`` of ``frames`` spread evenly over the clip, first and last included."""
+    picks = np.unique(np.linspace(0, len(frames) - 1, min(max_samples, len(frames))).round())
+    return frames[picks.astype(int)]
+
+
 def median_background(frames: np.ndarray, *, max_samples: int = 64) -> np.ndarray:
     """The per-pixel median of up to ``max_samples`` frames spread evenly over the clip.
 
@@ -44,8 +50,7 @@ def median_background(frames: np.ndarray, *, max_samples: int = 64) -> np.ndarra
     frames = _check_rgb(frames, "frames", 4)
     if len(frames) < 3:
         raise ValueError(f"a median background needs at least 3 frames, got {len(frames)}")
-    picks = np.unique(np.linspace(0, len(frames) - 1, min(max_samples, len(frames))).round())
-    return np.median(frames[picks.astype(int)], axis=0).round().astype(np.uint8)
+    return np.median(_evenly_spaced(frames, max_samples), axis=0).round().astype(np.uint8)
 
 
 def median_grey_background(frames: np.ndarray, *, max_samples: int = 64) -> np.ndarray:
@@ -70,8 +75,7 @@ def median_grey_background(frames: np.ndarray, *, max_samples: int = 64) -> np.n
         raise ValueError(f"a median background needs at least 3 frames, got {len(frames)}")
     if int(max_samples) != max_samples or max_samples < 3:
         raise ValueError(f"max_samples must be an integer of at least 3, got {max_samples}")
-    picks = np.unique(np.linspace(0, len(frames) - 1, min(max_samples, len(frames))).round())
-    background = np.median(frames[picks.astype(int)], axis=0).astype(np.float32)
+    background = np.median(_evenly_spaced(frames, max_samples), axis=0).astype(np.float32)
     if not np.all(np.isfinite(background)):
         raise ValueError("frames hold non-finite values")
     return background
