@@ -318,13 +318,15 @@ class LatentTracker(ParticleTracker):
 
     def update(self, key: PRNGKeyArray, state: LatentState, frame
                ) -> tuple[LatentState, FrameEstimate]:
-        filtered, estimate = ParticleTracker.update(self, key, state.filter, frame)
+        with jax.named_scope("filter"):
+            filtered, estimate = ParticleTracker.update(self, key, state.filter, frame)
         return self._refined(state, filtered, estimate, frame)
 
     def update_in_chunk(self, key: PRNGKeyArray, state: LatentState, frames, index
                         ) -> tuple[LatentState, FrameEstimate]:
-        filtered, estimate = ParticleTracker.update_in_chunk(self, key, state.filter, frames,
-                                                             index)
+        with jax.named_scope("filter"):
+            filtered, estimate = ParticleTracker.update_in_chunk(self, key, state.filter, frames,
+                                                                 index)
         return self._refined(state, filtered, estimate, frames[index])
 
     def _score(self, pose: Array, frame, parts: tuple[int, ...] | None = None) -> Array:
@@ -382,14 +384,18 @@ class LatentTracker(ParticleTracker):
     def _refine(self, start: Array, frame, predicted: Array | None = None
                 ) -> tuple[Array, Array]:
         """One candidate searched (arms) and refined on the frame, with its log-likelihood."""
+        # the named scopes label the compiled ops by stage (benchmarks/profile_step.py)
         model = self.latent_model
         if self.arm_grid:
-            start = self.search_arms(start, frame, predicted)
-        refined, _ = refine_pose(start, frame, model.templates, model.template, start,
-                                 self.refine_std, model.sharpness, max_steps=self.refine_steps,
-                                 solver="parts")
-        refined = jnp.where(jnp.all(jnp.isfinite(refined)), refined, start)
-        return refined, self._score(refined, frame)
+            with jax.named_scope("arm_search"):
+                start = self.search_arms(start, frame, predicted)
+        with jax.named_scope("gauss_newton"):
+            refined, _ = refine_pose(start, frame, model.templates, model.template, start,
+                                     self.refine_std, model.sharpness,
+                                     max_steps=self.refine_steps, solver="parts")
+        with jax.named_scope("choice"):
+            refined = jnp.where(jnp.all(jnp.isfinite(refined)), refined, start)
+            return refined, self._score(refined, frame)
 
     def _predicted(self, state: LatentState) -> Array | None:
         """The carried pose with its arm angles moved on by ``arm_momentum`` × their change
@@ -406,9 +412,10 @@ class LatentTracker(ParticleTracker):
         if self.refine_steps == 0:
             return LatentState(filtered, carried, carried), estimate
         model = self.latent_model
-        particle = self.estimate_particle(filtered.particles, filtered.log_weights)
-        decoded = states_from_features(model.prior.mean(particle["latent"]),
-                                       particle["placement"], model.template)
+        with jax.named_scope("candidates"):
+            particle = self.estimate_particle(filtered.particles, filtered.log_weights)
+            decoded = states_from_features(model.prior.mean(particle["latent"]),
+                                           particle["placement"], model.template)
         # the pose carried from the last frame and μ of the particles' estimate, refined side
         # by side (module docstring); the better-scoring one is reported and carried
         predicted = self._predicted(state)
