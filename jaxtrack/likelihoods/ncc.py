@@ -182,10 +182,10 @@ def bilinear_sample(image: Float[Array, "*channels height width"], x: Float[Arra
     flat = image.reshape(-1).astype(x.dtype)
     # four gathers, one per neighbour, each with its index arithmetic fused into it: one
     # gather of the four stacked indices made XLA on CPU write the stacked indices out first
-    # (~0.1 ms per frame for the arm search's 33 000 points, stop 22). The indices are in
-    # bounds by construction, but a "promise_in_bounds" (or "fill") gather makes XLA on CPU
-    # copy the whole image first (~55 µs for 640 × 480 float32, 4× the gather of one pose's
-    # strips); a clipping take reads it in place
+    # (~0.4 ms per frame in the arm search, 33 000 points per arm, stop 22). The indices are
+    # in bounds by construction, but a "promise_in_bounds" (or "fill") gather makes XLA on
+    # CPU copy the whole image first (~55 µs for 640 × 480 float32, 4× the gather of one
+    # pose's strips); a clipping take reads it in place
     top = y0 * width + offset
     bottom = y1 * width + offset
     top_left, top_right, bottom_left, bottom_right = (
