@@ -62,7 +62,7 @@ def make_appearance_templates(
     """The templates of ``likelihood`` cut from a reference frame at its ``(12, 2)`` markers
     (for ``"limbs+edges"`` the grey frame or its ``(3, height, width)`` observation), with the
     static camera's grey ``background`` for ``"limbs+edges"``'s foreground term (None: none;
-    the other likelihoods take none)."""
+    the other likelihoods take none), cast to the templates' dtype."""
     _check(likelihood)
     if likelihood == "limbs+edges":
         return make_edge_limb_templates(image, markers_2d, background=background)

@@ -279,9 +279,8 @@ def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_mark
     dynamics = dynamics.astype(dtype)
     model = CondensationModel(
         dynamics=dynamics, template=template,
-        templates=make_appearance_templates(
-            likelihood, cast(first_frame), cast(first_markers),
-            None if background is None else cast(background)),
+        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers),
+                                            background),
         initial_state=initial, initial_std=jnp.asarray(initial_spread, dtype) * dynamics.noise_std,
         sharpness=cast(sharpness), nearest=bool(nearest),
     )

@@ -519,9 +519,8 @@ def latent_tracker(
     model = LatentModel(
         prior=prior.astype(dtype),
         template=jax.tree.map(cast, template),
-        templates=make_appearance_templates(
-            likelihood, cast(first_frame), cast(first_markers),
-            None if background is None else cast(background)),
+        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers),
+                                            background),
         initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
         latent_std=cast(std),
         jump_threshold=cast(NormalDist().inv_cdf(jump_probability) if jump_probability > 0

@@ -441,9 +441,8 @@ def mht_tracker(
         merge_radius = 0.02 * torso
     return MHTTracker(
         template=template,
-        templates=make_appearance_templates(
-            likelihood, cast(first_frame), cast(first_markers),
-            None if background is None else cast(background)),
+        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers),
+                                            background),
         initial_state=initial, step_std=cast(step_std), sharpness=cast(sharpness),
         velocity_weight=cast(velocity_weight), prior_scale=cast(prior_scale),
         refill_spread=cast(refill_spread), merge_radius=cast(merge_radius),
