@@ -39,13 +39,12 @@ from pathlib import Path
 
 import jax
 import jax.numpy as jnp
-import jax.random as jr
 import numpy as np
 
 from benchmarks._common import device_description, print_table, write_json
+from benchmarks.tracker_step import CHUNK, _chunk_arguments, _load_average, _tracked_state, build
 
 RESULTS = Path(__file__).parent / "results"
-CHUNK = 64
 STAGES = ("filter", "candidates", "arm_search", "gauss_newton", "choice")
 _CONTROL_FLOW = {"while", "conditional", "call"}
 
@@ -78,12 +77,9 @@ def _trace_events(directory: Path) -> list[dict]:
 
 def profile_chunk(tracker, frames, repeats: int) -> dict:
     """Untraced ms per frame of the chunk scan, and the traced ops grouped by stage."""
-    from benchmarks.tracker_step import _tracked_state
     from jaxtrack.trackers._runner import _chunk
 
-    state = _tracked_state(tracker, frames)
-    arguments = (tracker, state, jr.split(jr.PRNGKey(3), CHUNK),
-                 jnp.asarray(frames[1:CHUNK + 1]))
+    arguments = _chunk_arguments(tracker, _tracked_state(tracker, frames), frames)
     compiled = _chunk.lower(*arguments).compile()
     instructions = _instructions(compiled.compiled.as_text())
     jax.block_until_ready(compiled(*arguments))
@@ -159,8 +155,6 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=10)
     parser.add_argument("--output", default=str(RESULTS / "profile_step.json"))
     args = parser.parse_args()
-    from benchmarks.tracker_step import _load_average, build
-
     tracker, frames, _ = build(args.particles, likelihood="limbs+edges")
     load = _load_average()
     profile = profile_chunk(tracker, frames, args.repeats)

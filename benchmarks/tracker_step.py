@@ -125,12 +125,16 @@ class _NoImage(eqx.Module):
         return -1e-6 * jnp.sum(jnp.square(markers))
 
 
+def _chunk_arguments(tracker, state, frames) -> tuple:
+    """The arguments of ``track``'s compiled chunk scan over frames 1 … CHUNK."""
+    return (tracker, state, jr.split(jr.PRNGKey(3), CHUNK), jnp.asarray(frames[1:CHUNK + 1]))
+
+
 def _scan_timing(tracker, state, frames, repeats: int) -> dict:
     """Per-frame wall and CPU ms of ``track``'s compiled scan over a chunk of CHUNK frames."""
     from jaxtrack.trackers._runner import _chunk
 
-    arguments = (tracker, state, jr.split(jr.PRNGKey(3), CHUNK),
-                 jnp.asarray(frames[1:CHUNK + 1]))
+    arguments = _chunk_arguments(tracker, state, frames)
     tick = time.perf_counter()
     compiled = _chunk.lower(*arguments).compile()
     compile_s = time.perf_counter() - tick
