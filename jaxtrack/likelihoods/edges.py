@@ -80,9 +80,11 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from jaxtrack.likelihoods.limbs import (
+    _SPINE,
     DEFAULT_STRIP_WIDTH,
     LIMB_SEGMENTS,
     PART_MARKERS,
+    STRIP_ENDS,
     LimbTemplates,
     _nearest_pixels,
     _read_strips,
@@ -90,6 +92,7 @@ from jaxtrack.likelihoods.limbs import (
     _segments,
     _strip_points,
     make_limb_templates,
+    spine_length,
 )
 from jaxtrack.likelihoods.ncc import (
     _correlation,
@@ -140,7 +143,6 @@ FOREGROUND_SEGMENTS = tuple(index for index, segment in enumerate(LIMB_SEGMENTS)
 The torso of a subject who stands still is part of a median background, so the spine's,
 shoulders' and hips' strips would be scored against nothing."""
 
-_SPINE = (1, 3)
 _CHANNELS = 3
 
 
@@ -225,8 +227,21 @@ class EdgeLimbTemplates(eqx.Module):
         :data:`jaxtrack.likelihoods.limbs.PART_MARKERS`."""
         return PART_MARKERS
 
+    @property
+    def spine_markers(self) -> tuple[int, int]:
+        """Neck and pelvis: every part also reads their distance (the strips' widths, σ)."""
+        return _SPINE
+
+    @property
+    def direct_part_markers(self) -> tuple[tuple[int, ...], ...]:
+        """The markers each part reads other than through the spine length (its two ends,
+        :data:`jaxtrack.likelihoods.limbs.STRIP_ENDS`): with ``spine`` given, row p of
+        :meth:`part_residuals` depends only on these and on ``spine``."""
+        return STRIP_ENDS
+
     def _read(self, markers_2d, observation, nearest: bool,
-              segments: tuple[int, ...] | None = None) -> tuple[Array, Array, Array | None]:
+              segments: tuple[int, ...] | None = None, spine: Array | None = None
+              ) -> tuple[Array, Array, Array | None]:
         """The strips' samples ``(segments, along, across)``, ``e_i`` of their border points
         ``(segments, points)``: ``min(d/σ, 2)`` where the nearest edge runs along the strip,
         else 2, and (with a background; else None) the foreground term's ``b_s`` per strip
@@ -234,19 +249,21 @@ class EdgeLimbTemplates(eqx.Module):
 
         Both read the flattened observation in place (the maps at offsets of a channel).
         Samples and distances are read bilinearly unless ``nearest``; orientations always at
-        the nearest pixel (angles do not interpolate).
+        the nearest pixel (angles do not interpolate). ``spine``: the length the widths and σ
+        are fractions of, None: the markers' own.
         """
         observation = _check_observation(observation)
         markers = jnp.asarray(markers_2d)
         dtype = _float_dtype(observation, markers)
         markers, observation = markers.astype(dtype), observation.astype(dtype)
         strips = self.strips
-        x, y = _strip_points(markers, strips.along, strips.across, strips.width, segments)
+        x, y = _strip_points(markers, strips.along, strips.across, strips.width, segments,
+                             spine)
         samples = _read_strips(observation, x, y, nearest, channel=0)
         widths = self.border_widths.astype(dtype)
         if segments is not None:
             widths = widths[jnp.asarray(_segments(segments))]
-        borders = _border_values(markers, observation, widths, self, nearest, segments)
+        borders = _border_values(markers, observation, widths, self, nearest, segments, spine)
         return samples, borders, self._off_foreground(samples, x, y, nearest, segments)
 
     def _off_foreground(self, samples: Array, x: Array, y: Array, nearest: bool,
@@ -281,11 +298,11 @@ class EdgeLimbTemplates(eqx.Module):
             value = value - jnp.asarray(self.foreground_weight, value.dtype) * jnp.sum(off)
         return value
 
-    def residuals(self, markers_2d, observation, sharpness) -> Array:
+    def residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
         """The strips' residuals, then ``√(2κ / n) e_i`` per border point (bilinear samples
         and distances), then ``√(2μ b_s)`` per strip with a background: half the squared norm
-        is the negative log-likelihood."""
-        samples, scaled, off = self._read(markers_2d, observation, nearest=False)
+        is the negative log-likelihood. ``spine``: as in :meth:`part_residuals`."""
+        samples, scaled, off = self._read(markers_2d, observation, nearest=False, spine=spine)
         appearance = _template_residuals(samples, self.strips.strips, sharpness)
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
         residuals = [appearance, (weight * scaled).reshape(-1)]
@@ -307,11 +324,14 @@ class EdgeLimbTemplates(eqx.Module):
             value = value - jnp.asarray(self.foreground_weight, value.dtype) * off
         return value
 
-    def part_residuals(self, markers_2d, observation, sharpness) -> Array:
+    def part_residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
         """:meth:`residuals` grouped by strip, ``(segments, along · across + points)`` (``+ 1``
         with a background): each row (a strip's samples, then its border points, then its
-        foreground residual) depends only on the markers :attr:`part_markers` names for it."""
-        residuals = self.residuals(markers_2d, observation, sharpness)
+        foreground residual) depends only on the markers :attr:`part_markers` names for it.
+        With ``spine`` (the length the widths and σ are fractions of; None: the markers' own)
+        given, a row depends only on the markers :attr:`direct_part_markers` names and on
+        ``spine``."""
+        residuals = self.residuals(markers_2d, observation, sharpness, spine)
         segments = len(LIMB_SEGMENTS)
         split = segments * self.strips.along * self.strips.across
         borders = segments * 2 * (self.strips.along - 2)
@@ -322,14 +342,17 @@ class EdgeLimbTemplates(eqx.Module):
 
 def _border_values(markers: Array, observation: Array, widths: Array,
                    templates: EdgeLimbTemplates, nearest: bool,
-                   segments: tuple[int, ...] | None = None) -> Array:
+                   segments: tuple[int, ...] | None = None, spine: Array | None = None
+                   ) -> Array:
     """``e_i`` of the border points ``(segments, 2 (along − 2))`` of one pose's strips at half
     widths ``widths`` (``(segments,)``, over the spine): ``min(d/σ, 2)`` where the nearest
-    edge runs along the strip, else 2 (the strips ``segments`` picks, None: all)."""
+    edge runs along the strip, else 2 (the strips ``segments`` picks, None: all; ``spine``
+    the length widths and σ are fractions of, None: the markers' own)."""
     dtype = observation.dtype
     height, width = observation.shape[1:]
     border_x, border_y = (_borders(values) for values in
-                          _strip_points(markers, templates.strips.along, 2, widths, segments))
+                          _strip_points(markers, templates.strips.along, 2, widths, segments,
+                                        spine))
     border = _nearest_pixels(border_x, border_y, height, width)
     flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
     if nearest:
@@ -343,7 +366,7 @@ def _border_values(markers: Array, observation: Array, widths: Array,
     difference = difference - jnp.pi * jnp.floor(difference / jnp.pi)  # [0, π)
     tolerance = jnp.deg2rad(templates.edge_tolerance.astype(dtype)) + 1e-6
     along_limb = (difference <= tolerance) | (difference >= jnp.pi - tolerance)
-    spine = jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
+    spine = spine_length(markers) if spine is None else jnp.asarray(spine, dtype)
     sigma = jnp.maximum(templates.edge_scale.astype(dtype) * spine, 1e-3)
     return jnp.where(along_limb, jnp.minimum(distances / sigma, 2.0), 2.0)
 

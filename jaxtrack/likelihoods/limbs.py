@@ -42,6 +42,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from jaxtrack.likelihoods.ncc import (
+    _SPINE,
     _correlation,
     _float_dtype,
     _normalise,
@@ -55,10 +56,12 @@ __all__ = [
     "LIMB_SEGMENTS",
     "LimbTemplates",
     "PART_MARKERS",
+    "STRIP_ENDS",
     "limb_ncc_log_likelihood",
     "limb_ncc_scores",
     "limb_points",
     "make_limb_templates",
+    "spine_length",
 ]
 
 LIMB_SEGMENTS: tuple[tuple[str, int, int, float, float], ...] = (
@@ -89,11 +92,13 @@ there are fewer terms than markers; in a first comparison on the held-out wave (
 3 seeds), λ = 4 tracked better than 1 or 2 (particles spread too evenly) and than 10 (an
 effective sample size of ~5 of 200)."""
 
-_SPINE = (1, 3)  # neck, pelvis in SPM_MARKERS order
 _NUM_MARKERS = 12
 
-PART_MARKERS: tuple[tuple[int, ...], ...] = tuple(
-    (segment[1], segment[2], *_SPINE) for segment in LIMB_SEGMENTS)
+STRIP_ENDS: tuple[tuple[int, int], ...] = tuple((segment[1], segment[2])
+                                               for segment in LIMB_SEGMENTS)
+"""The markers (``SPM_MARKERS`` indices) each strip reads other than through the spine length:
+its two ends."""
+PART_MARKERS: tuple[tuple[int, ...], ...] = tuple((*ends, *_SPINE) for ends in STRIP_ENDS)
 """The markers (``SPM_MARKERS`` indices) each strip's terms depend on: its two ends, and the
 neck and pelvis, whose distance sets its width. What the arm search and the refinement's
 Gauss–Newton Jacobian use to touch only the strips a change reaches."""
@@ -166,10 +171,18 @@ def _segment_axes(markers: Array, segments: tuple[int, ...] | None = None) -> Ar
             - markers[jnp.asarray([_STARTS[index] for index in chosen])])
 
 
+def spine_length(markers: Array) -> Array:
+    """The neck–pelvis distance of ``(12, 2)`` markers: the length the strips' widths (and the
+    edge term's scale) are fractions of."""
+    return jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
+
+
 def _point_coordinates(markers: Array, along: int, across: int, width,
-                       segments: tuple[int, ...] | None = None) -> Array:
+                       segments: tuple[int, ...] | None = None, spine: Array | None = None
+                       ) -> Array:
     """``(2, segments · along · across)``: x and y of :func:`limb_points` (of the strips
-    ``segments`` picks; ``width`` a scalar or one half width per picked strip).
+    ``segments`` picks; ``width`` a scalar or one half width per picked strip; ``spine`` the
+    length the widths are fractions of, None: the markers' own :func:`spine_length`).
 
     One ``(2, 21) @ (21, points)`` matrix product per pose (:func:`_point_matrix`), which XLA
     on CPU runs several times faster than the same points broadcast elementwise into
@@ -180,7 +193,7 @@ def _point_coordinates(markers: Array, along: int, across: int, width,
     dtype = _float_dtype(markers)
     markers = markers.astype(dtype)
     axis = _segment_axes(markers, segments)  # (segments, 2)
-    spine = jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
+    spine = spine_length(markers) if spine is None else jnp.asarray(spine, dtype)
     length = jnp.sqrt(jnp.sum(axis**2, axis=-1))
     # the unit normal times the half width; a segment of zero length gets a zero normal (its
     # strip collapses to a line, still a valid, if uninformative, sample)
@@ -214,22 +227,23 @@ def _read_strips(image: Array, x: Array, y: Array, nearest: bool, channel: int |
 
 
 def _strip_points(markers: Array, along: int, across: int, width,
-                  segments: tuple[int, ...] | None = None) -> tuple[Array, Array]:
+                  segments: tuple[int, ...] | None = None, spine: Array | None = None
+                  ) -> tuple[Array, Array]:
     """x and y of :func:`limb_points`, each ``(segments, along, across)``."""
-    x, y = _point_coordinates(markers, along, across, width, segments)
+    x, y = _point_coordinates(markers, along, across, width, segments, spine)
     shape = (len(_segments(segments)), along, across)
     return x.reshape(shape), y.reshape(shape)
 
 
 def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool,
-            segments: tuple[int, ...] | None = None) -> Array:
+            segments: tuple[int, ...] | None = None, spine: Array | None = None) -> Array:
     image = jnp.asarray(image)
     if image.ndim != 2:
         raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
                          f"convert colour frames with jaxtrack.vision.to_grey")
     markers = jnp.asarray(markers)
     dtype = _float_dtype(image, markers)
-    x, y = _strip_points(markers.astype(dtype), along, across, width, segments)
+    x, y = _strip_points(markers.astype(dtype), along, across, width, segments, spine)
     return _read_strips(image.astype(dtype), x, y, nearest)
 
 
@@ -262,16 +276,30 @@ class LimbTemplates(eqx.Module):
         """:func:`limb_ncc_log_likelihood` (the interface the trackers call)."""
         return limb_ncc_log_likelihood(markers_2d, image, self, sharpness, nearest=nearest)
 
-    def residuals(self, markers_2d, image, sharpness) -> Array:
+    def residuals(self, markers_2d, image, sharpness, spine=None) -> Array:
         """``√λ (ŝ − t̂)`` over all strips (bilinear): half its squared norm is
-        ``λ Σ_s (1 − NCC_s)``, the cost as a sum of squares for Gauss–Newton."""
-        strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest=False)
+        ``λ Σ_s (1 − NCC_s)``, the cost as a sum of squares for Gauss–Newton. ``spine``: the
+        length the strips' widths are fractions of, None: the markers' own."""
+        strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest=False,
+                         spine=spine)
         return _template_residuals(strips, self.strips, sharpness)
 
     @property
     def part_markers(self) -> tuple[tuple[int, ...], ...]:
         """The markers each part (strip) of the likelihood depends on: :data:`PART_MARKERS`."""
         return PART_MARKERS
+
+    @property
+    def spine_markers(self) -> tuple[int, int]:
+        """Neck and pelvis: every part also reads their distance (the strips' widths)."""
+        return _SPINE
+
+    @property
+    def direct_part_markers(self) -> tuple[tuple[int, ...], ...]:
+        """The markers each part reads other than through the spine length
+        (:data:`STRIP_ENDS`): with ``spine`` given, row p of :meth:`part_residuals` depends
+        only on these and on ``spine``."""
+        return STRIP_ENDS
 
     def part_log_likelihoods(self, markers_2d, image, sharpness, nearest: bool = True,
                              parts: tuple[int, ...] | None = None) -> Array:
@@ -282,10 +310,12 @@ class LimbTemplates(eqx.Module):
         scores = _correlation(strips, self.strips[jnp.asarray(_segments(parts))])
         return -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
 
-    def part_residuals(self, markers_2d, image, sharpness) -> Array:
+    def part_residuals(self, markers_2d, image, sharpness, spine=None) -> Array:
         """:meth:`residuals` grouped by strip, ``(segments, along · across)``: each row
-        depends only on the markers :attr:`part_markers` names for it."""
-        return self.residuals(markers_2d, image, sharpness).reshape(len(LIMB_SEGMENTS), -1)
+        depends only on the markers :attr:`part_markers` names for it (with ``spine`` given:
+        on those :attr:`direct_part_markers` names, and on ``spine``)."""
+        return self.residuals(markers_2d, image, sharpness, spine).reshape(len(LIMB_SEGMENTS),
+                                                                            -1)
 
 
 def make_limb_templates(

@@ -249,6 +249,16 @@ class NCCTemplates(eqx.Module):
         """The marker each part (patch) of the likelihood depends on: its own."""
         return tuple((marker,) for marker in range(self.num_markers))
 
+    @property
+    def spine_markers(self) -> None:
+        """None: the patches' size is fixed, no part reads the spine length."""
+        return None
+
+    @property
+    def direct_part_markers(self) -> tuple[tuple[int, ...], ...]:
+        """:attr:`part_markers` (no part reads the spine length)."""
+        return self.part_markers
+
     def part_log_likelihoods(self, markers_2d, image, sharpness, nearest: bool = True,
                              parts: tuple[int, ...] | None = None) -> Array:
         """``−λ (1 − NCC_m)`` of each patch ``parts`` picks (static marker indices; None:

@@ -6,17 +6,25 @@ Gaussian prior's. optimistix's Gauss–Newton (:class:`jaxtrack.trackers.mht.Arm
 builds the whole Jacobian ``∂r/∂y`` by pushing 25 tangents through the likelihood, then
 ``JᵀJ``: with the limb strips and their edges, 961 residuals, that is most of the latent
 tracker's per-frame cost. But every likelihood here is a sum of parts (a strip, a patch) and
-each part reads only a few markers (``templates.part_markers``: a strip's two ends and the
-spine's, for its width), so ``∂r/∂m`` is block sparse. Here:
+each part reads only a few markers (``templates.part_markers``: a strip's two ends, and the
+neck and pelvis, whose distance sets its width), so ``∂r/∂m`` is block sparse. Here:
 
 * **Compressed tangents.** Two markers that no part reads together can share a tangent: the
   derivative of each part along their summed direction is its derivative in the one marker it
-  reads. A greedy colouring of the markers (two markers clash when a part reads both) gives 4
-  colours for the limb strips (neck and pelvis alone, two for the rest), so 8 tangents (x and
-  y per colour) instead of 25 give every part's Jacobian block exactly; 2 for marker patches.
+  reads. A greedy colouring of the markers (two markers clash when a part reads both) gives
+  the tangents (x and y per colour) that give every part's Jacobian block exactly; 2 for
+  marker patches (one colour).
+* **The spine length as an input of its own.** Every strip reads the neck and pelvis, but only
+  through their distance ``s`` (its width, the edge term's σ). Given ``s`` as a second input
+  (``spine_markers``; ``part_residuals(..., spine=s)``), a strip reads its two ends alone
+  (``templates.direct_part_markers``): the skeleton's segments form a tree, so 2 colours, and
+  ``∂r/∂s`` one more tangent: 5 tangents instead of the 8 of colouring all the markers read
+  (neck and pelvis would each need a colour of their own), and ``∂s/∂y`` one more row of
+  ``∂m/∂y``. The Jacobian is the same, by the chain rule.
 * **Normal equations per part.** ``JᵀJ = Σ_p D_pᵀ (B_pᵀ B_p) D_p`` with ``B_p`` part p's
-  compressed block and ``D_p`` the rows of ``∂m/∂y`` (from the 25-tangent Jacobian of the SPM's
-  12 markers, which is cheap) for the markers p reads; ``Jᵀr`` likewise.
+  compressed block and ``D_p`` the rows of ``∂(m, s)/∂y`` (from the 25-tangent Jacobian of the
+  SPM's 12 markers and the spine length, which is cheap) for the markers p reads; ``Jᵀr``
+  likewise.
 * **The same iteration as optimistix's.** Each trial step costs one residual and Jacobian
   evaluation; a step is accepted when it lowers the cost by at least ``slope`` times the
   decrease the linearisation predicts (Armijo), and then the Newton direction (Cholesky of
@@ -57,16 +65,19 @@ def marker_colours(part_markers: Sequence[Sequence[int]], num_markers: int) -> t
 
 
 @functools.cache
-def _structure(part_markers: tuple[tuple[int, ...], ...], num_markers: int
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(tangents, rows, mask)``: the compressed tangents ``(2 colours, markers, 2)``; for
-    each part and tangent the row of ``∂m/∂y`` (flattened markers) it stands for there, and 1
-    where the part reads a marker of that colour (else 0)."""
+def _structure(part_markers: tuple[tuple[int, ...], ...], num_markers: int, spine: bool
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(tangents, spine_tangents, rows, mask)``: the compressed tangents ``(2 colours (+ 1),
+    markers, 2)`` of the markers and, with ``spine``, ``(2 colours + 1,)`` of the spine length
+    (the last tangent moves it alone); for each part and tangent the row of ``∂(m, s)/∂y``
+    (flattened markers, then the spine length) it stands for there, and 1 where the part
+    reads a marker of that colour, or the spine length (else 0)."""
     colours = marker_colours(part_markers, num_markers)
-    num_tangents = 2 * (max(colours) + 1)
+    num_tangents = 2 * (max(colours) + 1) + spine
     tangents = np.zeros((num_tangents, num_markers, 2))
     for marker, colour in enumerate(colours):
         tangents[2 * colour, marker, 0] = tangents[2 * colour + 1, marker, 1] = 1
+    spine_tangents = np.zeros(num_tangents)
     rows = np.zeros((len(part_markers), num_tangents), np.int32)
     mask = np.zeros((len(part_markers), num_tangents))
     for part, markers in enumerate(part_markers):
@@ -74,23 +85,40 @@ def _structure(part_markers: tuple[tuple[int, ...], ...], num_markers: int
             for axis in range(2):
                 rows[part, 2 * colours[marker] + axis] = 2 * marker + axis
                 mask[part, 2 * colours[marker] + axis] = 1
-    return tangents, rows, mask
+    if spine:  # every part reads the spine length
+        spine_tangents[-1], rows[:, -1], mask[:, -1] = 1, 2 * num_markers, 1
+    return tangents, spine_tangents, rows, mask
 
 
 def _linearise(state: Array, to_markers: Callable, parts: Callable, prior_mean: Array,
-               prior_std: Array, part_markers: tuple[tuple[int, ...], ...]
-               ) -> tuple[Array, Array, Array, Array]:
+               prior_std: Array, part_markers: tuple[tuple[int, ...], ...],
+               spine_markers: tuple[int, int] | None) -> tuple[Array, Array, Array, Array]:
     """``(cost, gradient Jᵀr, normal matrix JᵀJ, residuals)`` at ``state``, prior included."""
     dtype = state.dtype
-    markers, marker_tangent = jax.linearize(to_markers, state)
+
+    def observed(y):  # the markers and, with spine_markers, the spine length
+        markers = to_markers(y)
+        if spine_markers is None:
+            return markers, jnp.zeros((), markers.dtype)
+        neck, pelvis = spine_markers
+        return markers, jnp.sqrt(jnp.sum((markers[pelvis] - markers[neck]) ** 2))
+
+    (markers, spine), observed_tangent = jax.linearize(observed, state)
     num_markers = markers.shape[0]
-    tangents, rows, mask = _structure(part_markers, num_markers)
+    tangents, spine_tangents, rows, mask = _structure(part_markers, num_markers,
+                                                      spine_markers is not None)
     tangents, mask = jnp.asarray(tangents, dtype), jnp.asarray(mask, dtype)
-    # ∂m/∂y, (2 markers, 25): small, so all 25 tangents
-    marker_jacobian = jax.vmap(marker_tangent, out_axes=-1)(
-        jnp.eye(state.shape[0], dtype=dtype)).reshape(2 * num_markers, -1)
-    residuals, part_tangent = jax.linearize(parts, markers)  # (parts, k)
-    compressed = jax.vmap(part_tangent)(tangents)  # (tangents, parts, k)
+    # ∂(m, s)/∂y, (2 markers + 1, 25): small, so all 25 tangents
+    marker_jacobian, spine_jacobian = jax.vmap(observed_tangent, out_axes=-1)(
+        jnp.eye(state.shape[0], dtype=dtype))
+    marker_jacobian = jnp.concatenate([marker_jacobian.reshape(2 * num_markers, -1),
+                                       spine_jacobian[None]])
+    if spine_markers is None:
+        residuals, part_tangent = jax.linearize(parts, markers)  # (parts, k)
+        compressed = jax.vmap(part_tangent)(tangents)  # (tangents, parts, k)
+    else:
+        residuals, part_tangent = jax.linearize(parts, markers, spine)
+        compressed = jax.vmap(part_tangent)(tangents, jnp.asarray(spine_tangents, dtype))
     # per part: B_pᵀ B_p and B_pᵀ r_p in the compressed coordinates (broadcast products and
     # sums, which XLA on CPU fuses; batched small dots cost it more)
     gram = jnp.sum(compressed[:, None] * compressed[None], axis=-1)  # (tangents, tangents, parts)
@@ -113,6 +141,7 @@ def parts_gauss_newton(
     prior_mean: Float[Array, " n"],
     prior_std: Float[Array, " n"],
     *,
+    spine_markers: tuple[int, int] | None = None,
     max_steps: int,
     tolerance: float,
     slope: float = 0.1,
@@ -124,9 +153,14 @@ def parts_gauss_newton(
     Args:
         parts: markers → residuals grouped by part, ``(parts, k)``; row p may depend only on
             the markers ``part_markers[p]`` names (that is what makes the Jacobian exact).
-        part_markers: static; the markers each part reads.
+            With ``spine_markers``: ``(markers, spine length) → (parts, k)``.
+        part_markers: static; the markers each part reads (with ``spine_markers``: other
+            than through the spine length).
         to_markers: state → ``(markers, 2)``.
         state, prior_mean, prior_std: the start and the Gaussian prior, all ``(n,)``.
+        spine_markers: static; None, or two markers (neck, pelvis) whose distance every part
+            also reads, as ``parts``' second argument: it gets one tangent of its own (module
+            docstring).
         max_steps: static cap on residual evaluations (the start's included).
         tolerance: rtol = atol of the Cauchy termination test.
         slope, decrease_factor: Armijo's sufficient-decrease fraction and the backtracking
@@ -137,10 +171,12 @@ def parts_gauss_newton(
         ``max_steps_reached``.
     """
     part_markers = tuple(tuple(int(marker) for marker in markers) for markers in part_markers)
+    if spine_markers is not None:
+        spine_markers = tuple(int(marker) for marker in spine_markers)
     dtype = state.dtype
     linearise = functools.partial(_linearise, to_markers=to_markers, parts=parts,
                                   prior_mean=prior_mean, prior_std=prior_std,
-                                  part_markers=part_markers)
+                                  part_markers=part_markers, spine_markers=spine_markers)
 
     def newton(gradient, normal):
         return -jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(normal), True), gradient)

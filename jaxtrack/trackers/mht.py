@@ -159,10 +159,10 @@ def refine_pose(
     the last accepted iterate is returned). Pure JAX for ONE state: ``vmap`` it over modes.
 
     ``solver="parts"`` runs the same iteration outside optimistix with a Jacobian built part
-    by part from the templates' ``part_residuals`` and ``part_markers``
-    (``jaxtrack.trackers._parts_gauss_newton``): the same iterates to rounding, in about half
-    the time with the limb strips. The MHT baseline keeps optimistix's; the latent tracker's
-    refinement uses it.
+    by part from the templates' ``part_residuals``, ``direct_part_markers`` and
+    ``spine_markers`` (``jaxtrack.trackers._parts_gauss_newton``): the same iterates to
+    rounding, in a fraction of the time with the limb strips. The MHT baseline keeps
+    optimistix's; the latent tracker's refinement uses it.
 
     Args:
         state: ``(25,)`` starting SPM state.
@@ -187,10 +187,17 @@ def refine_pose(
                        jnp.asarray(prior_mean, dtype), jnp.asarray(prior_std, dtype),
                        jnp.asarray(sharpness, dtype))
     if solver == "parts":
+        spine_markers = templates.spine_markers
+        if spine_markers is None:
+            def parts(markers):
+                return templates.part_residuals(markers, problem.frame, problem.sharpness)
+        else:
+            def parts(markers, spine):
+                return templates.part_residuals(markers, problem.frame, problem.sharpness, spine)
         return parts_gauss_newton(
-            lambda markers: templates.part_residuals(markers, problem.frame, problem.sharpness),
-            templates.part_markers, lambda pose: spm_forward(pose, template), state,
-            problem.prior_mean, problem.prior_std, max_steps=max_steps, tolerance=tolerance)
+            parts, templates.direct_part_markers, lambda pose: spm_forward(pose, template),
+            state, problem.prior_mean, problem.prior_std, spine_markers=spine_markers,
+            max_steps=max_steps, tolerance=tolerance)
     solver = _solver(tolerance, dtype)
     solution = optx.least_squares(_residuals, solver, state, args=problem, max_steps=max_steps,
                                   throw=False)

@@ -226,6 +226,23 @@ def test_parts_are_the_likelihood_term_by_term(likelihood):
     for part, named in enumerate(templates.part_markers):
         assert set(np.flatnonzero(reads[part])) <= set(named), (part, named)
     assert reads.any(axis=0).all()  # and every marker is read by some part
+    # the spine length given apart (the refinement's Gauss–Newton): the same rows at the
+    # markers' own spine length, each reading only its direct_part_markers, and the strips'
+    # widths moving with the spine length given
+    if templates.spine_markers is None:
+        assert templates.direct_part_markers == templates.part_markers
+    else:
+        neck, pelvis = templates.spine_markers
+        spine = jnp.linalg.norm(pose[pelvis] - pose[neck])
+        np.testing.assert_allclose(templates.part_residuals(pose, observation, 4.0, spine), rows,
+                                   rtol=1e-6, atol=1e-6)
+        jacobian, by_spine = jax.jacfwd(
+            lambda m, s: templates.part_residuals(m, observation, 4.0, s), argnums=(0, 1))(
+                pose, spine)
+        reads = np.abs(np.asarray(jacobian)).sum(axis=(1, 3)) > 0
+        for part, named in enumerate(templates.direct_part_markers):
+            assert set(np.flatnonzero(reads[part])) <= set(named), (part, named)
+        assert (np.abs(np.asarray(by_spine)).sum(axis=1) > 0).all()  # every strip's width
     with pytest.raises(ValueError, match="parts|segments"):
         templates.part_log_likelihoods(pose, observation, 4.0, True, (len(templates.part_markers),))
 

@@ -338,7 +338,7 @@ def test_mht_rejects_bad_input(wave):
 
 
 def test_marker_colours_never_put_two_markers_of_one_part_together():
-    from jaxtrack.likelihoods.limbs import PART_MARKERS
+    from jaxtrack.likelihoods.limbs import PART_MARKERS, STRIP_ENDS
     from jaxtrack.trackers._parts_gauss_newton import marker_colours
 
     colours = marker_colours(PART_MARKERS, 12)
@@ -346,6 +346,8 @@ def test_marker_colours_never_put_two_markers_of_one_part_together():
         assert len({colours[marker] for marker in set(markers)}) == len(set(markers)), markers
     # neck and pelvis (read by every strip) alone, the other ten in two colours: 8 tangents
     assert max(colours) + 1 == 4
+    # the strips' ends alone (the spine length given apart): the skeleton's tree in 2 colours
+    assert max(marker_colours(STRIP_ENDS, 12)) + 1 == 2
     assert marker_colours([(m,) for m in range(12)], 12) == (0,) * 12
     with pytest.raises(ValueError, match="below 12"):
         marker_colours([(0, 12)], 12)
