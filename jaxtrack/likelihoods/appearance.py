@@ -5,7 +5,11 @@ All three are template models cut from the first frame at its known markers and 
 ``−λ Σ (1 − NCC)`` (Tian et al. 2005, eq. 7's form), the first with an edge term added; all
 expose ``log_likelihood(markers, observation, sharpness, nearest)`` and ``residuals(markers,
 observation, sharpness)``, which is all a tracker calls, so every tracker (and every baseline)
-runs on any of them.
+runs on any of them. The latent tracker's arm search and refinement also read their terms part
+by part: ``part_markers`` (the markers each part depends on), ``part_log_likelihoods``,
+``part_residuals`` and, for the refinement's Jacobian (``jaxtrack.trackers._parts_gauss_newton``),
+``spine_markers`` and ``direct_part_markers`` (the strips read the neck–pelvis length, which
+``part_residuals(..., spine=s)`` may be given apart; None and ``part_markers`` for the patches).
 
 * ``"limbs+edges"`` (the default): the limb strips plus the distance of their borders to the
   frame's edges (:mod:`jaxtrack.likelihoods.edges`), which do not drift as limbs turn in depth.

@@ -327,7 +327,8 @@ class LatentTracker(ParticleTracker):
         with jax.named_scope("filter"):
             filtered, estimate = ParticleTracker.update_in_chunk(self, key, state.filter, frames,
                                                                  index)
-        return self._refined(state, filtered, estimate, frames[index])
+        # the refinement reads the frame from the chunk in place (refine_pose)
+        return self._refined(state, filtered, estimate, (frames, index))
 
     def _score(self, pose: Array, frame, parts: tuple[int, ...] | None = None) -> Array:
         """Log-likelihood of one SPM pose (bilinear reads), or the sum of its ``parts`` terms
@@ -381,16 +382,18 @@ class LatentTracker(ParticleTracker):
                                                       pose[fore_index])))
         return searched
 
-    def _refine(self, start: Array, frame, predicted: Array | None = None
+    def _refine(self, start: Array, observed, predicted: Array | None = None
                 ) -> tuple[Array, Array]:
-        """One candidate searched (arms) and refined on the frame, with its log-likelihood."""
+        """One candidate searched (arms) and refined on the frame ``observed`` (or ``(frames,
+        index)`` standing for it: ``refine_pose``), with its log-likelihood."""
         # the named scopes label the compiled ops by stage (benchmarks/profile_step.py)
         model = self.latent_model
+        frame = observed[0][observed[1]] if isinstance(observed, tuple) else observed
         if self.arm_grid:
             with jax.named_scope("arm_search"):
                 start = self.search_arms(start, frame, predicted)
         with jax.named_scope("gauss_newton"):
-            refined, _ = refine_pose(start, frame, model.templates, model.template, start,
+            refined, _ = refine_pose(start, observed, model.templates, model.template, start,
                                      self.refine_std, model.sharpness,
                                      max_steps=self.refine_steps, solver="parts")
         with jax.named_scope("choice"):
@@ -407,7 +410,8 @@ class LatentTracker(ParticleTracker):
         return state.pose + jnp.where(_ARM_ANGLE_MASK, self.arm_momentum * change, 0)
 
     def _refined(self, state: LatentState, filtered: smc.FilterState, estimate: FrameEstimate,
-                 frame) -> tuple[LatentState, FrameEstimate]:
+                 observed) -> tuple[LatentState, FrameEstimate]:
+        """The refined estimate on the frame ``observed`` (or ``(frames, index)``: _refine)."""
         carried = state.pose
         if self.refine_steps == 0:
             return LatentState(filtered, carried, carried), estimate
@@ -420,7 +424,7 @@ class LatentTracker(ParticleTracker):
         # by side (module docstring); the better-scoring one is reported and carried
         predicted = self._predicted(state)
         poses, values = jax.vmap(self._refine, in_axes=(0, None, None))(
-            jnp.stack([carried, decoded.astype(carried.dtype)]), frame, predicted)
+            jnp.stack([carried, decoded.astype(carried.dtype)]), observed, predicted)
         pose = jnp.where(values[0] >= values[1], poses[0], poses[1])
         estimate = eqx.tree_at(lambda e: e.markers, estimate, spm_forward(pose, model.template))
         return LatentState(filtered, pose, carried), estimate

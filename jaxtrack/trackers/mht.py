@@ -164,9 +164,15 @@ def refine_pose(
     rounding, in a fraction of the time with the limb strips. The MHT baseline keeps
     optimistix's; the latent tracker's refinement uses it.
 
+    A frame sliced out of a chunk of frames and handed to the solver's loop is copied whole
+    first (3.7 MB per 640 × 480 frame with edge maps, ~10 % of the latent tracker's time per
+    frame in :func:`jaxtrack.trackers.track`'s chunk scan). Given as ``(frames, index)``, the parts
+    solver reads it from the chunk in place instead (the same values).
+
     Args:
         state: ``(25,)`` starting SPM state.
-        frame: ``(height, width)`` grey frame.
+        frame: ``(height, width)`` grey frame (the templates' observation: ``(3, height,
+            width)`` with edge maps), or ``(frames, index)`` standing for ``frames[index]``.
         templates: appearance templates (limb strips or marker patches).
         template: the SPM template.
         prior_mean, prior_std: ``(25,)`` Gaussian prior on the state (MHT: the prediction and
@@ -183,17 +189,31 @@ def refine_pose(
         raise ValueError(f"solver must be one of {_SOLVERS}, got {solver!r}")
     state = jnp.asarray(state)
     dtype = state.dtype
+    frames, index = frame if isinstance(frame, tuple) else (None, None)
+    if frames is not None:
+        frame = frames[index]
     problem = _Problem(jnp.asarray(frame, dtype), templates, template,
                        jnp.asarray(prior_mean, dtype), jnp.asarray(prior_std, dtype),
                        jnp.asarray(sharpness, dtype))
     if solver == "parts":
+        def read(markers):  # the markers, and the frame they are scored on
+            if frames is None:
+                return markers, problem.frame
+            # sliced inside the solver's loop, where the slice fuses into the reads; the
+            # barrier ties the index to the iterate, or XLA hoists the slice out of the loop
+            # and copies the frame whole (docstring)
+            index_now, markers = jax.lax.optimization_barrier((index, markers))
+            return markers, frames[index_now]
+
         spine_markers = templates.spine_markers
         if spine_markers is None:
             def parts(markers):
-                return templates.part_residuals(markers, problem.frame, problem.sharpness)
+                markers, observation = read(markers)
+                return templates.part_residuals(markers, observation, problem.sharpness)
         else:
             def parts(markers, spine):
-                return templates.part_residuals(markers, problem.frame, problem.sharpness, spine)
+                markers, observation = read(markers)
+                return templates.part_residuals(markers, observation, problem.sharpness, spine)
         return parts_gauss_newton(
             parts, templates.direct_part_markers, lambda pose: spm_forward(pose, template),
             state, problem.prior_mean, problem.prior_std, spine_markers=spine_markers,
