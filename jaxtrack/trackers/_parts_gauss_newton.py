@@ -113,12 +113,12 @@ def _linearise(state: Array, to_markers: Callable, parts: Callable, prior_mean: 
         jnp.eye(state.shape[0], dtype=dtype))
     marker_jacobian = jnp.concatenate([marker_jacobian.reshape(2 * num_markers, -1),
                                        spine_jacobian[None]])
-    if spine_markers is None:
-        residuals, part_tangent = jax.linearize(parts, markers)  # (parts, k)
-        compressed = jax.vmap(part_tangent)(tangents)  # (tangents, parts, k)
-    else:
-        residuals, part_tangent = jax.linearize(parts, markers, spine)
-        compressed = jax.vmap(part_tangent)(tangents, jnp.asarray(spine_tangents, dtype))
+    # parts(markers) or, with spine_markers, parts(markers, spine length)
+    inputs, directions = (markers,), (tangents,)
+    if spine_markers is not None:
+        inputs, directions = (markers, spine), (tangents, jnp.asarray(spine_tangents, dtype))
+    residuals, part_tangent = jax.linearize(parts, *inputs)  # (parts, k)
+    compressed = jax.vmap(part_tangent)(*directions)  # (tangents, parts, k)
     # per part: B_pᵀ B_p and B_pᵀ r_p in the compressed coordinates (broadcast products and
     # sums, which XLA on CPU fuses; batched small dots cost it more)
     gram = jnp.sum(compressed[:, None] * compressed[None], axis=-1)  # (tangents, tangents, parts)

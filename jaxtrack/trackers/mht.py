@@ -205,18 +205,13 @@ def refine_pose(
             index_now, markers = jax.lax.optimization_barrier((index, markers))
             return markers, frames[index_now]
 
-        spine_markers = templates.spine_markers
-        if spine_markers is None:
-            def parts(markers):
-                markers, observation = read(markers)
-                return templates.part_residuals(markers, observation, problem.sharpness)
-        else:
-            def parts(markers, spine):
-                markers, observation = read(markers)
-                return templates.part_residuals(markers, observation, problem.sharpness, spine)
+        def parts(markers, *spine):  # the spine length, where the templates read it apart
+            markers, observation = read(markers)
+            return templates.part_residuals(markers, observation, problem.sharpness, *spine)
+
         return parts_gauss_newton(
             parts, templates.direct_part_markers, lambda pose: spm_forward(pose, template),
-            state, problem.prior_mean, problem.prior_std, spine_markers=spine_markers,
+            state, problem.prior_mean, problem.prior_std, spine_markers=templates.spine_markers,
             max_steps=max_steps, tolerance=tolerance)
     solver = _solver(tolerance, dtype)
     solution = optx.least_squares(_residuals, solver, state, args=problem, max_steps=max_steps,
