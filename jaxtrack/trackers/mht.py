@@ -189,6 +189,9 @@ def refine_pose(
         raise ValueError(f"solver must be one of {_SOLVERS}, got {solver!r}")
     state = jnp.asarray(state)
     dtype = state.dtype
+    if isinstance(frame, tuple) and len(frame) != 2:
+        raise ValueError(f"frame must be an array or a (frames, index) pair, got a tuple of "
+                         f"{len(frame)}")
     frames, index = frame if isinstance(frame, tuple) else (None, None)
     if frames is not None:
         frame = frames[index]

@@ -383,3 +383,5 @@ def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
         refinement_cost(start, frame, templates, template, start, std, 4.0))
     with pytest.raises(ValueError, match="solver"):
         refine_pose(start, frame, templates, template, start, std, solver="lbfgs")
+    with pytest.raises(ValueError, match=r"\(frames, index\) pair"):
+        refine_pose(start, (frames, 1, 0), templates, template, start, std, solver="parts")
