@@ -171,10 +171,11 @@ def _segment_axes(markers: Array, segments: tuple[int, ...] | None = None) -> Ar
             - markers[jnp.asarray([_STARTS[index] for index in chosen])])
 
 
-def spine_length(markers: Array) -> Array:
-    """The neck–pelvis distance of ``(12, 2)`` markers: the length the strips' widths (and the
-    edge term's scale) are fractions of."""
-    return jnp.sqrt(jnp.sum((markers[_SPINE[1]] - markers[_SPINE[0]]) ** 2))
+def spine_length(markers: Array, ends: tuple[int, int] = _SPINE) -> Array:
+    """The neck–pelvis distance of ``(12, 2)`` markers (``ends``: the two markers, neck and
+    pelvis by default): the length the strips' widths (and the edge term's scale) are
+    fractions of."""
+    return jnp.sqrt(jnp.sum((markers[ends[1]] - markers[ends[0]]) ** 2))
 
 
 def _point_coordinates(markers: Array, along: int, across: int, width,

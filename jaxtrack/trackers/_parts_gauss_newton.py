@@ -46,6 +46,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from jaxtrack.likelihoods.limbs import spine_length
+
 
 def marker_colours(part_markers: Sequence[Sequence[int]], num_markers: int) -> tuple[int, ...]:
     """A colour per marker such that no part reads two markers of one colour (greedy, the
@@ -100,8 +102,7 @@ def _linearise(state: Array, to_markers: Callable, parts: Callable, prior_mean: 
         markers = to_markers(y)
         if spine_markers is None:
             return markers, jnp.zeros((), markers.dtype)
-        neck, pelvis = spine_markers
-        return markers, jnp.sqrt(jnp.sum((markers[pelvis] - markers[neck]) ** 2))
+        return markers, spine_length(markers, spine_markers)
 
     (markers, spine), observed_tangent = jax.linearize(observed, state)
     num_markers = markers.shape[0]
