@@ -3,7 +3,7 @@
 ``python -m benchmarks.particle_counts --tracking`` runs this sweep: the demo's GPLVM prior (the
 three wave gestures of ``jaxtrack._demo.TRAIN_CLIPS``, cached in ``benchmarks/results/``), the
 demo's held-out take rendered frontally over the real photo background, and each method of
-``jaxtrack.evaluation.protocol.METHODS`` at N ∈ {10, 20, 50, 100, 200, 500, 1 000, 5 000, 10 000}
+``jaxtrack.experiments.METHODS`` at N ∈ {10, 20, 50, 100, 200, 500, 1 000, 5 000, 10 000}
 particles (modes for MHT), initialised from frame 0's ground truth and scored by
 ``evaluate_track`` against the exact 2-D markers.
 
@@ -52,12 +52,8 @@ from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.evaluation import evaluate_track
-from jaxtrack.evaluation.protocol import (
-    METHODS,
-    build_tracker,
-    render_test_sequences,
-    train_prior,
-)
+from jaxtrack.experiments import METHODS, build_tracker, render_test_sequences
+from jaxtrack.priors.train import train_prior
 from jaxtrack.trackers import track
 
 PARTICLE_COUNTS = (10, 20, 50, 100, 200, 500, 1_000, 5_000, 10_000)

@@ -84,8 +84,9 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     frames, or grey frames with edge maps for ``"limbs+edges"``."""
     from jaxtrack import trackers
     from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
-    from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
+    from jaxtrack.experiments import render_test_sequences
     from jaxtrack.likelihoods import needs_edges
+    from jaxtrack.priors.train import train_prior
     from jaxtrack.vision import edge_observations, median_grey_background
 
     prior = train_prior(TRAIN_CLIPS, cache=RESULTS / "gplvm_waves.npz", seed=seed,

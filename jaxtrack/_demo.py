@@ -55,8 +55,9 @@ def main(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
         plot_errors_over_time,
         write_overlay_video,
     )
-    from jaxtrack.evaluation.protocol import render_test_sequences, run_method, train_prior
+    from jaxtrack.experiments import render_test_sequences, run_method
     from jaxtrack.priors.gplvm import plot_latent_space
+    from jaxtrack.priors.train import train_prior
 
     started = time.perf_counter()
     output = Path(output_dir)

@@ -62,12 +62,8 @@ def _run(args: argparse.Namespace, user_error) -> int:
         summarise,
         write_overlay_video,
     )
-    from jaxtrack.evaluation.protocol import (
-        DEFAULT_PARTICLES,
-        render_test_sequences,
-        run_method,
-        train_prior,
-    )
+    from jaxtrack.experiments import DEFAULT_PARTICLES, render_test_sequences, run_method
+    from jaxtrack.priors.train import train_prior
 
     check_clips(args.train, "--train", user_error)
     check_clips(args.test, "--test", user_error)

@@ -50,7 +50,7 @@ def add_train(subparsers, user_error: type[Exception]) -> None:
 
 def _run_train(args: argparse.Namespace, user_error) -> int:
     from jaxtrack._evaluate_cli import check_clips
-    from jaxtrack.evaluation.protocol import train_prior
+    from jaxtrack.priors.train import train_prior
 
     check_clips(args.clips, "--clips", user_error)
     if args.out.suffix != ".npz" or not args.out.parent.is_dir():

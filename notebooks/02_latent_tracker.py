@@ -21,7 +21,8 @@ import numpy as np
 from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.body import MARKER_EDGES, UPPER_BODY_12
 from jaxtrack.evaluation import evaluate_track
-from jaxtrack.evaluation.protocol import render_test_sequences, run_method, train_prior
+from jaxtrack.experiments import render_test_sequences, run_method
+from jaxtrack.priors.train import train_prior
 
 prior = train_prior(TRAIN_CLIPS, cache="jaxtrack-demo/gplvm_waves.npz")
 print(prior.description["num_poses"], "training poses; ν =", np.asarray(prior.model.dynamics_std))

@@ -1,6 +1,6 @@
-"""The evaluation protocol's prior: the optimiser it was trained with is part of its cache key."""
+"""The trained prior: the optimiser it was trained with is part of its cache key."""
 
-from jaxtrack.evaluation.protocol import train_prior
+from jaxtrack.priors.train import train_prior
 
 CLIP = ("animateddrawings/fair1_wave_hello",)
 

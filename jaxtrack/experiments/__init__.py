@@ -1,0 +1,20 @@
+"""Experiments: the protocol that renders held-out clips, tracks them and scores the tracks.
+
+The top library layer: it assembles a prior (``jaxtrack.priors.train``), the renderer
+(``jaxtrack.body``), the trackers (``jaxtrack.trackers``) and the metrics
+(``jaxtrack.evaluation``) into the runs behind ``jaxtrack evaluate``, the demo and the benchmarks.
+Nothing below it imports it.
+"""
+
+from jaxtrack.experiments.protocol import (
+    AR_TRAINING_FRAMES,
+    DEFAULT_PARTICLES,
+    METHODS,
+    TestSequence,
+    build_tracker,
+    render_test_sequences,
+    run_method,
+)
+
+__all__ = ["AR_TRAINING_FRAMES", "DEFAULT_PARTICLES", "METHODS", "TestSequence", "build_tracker",
+           "render_test_sequences", "run_method"]
