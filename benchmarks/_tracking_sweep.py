@@ -1,11 +1,11 @@
 """Tracking error and speed vs particle count for the three trackers (issue 5).
 
 ``python -m benchmarks.particle_counts --tracking`` runs this sweep: the demo's GPLVM prior (the
-three wave gestures of ``jaxtrack._demo.TRAIN_CLIPS``, cached in ``benchmarks/results/``), the
-demo's held-out take rendered frontally over the real photo background, and each method of
-``jaxtrack.experiments.METHODS`` at N ∈ {10, 20, 50, 100, 200, 500, 1 000, 5 000, 10 000}
-particles (modes for MHT), initialised from frame 0's ground truth and scored by
-``evaluate_track`` against the exact 2-D markers.
+three wave gestures of ``jaxtrack.experiments.demo.TRAIN_CLIPS``, cached in
+``benchmarks/results/``), the demo's held-out take rendered frontally over the real photo
+background, and each method of ``jaxtrack.experiments.METHODS`` at
+N ∈ {10, 20, 50, 100, 200, 500, 1 000, 5 000, 10 000} particles (modes for MHT), initialised from
+frame 0's ground truth and scored by ``evaluate_track`` against the exact 2-D markers.
 
 Per method and N, over ``--seeds`` tracker seeds (the sequence is the same): mean error in pixels
 and in torso lengths (mean over seeds, with the seeds' spread), fraction of frames within 15 % of
@@ -47,12 +47,12 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks._common import device_description, peak_rss_mb, print_table
-from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import METHODS, build_tracker, render_test_sequences
+from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.priors.train import train_prior
 from jaxtrack.trackers import track
 

@@ -83,8 +83,8 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     """(tracker, observations) for the demo's held-out wave, ``frames`` frames of it: grey
     frames, or grey frames with edge maps for ``"limbs+edges"``."""
     from jaxtrack import trackers
-    from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
     from jaxtrack.experiments import render_test_sequences
+    from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
     from jaxtrack.likelihoods import needs_edges
     from jaxtrack.priors.train import train_prior
     from jaxtrack.vision import edge_observations, median_grey_background

@@ -18,10 +18,10 @@ import jax.random as jr
 import matplotlib.pyplot as plt
 import numpy as np
 
-from jaxtrack._demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.body import MARKER_EDGES, UPPER_BODY_12
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import render_test_sequences, run_method
+from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.priors.train import train_prior
 
 prior = train_prior(TRAIN_CLIPS, cache="jaxtrack-demo/gplvm_waves.npz")

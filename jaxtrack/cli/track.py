@@ -1,6 +1,4 @@
-"""``jaxtrack train`` and ``jaxtrack track``: learn a GPLVM prior from clips; track a real video.
-
-``track`` runs the latent-space tracker (Tian, Li & Sclaroff 2005) over a video file:
+"""``jaxtrack track``: the latent-space tracker (Tian, Li & Sclaroff 2005) over a video file.
 
 1. decode the frames (downscaled so the longer side is at most ``--max-size``),
 2. initialise on the first frame, by hand (``--init manual:x,y,...``: the 12 markers in video
@@ -22,50 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from jaxtrack._tracker_options import add_tracker_options, check_tracker_options
+from jaxtrack.cli._common import UserError
 
-__all__ = ["add_track", "add_train"]
-
-
-def add_train(subparsers, user_error: type[Exception]) -> None:
-    parser = subparsers.add_parser(
-        "train",
-        help="learn a GPLVM pose prior from real motion clips (a model for jaxtrack track)",
-        description=(
-            "Project the clips' upper-body poses from several viewpoints (±45°), learn a 2-D "
-            "GPLVM with its latent dynamics (Algorithm 1 of Tian et al.) and save it with its "
-            "SPM template. Re-running with the same settings and --out reuses the file. Clip "
-            "names: see jaxtrack.data.list_clips()."),
-        epilog="example: jaxtrack train --clips animateddrawings/fair1_wave_hello "
-               "animateddrawings/history_c119d6b/8yr_old_wave_hello --out waves.npz",
-    )
-    parser.add_argument("--clips", nargs="+", required=True, metavar="CLIP")
-    parser.add_argument("--out", required=True, type=Path, metavar="MODEL.npz")
-    parser.add_argument("--views", type=int, default=5, help="viewpoints per clip (default 5)")
-    parser.add_argument("--active", type=int, default=200, help="active set size (default 200)")
-    parser.add_argument("--iterations", type=int, default=3,
-                        help="outer iterations of Algorithm 1 (default 3)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.set_defaults(handler=lambda args: _run_train(args, user_error))
+__all__ = ["add_parser"]
 
 
-def _run_train(args: argparse.Namespace, user_error) -> int:
-    from jaxtrack._evaluate_cli import check_clips
-    from jaxtrack.priors.train import train_prior
-
-    check_clips(args.clips, "--clips", user_error)
-    if args.out.suffix != ".npz" or not args.out.parent.is_dir():
-        raise user_error(f"--out {args.out}: must be a .npz path in an existing folder")
-    for name in ("views", "active", "iterations"):
-        if getattr(args, name) < 1:
-            raise user_error(f"--{name} must be positive, got {getattr(args, name)}")
-    prior = train_prior(args.clips, views=args.views, active_size=args.active,
-                        iterations=args.iterations, seed=args.seed, cache=args.out)
-    print(f"GPLVM of {prior.description['num_poses']} poses, active set "
-          f"{prior.model.active_size} -> {args.out}")
-    return 0
-
-
-def add_track(subparsers, user_error: type[Exception]) -> None:
+def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "track",
         help="track the upper body in a video with the latent-space tracker",
@@ -95,33 +55,33 @@ def add_track(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
-    parser.set_defaults(handler=lambda args: _run_track(args, user_error))
+    parser.set_defaults(handler=run)
 
 
-def _load_prior(path: Path, user_error):
+def _load_prior(path: Path):
     import jax.numpy as jnp
 
     from jaxtrack.body import SPMTemplate
     from jaxtrack.priors.gplvm import GPLVMFormatError, load_gplvm
 
     if not path.is_file():
-        raise user_error(f"--model {path}: no such file")
+        raise UserError(f"--model {path}: no such file")
     try:
         saved = load_gplvm(path)
     except GPLVMFormatError as error:
-        raise user_error(f"--model {path}: {' '.join(str(error).split())}") from None
+        raise UserError(f"--model {path}: {' '.join(str(error).split())}") from None
     if "reference_lengths" not in saved.arrays or "reference_angles" not in saved.arrays:
-        raise user_error(f"--model {path}: a GPLVM without an SPM template, not a tracking "
-                         f"prior; make one with jaxtrack train")
+        raise UserError(f"--model {path}: a GPLVM without an SPM template, not a tracking "
+                        f"prior; make one with jaxtrack train")
     if not np.all(np.isfinite(np.asarray(saved.model.dynamics_std))):
-        raise user_error(f"--model {path}: the GPLVM has no latent dynamics (ν); make one with "
-                         f"jaxtrack train")
+        raise UserError(f"--model {path}: the GPLVM has no latent dynamics (ν); make one with "
+                        f"jaxtrack train")
     template = SPMTemplate(jnp.asarray(saved.arrays["reference_lengths"]),
                            jnp.asarray(saved.arrays["reference_angles"]))
     return saved.model, template
 
 
-def _frame_range(text: str | None, user_error) -> tuple[int, int | None]:
+def _frame_range(text: str | None) -> tuple[int, int | None]:
     if not text:
         return 0, None
     start, separator, stop = text.partition(":")
@@ -131,27 +91,27 @@ def _frame_range(text: str | None, user_error) -> tuple[int, int | None]:
     except ValueError:
         first = last = -1
     if not separator or first < 0 or (last is not None and last < first + 2):
-        raise user_error(f"--frames must be START:STOP with at least 2 frames, got {text!r}")
+        raise UserError(f"--frames must be START:STOP with at least 2 frames, got {text!r}")
     return first, last
 
 
-def _manual_markers(text: str, scale: float, size: tuple[int, int], user_error) -> np.ndarray:
+def _manual_markers(text: str, scale: float, size: tuple[int, int]) -> np.ndarray:
     try:
         values = np.array([float(value) for value in text.split(",")])
     except ValueError:
-        raise user_error(f"--init manual: expects 24 comma-separated numbers, got "
-                         f"{text!r}") from None
+        raise UserError(f"--init manual: expects 24 comma-separated numbers, got "
+                        f"{text!r}") from None
     if values.size != 24 or not np.all(np.isfinite(values)):
-        raise user_error(f"--init manual: expects 24 finite numbers (12 markers x, y), got "
-                         f"{values.size}")
+        raise UserError(f"--init manual: expects 24 finite numbers (12 markers x, y), got "
+                        f"{values.size}")
     markers = values.reshape(12, 2)
     width, height = size
     if np.any(markers < 0) or np.any(markers[:, 0] > width) or np.any(markers[:, 1] > height):
-        raise user_error(f"--init manual: markers must lie inside the {width}x{height} video")
+        raise UserError(f"--init manual: markers must lie inside the {width}x{height} video")
     return markers * scale
 
 
-def _initialise(args, model, template, frames, scale, user_error) -> tuple[np.ndarray, dict]:
+def _initialise(args, model, template, frames, scale) -> tuple[np.ndarray, dict]:
     """First-frame markers (tracking pixels) and a description of how they were found."""
     from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
     from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask, median_background
@@ -159,28 +119,28 @@ def _initialise(args, model, template, frames, scale, user_error) -> tuple[np.nd
     height, width = frames.shape[1:3]
     original = (round(width / scale), round(height / scale))
     if args.init.startswith("manual:"):
-        markers = _manual_markers(args.init[len("manual:"):], scale, original, user_error)
+        markers = _manual_markers(args.init[len("manual:"):], scale, original)
         return markers, {"method": "manual"}
     if args.init != "face":
-        raise user_error(f"--init must be face or manual:x,y,... (24 numbers), got "
-                         f"{args.init!r}")
+        raise UserError(f"--init must be face or manual:x,y,... (24 numbers), got "
+                        f"{args.init!r}")
     if len(frames) < 3:
-        raise user_error("--init face needs at least 3 frames (a median background)")
+        raise UserError("--init face needs at least 3 frames (a median background)")
     background = median_background(frames)
     foreground = foreground_mask(frames[0], background)
     try:
         found = auto_initialise(model, template, frames[0], foreground)
     except AutoInitError as error:
-        raise user_error(f"automatic initialisation failed on {args.video}: {error}") from None
+        raise UserError(f"automatic initialisation failed on {args.video}: {error}") from None
     except FaceDetectorUnavailableError as error:
-        raise user_error(f"--init face: {error}") from None
+        raise UserError(f"--init face: {error}") from None
     return found.markers, {
         "method": "face", "source": found.source, "score": found.score,
         "box": (found.face / scale).round(1).tolist(), "torso_px": found.torso / scale,
         "boxes_tried": (found.faces / scale).round(1).tolist()}
 
 
-def _run_track(args: argparse.Namespace, user_error) -> int:
+def run(args: argparse.Namespace) -> int:
     import time
 
     import jax.random as jr
@@ -193,14 +153,14 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
 
     started = time.perf_counter()
     if args.particles < 1:
-        raise user_error(f"--particles must be positive, got {args.particles}")
+        raise UserError(f"--particles must be positive, got {args.particles}")
     if args.max_size < 32:
-        raise user_error(f"--max-size must be at least 32, got {args.max_size}")
-    check_tracker_options(args, user_error)
+        raise UserError(f"--max-size must be at least 32, got {args.max_size}")
+    check_tracker_options(args, UserError)
     if args.out.exists() and not args.out.is_dir():
-        raise user_error(f"--out {args.out} is a file; give a folder")
-    model, template = _load_prior(args.model, user_error)
-    start, stop = _frame_range(args.frames, user_error)
+        raise UserError(f"--out {args.out} is a file; give a folder")
+    model, template = _load_prior(args.model)
+    start, stop = _frame_range(args.frames)
     try:
         probe = read_video(args.video, start=start, max_frames=1)
         height, width = probe.frames.shape[1:3]
@@ -208,17 +168,17 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
         video = read_video(args.video, start=start,
                            max_frames=None if stop is None else stop - start, scale=scale)
     except VideoError as error:
-        raise user_error(f"--video: {' '.join(str(error).split())}") from None
+        raise UserError(f"--video: {' '.join(str(error).split())}") from None
     frames = video.frames
     scale = frames.shape[2] / width  # the decoder rounds the size
     if len(frames) < 2:
-        raise user_error(f"--video {args.video}: {len(frames)} frame(s) from frame {start}; "
-                         f"tracking needs at least 2")
+        raise UserError(f"--video {args.video}: {len(frames)} frame(s) from frame {start}; "
+                        f"tracking needs at least 2")
     fps = video.fps if math.isfinite(video.fps) else None
     print(f"{args.video}: {len(frames)} frames {width}x{height}"
           + (f" at {fps:.0f} fps" if fps else "") + f", tracked at {frames.shape[2]}x"
           f"{frames.shape[1]}")
-    markers, init = _initialise(args, model, template, frames, scale, user_error)
+    markers, init = _initialise(args, model, template, frames, scale)
     print(f"initialised ({init['method']}"
           + (f", {init['source']} box, overlap {init['score']:.2f}" if "score" in init else "")
           + ")")
@@ -233,14 +193,14 @@ def _run_track(args: argparse.Namespace, user_error) -> int:
     result = track(tracker, jr.PRNGKey(args.seed), grey)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
-        raise user_error(f"tracking produced non-finite markers from frame {bad}; nothing written")
+        raise UserError(f"tracking produced non-finite markers from frame {bad}; nothing written")
     args.out.mkdir(parents=True, exist_ok=True)
     try:
         video_path = write_overlay_video(frames, {"latent": result.markers}, args.out /
                                          "overlay.mp4", fps=fps or 30.0,
                                          marker_names=UPPER_BODY_12)
     except OSError as error:
-        raise user_error(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
+        raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
 
     def named(points):
         return {name: [round(float(x) / scale, 2), round(float(y) / scale, 2)]

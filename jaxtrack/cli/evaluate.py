@@ -6,13 +6,13 @@ import argparse
 from pathlib import Path
 
 from jaxtrack._tracker_options import add_tracker_options, check_tracker_options
+from jaxtrack.cli._common import UserError, check_clips
 from jaxtrack.priors.gplvm import OPTIMISERS
 
-__all__ = ["add_evaluate", "check_clips"]
+__all__ = ["add_parser"]
 
 
-
-def add_evaluate(subparsers, user_error: type[Exception]) -> None:
+def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "evaluate",
         help="track held-out real clips with a method and write metrics as JSON",
@@ -31,7 +31,7 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--prior-optimiser", choices=OPTIMISERS, default="bfgs",
                         help="eq. 1's minimiser when training the GPLVM (default bfgs, what the "
-                             "README's results used; lbfgs: see benchmarks/RESULTS.md, stop 17)")
+                             "README's results used; lbfgs: see benchmarks/RESULTS.md)")
     add_tracker_options(parser)
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
@@ -39,20 +39,10 @@ def add_evaluate(subparsers, user_error: type[Exception]) -> None:
     parser.add_argument("--max-frames", type=int, default=None)
     parser.add_argument("--json", required=True, type=Path, metavar="OUT.json")
     parser.add_argument("--plots", type=Path, default=None, metavar="DIR")
-    parser.set_defaults(handler=lambda args: _run(args, user_error))
+    parser.set_defaults(handler=run)
 
 
-def check_clips(names, option: str, user_error) -> None:
-    from jaxtrack.data import list_clips
-
-    known = set(list_clips())
-    unknown = [name for name in names if name not in known]
-    if unknown:
-        raise user_error(f"{option}: unknown clip(s) {', '.join(unknown)}; "
-                         f"known clips: {', '.join(sorted(known))}")
-
-
-def _run(args: argparse.Namespace, user_error) -> int:
+def run(args: argparse.Namespace) -> int:
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.evaluation import (
@@ -65,19 +55,19 @@ def _run(args: argparse.Namespace, user_error) -> int:
     from jaxtrack.experiments import DEFAULT_PARTICLES, render_test_sequences, run_method
     from jaxtrack.priors.train import train_prior
 
-    check_clips(args.train, "--train", user_error)
-    check_clips(args.test, "--test", user_error)
+    check_clips(args.train, "--train")
+    check_clips(args.test, "--test")
     overlap = sorted(set(args.train) & set(args.test))
     if overlap:
-        raise user_error(f"--test clips must be held out, but {', '.join(overlap)} is also in "
-                         f"--train")
+        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
+                        f"--train")
     if args.particles is not None and args.particles < 1:
-        raise user_error(f"--particles must be positive, got {args.particles}")
+        raise UserError(f"--particles must be positive, got {args.particles}")
     if args.views < 1:
-        raise user_error(f"--views must be positive, got {args.views}")
-    check_tracker_options(args, user_error)
+        raise UserError(f"--views must be positive, got {args.views}")
+    check_tracker_options(args, UserError)
     if args.json.suffix != ".json" or not args.json.parent.exists():
-        raise user_error(f"--json {args.json}: must be a .json path in an existing folder")
+        raise UserError(f"--json {args.json}: must be a .json path in an existing folder")
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
     particles = args.particles or DEFAULT_PARTICLES[args.method]

@@ -1,32 +1,15 @@
-"""Command line: ``jaxtrack demo | render | evaluate | train | track``.
-
-Each subcommand lives in a ``_add_<name>`` function that registers its parser and handler; the
-handlers import their heavy dependencies lazily so ``jaxtrack --help`` stays fast.
-"""
+"""``jaxtrack render``: real motion capture drawn as video, saved with exact ground truth."""
 
 from __future__ import annotations
 
 import argparse
-import sys
+
+from jaxtrack.cli._common import UserError
+
+__all__ = ["add_parser"]
 
 
-class UserError(Exception):
-    """An error caused by the user's input: printed as one line, exit status 2."""
-
-
-def _add_demo(subparsers) -> None:
-    parser = subparsers.add_parser("demo", help="run the end-to-end example (the main job)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.set_defaults(handler=_run_demo)
-
-
-def _run_demo(args: argparse.Namespace) -> int:
-    from jaxtrack._demo import main as demo_main
-
-    return demo_main(seed=args.seed)
-
-
-def _add_render(subparsers) -> None:
+def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "render",
         help="render real motion capture as video with exact 2-D/3-D ground truth",
@@ -67,7 +50,7 @@ def _add_render(subparsers) -> None:
                         help="Gaussian pixel noise, grey levels (default 0)")
     parser.add_argument("--blur", default="0", metavar="SIGMA",
                         help="Gaussian blur, pixels (default 0)")
-    parser.set_defaults(handler=_run_render)
+    parser.set_defaults(handler=run)
 
 
 def _render_number(text: str, name: str, kind=float, minimum: float | None = None):
@@ -137,7 +120,7 @@ def _render_camera(spec: str, motion, size, seed: int):
     return staged, fit_camera(camera, size) if size else camera
 
 
-def _run_render(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from jaxtrack.body.markers import HUMANEVA_15, UPPER_BODY_12, MarkerMapError
@@ -210,48 +193,3 @@ def _run_render(args: argparse.Namespace) -> int:
           f"{sequence.image_size[1]} of {motion.source} ({visible:.0%} of markers visible) "
           f"-> {out}" + (f", {video}" if video else ""))
     return 0
-
-
-def _add_evaluate(subparsers) -> None:
-    from jaxtrack._evaluate_cli import add_evaluate
-
-    add_evaluate(subparsers, UserError)
-
-
-def _add_train(subparsers) -> None:
-    from jaxtrack._track_cli import add_train
-
-    add_train(subparsers, UserError)
-
-
-def _add_track(subparsers) -> None:
-    from jaxtrack._track_cli import add_track
-
-    add_track(subparsers, UserError)
-
-
-_SUBCOMMANDS = [_add_demo, _add_render, _add_evaluate, _add_train, _add_track]
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="jaxtrack",
-        description="JAX particle filters for human body pose tracking.",
-    )
-    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for add in _SUBCOMMANDS:
-        add(subparsers)
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.handler(args) or 0)
-    except UserError as error:
-        print(f"jaxtrack {args.command}: error: {error}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,5 +1,5 @@
-"""``jaxtrack demo``, the main job: Tian, Li & Sclaroff's latent-space tracker against standard
-CONDENSATION on a held-out real wave gesture.
+"""The demo (``jaxtrack demo``), the main job: Tian, Li & Sclaroff's latent-space tracker against
+standard CONDENSATION on a held-out real wave gesture.
 
 1. Train (or load the cached) GPLVM on three bundled real wave gestures (AnimatedDrawings optical
    mocap, MIT), projected from five viewpoints: Algorithm 1 of the paper.
@@ -46,7 +46,8 @@ def _decoder(prior):
     return lambda latent: np.asarray(decode(jnp.asarray(latent, jnp.float32)))
 
 
-def main(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
+def run_demo(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
+    """Run the four steps above, printing progress and the comparison; returns 0."""
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import MARKER_EDGES, UPPER_BODY_12
     from jaxtrack.evaluation import (
