@@ -42,7 +42,6 @@ from jaxtrack.body.sequence import (
     SequenceFormatError,
     load_sequence,
     save_sequence,
-    write_video,
 )
 from jaxtrack.body.spm import (
     SPM_LINKS,
@@ -67,7 +66,7 @@ from jaxtrack.body.viewpoints import (
 __all__ = [
     "BACKGROUNDS", "Lighting", "RenderedSequence", "SequenceFormatError", "fit_camera",
     "frontal_camera", "load_sequence", "random_camera", "render_motion", "save_sequence",
-    "scale_camera", "stage_for_cameras", "write_video",
+    "scale_camera", "stage_for_cameras",
     "HUMANEVA_15", "MARKER_EDGES", "RIG_MARKER_MAPS", "SPM_LINKS", "SPM_MARKERS",
     "SPM_STATE_NAMES", "SPM_STATE_SIZE", "UPPER_BODY_12", "Camera", "HybridLayout", "HybridParts",
     "MarkerMapError", "MocapFormatError", "Motion", "SPMFitInfo", "SPMTemplate", "Viewpoint",

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import zipfile
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +22,7 @@ from jaxtrack._files import write_atomically
 from jaxtrack.body.camera import Camera
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "RenderedSequence", "SequenceFormatError",
-           "load_sequence", "save_sequence", "write_video"]
+           "load_sequence", "save_sequence"]
 
 FORMAT_NAME = "jaxtrack.sequence"
 FORMAT_VERSION = 1
@@ -172,65 +171,3 @@ def load_sequence(path: str | os.PathLike) -> RenderedSequence:
         raise SequenceFormatError(f"{path}: images {sequence.images.shape} do not match the "
                                   f"metadata's {sequence.num_frames} frames of {width}x{height}")
     return sequence
-
-
-def draw_overlay(image: np.ndarray, markers: np.ndarray, visible: np.ndarray,
-                 marker_names: tuple[str, ...], *, skeleton: bool = True) -> np.ndarray:
-    """A copy of `image` (RGB) with the markers `(markers, 2)` as dots (hollow where not visible)
-    and the stick figure `MARKER_EDGES` between them."""
-    import cv2
-
-    from jaxtrack.body.markers import marker_edges
-
-    image = np.ascontiguousarray(image).copy()
-    points = [tuple(int(v) for v in np.round(p)) for p in np.nan_to_num(markers, nan=-1e4)]
-    if skeleton:
-        for a, b in marker_edges(tuple(marker_names)):
-            cv2.line(image, points[a], points[b], (255, 255, 0), 1, cv2.LINE_AA)
-    for point, seen in zip(points, visible, strict=True):
-        cv2.circle(image, point, 3, (255, 0, 0) if seen else (0, 200, 255), -1 if seen else 1,
-                   cv2.LINE_AA)
-    return image
-
-
-def write_video(sequence: RenderedSequence, path: str | os.PathLike, fps: float | None = None, *,
-                overlay: bool = False) -> Path:
-    """Write the frames as an `.mp4` (OpenCV `mp4v`), atomically; with `overlay`, markers and
-    skeleton are drawn on top. Returns the path.
-
-    Raises:
-        OSError: OpenCV cannot open a writer for the file.
-    """
-    frames = (draw_overlay(image, sequence.markers_2d[t], sequence.visibility[t],
-                           sequence.marker_names) if overlay else image
-              for t, image in enumerate(sequence.images))
-    return write_frames(frames, path, float(sequence.fps if fps is None else fps),
-                        sequence.image_size)
-
-
-def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike, fps: float,
-                 image_size: tuple[int, int]) -> Path:
-    """Encode RGB uint8 frames of ``image_size`` ``(width, height)`` as an mp4 (mp4v) at
-    ``path``, atomically: a failure leaves no partial file.
-
-    Raises:
-        OSError: OpenCV cannot open a writer for the file.
-    """
-    import cv2
-
-    path = Path(path)
-
-    def write(temporary: Path) -> None:
-        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), float(fps),
-                                 tuple(image_size))
-        if not writer.isOpened():
-            raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
-        try:
-            for frame in frames:
-                writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
-        finally:
-            writer.release()
-
-    # the temporary name ends in .mp4 because OpenCV picks the container from the extension
-    write_atomically(path, write, suffix=".mp4")
-    return path

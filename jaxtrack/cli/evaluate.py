@@ -50,10 +50,10 @@ def run(args: argparse.Namespace) -> int:
         evaluate_track,
         plot_errors_over_time,
         summarise,
-        write_overlay_video,
     )
     from jaxtrack.experiments import DEFAULT_PARTICLES, render_test_sequences, run_method
     from jaxtrack.priors.train import train_prior
+    from jaxtrack.vision import write_overlay_video
 
     check_clips(args.train, "--train")
     check_clips(args.test, "--test")

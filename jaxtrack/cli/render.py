@@ -171,7 +171,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(" ".join(str(error).split())) from None
 
     from jaxtrack.body.render import render_motion
-    from jaxtrack.body.sequence import save_sequence, write_video
+    from jaxtrack.body.sequence import save_sequence
+    from jaxtrack.vision import write_video
 
     try:
         sequence = render_motion(motion, camera, background=args.background, markers=markers,

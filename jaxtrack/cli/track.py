@@ -147,9 +147,14 @@ def run(args: argparse.Namespace) -> int:
 
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
-    from jaxtrack.evaluation import write_overlay_video
     from jaxtrack.trackers import latent_tracker, track
-    from jaxtrack.vision import VideoError, median_grey_background, read_video, to_grey
+    from jaxtrack.vision import (
+        VideoError,
+        median_grey_background,
+        read_video,
+        to_grey,
+        write_overlay_video,
+    )
 
     started = time.perf_counter()
     if args.particles < 1:

@@ -1,7 +1,9 @@
-"""Evaluation: marker errors, failure detection, summaries across sequences, plots, overlay videos.
+"""Evaluation: marker errors, failure detection, summaries across sequences, plots.
 
-The bottom layer: it reads what trackers produce (2-D markers per frame) and the rendered ground
-truth, and returns plain Python results that can be written as JSON.
+Metrics only: it reads what trackers produce (2-D markers per frame) and the rendered ground
+truth, and returns plain Python results that can be written as JSON. It imports no tracker,
+prior, experiment or OpenCV; overlay videos are drawn in ``jaxtrack.vision`` and the protocol
+that produces the tracks is ``jaxtrack.experiments``.
 """
 
 from jaxtrack.evaluation.metrics import (
@@ -12,12 +14,6 @@ from jaxtrack.evaluation.metrics import (
     summarise,
     torso_lengths,
 )
-from jaxtrack.evaluation.overlay import (
-    METHOD_COLOURS,
-    TRUTH_COLOUR,
-    draw_tracks,
-    write_overlay_video,
-)
 from jaxtrack.evaluation.plots import (
     plot_errors_over_time,
     plot_fraction_within,
@@ -25,7 +21,7 @@ from jaxtrack.evaluation.plots import (
 )
 
 __all__ = [
-    "DEFAULT_EPSILONS", "METHOD_COLOURS", "TRUTH_COLOUR", "compare_methods", "draw_tracks",
-    "evaluate_track", "marker_errors", "plot_errors_over_time", "plot_fraction_within",
-    "plot_particle_sweep", "summarise", "torso_lengths", "write_overlay_video",
+    "DEFAULT_EPSILONS", "compare_methods", "evaluate_track", "marker_errors",
+    "plot_errors_over_time", "plot_fraction_within", "plot_particle_sweep", "summarise",
+    "torso_lengths",
 ]

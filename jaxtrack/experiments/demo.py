@@ -54,11 +54,11 @@ def run_demo(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
         compare_methods,
         evaluate_track,
         plot_errors_over_time,
-        write_overlay_video,
     )
     from jaxtrack.experiments import render_test_sequences, run_method
     from jaxtrack.priors.gplvm import plot_latent_space
     from jaxtrack.priors.train import train_prior
+    from jaxtrack.vision import write_overlay_video
 
     started = time.perf_counter()
     output = Path(output_dir)

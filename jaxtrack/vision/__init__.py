@@ -1,4 +1,5 @@
-"""Image preprocessing with OpenCV, at the edge: frames in, NumPy arrays out.
+"""Image preprocessing with OpenCV, at the edge: frames in, NumPy arrays out; and the one place
+frames are drawn on and written as video.
 
 OpenCV (and the optional kornia/torch) is imported lazily inside functions, so importing this
 package does not need them.
@@ -19,12 +20,28 @@ from jaxtrack.vision.foreground import (
     median_background,
     median_grey_background,
 )
-from jaxtrack.vision.video import VideoError, VideoFrames, iter_video_chunks, read_video, to_grey
+from jaxtrack.vision.overlay import (
+    METHOD_COLOURS,
+    TRUTH_COLOUR,
+    draw_tracks,
+    write_overlay_video,
+    write_video,
+)
+from jaxtrack.vision.video import (
+    VideoError,
+    VideoFrames,
+    iter_video_chunks,
+    read_video,
+    to_grey,
+    write_frames,
+)
 
 __all__ = [
+    "METHOD_COLOURS", "TRUTH_COLOUR",
     "FaceDetectorUnavailableError", "VideoError", "VideoFrames", "detect_face", "detect_faces",
-    "edge_distance_maps", "edge_observations",
+    "draw_tracks", "edge_distance_maps", "edge_observations",
     "face_candidates", "face_detector_available", "foreground_mask", "head_boxes",
     "iter_video_chunks", "median_background", "median_grey_background", "read_video",
-    "resample_closed_curve", "signed_area", "silhouette_contour", "to_grey",
+    "resample_closed_curve", "signed_area", "silhouette_contour", "to_grey", "write_frames",
+    "write_overlay_video", "write_video",
 ]

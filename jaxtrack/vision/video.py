@@ -1,4 +1,5 @@
-"""Video files in, RGB frames out: whole clips, bounded-memory chunks, and grey-level images.
+"""Video files in, RGB frames out (whole clips, bounded-memory chunks, grey-level images), and
+RGB frames out to a video file.
 
 :func:`read_video` decodes a file (anything OpenCV's FFmpeg backend reads: mp4, avi, mov, ...)
 into one ``(time, height, width, 3)`` uint8 RGB array; :func:`iter_video_chunks` yields the same
@@ -10,6 +11,9 @@ Frames are read in order and skipped with ``grab`` (decode without colour conver
 seeking: seeking by frame number lands on the nearest key frame in many codecs, so the frame
 indices reported would be wrong.
 
+:func:`write_frames` encodes RGB frames as an mp4 (OpenCV `mp4v`), atomically: a failed write
+leaves no partial file.
+
 OpenCV is imported inside the functions, so importing this module needs no cv2.
 """
 
@@ -17,13 +21,16 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["VideoError", "VideoFrames", "iter_video_chunks", "read_video", "to_grey"]
+from jaxtrack._files import write_atomically
+
+__all__ = ["VideoError", "VideoFrames", "iter_video_chunks", "read_video", "to_grey",
+           "write_frames"]
 
 # ITU-R BT.601 luma weights, the ones cv2.COLOR_RGB2GRAY uses
 _LUMA = np.array([0.299, 0.587, 0.114], np.float32)
@@ -255,3 +262,31 @@ def to_grey(images: np.ndarray) -> np.ndarray:
     grey += images[..., 1] * weights[1]
     grey += images[..., 2] * weights[2]
     return grey.astype(np.float32, copy=False)
+
+
+def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike, fps: float,
+                 image_size: tuple[int, int]) -> Path:
+    """Encode RGB uint8 frames of ``image_size`` ``(width, height)`` as an mp4 (mp4v) at
+    ``path``, atomically: a failure leaves no partial file.
+
+    Raises:
+        OSError: OpenCV cannot open a writer for the file.
+    """
+    import cv2
+
+    path = Path(path)
+
+    def write(temporary: Path) -> None:
+        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), float(fps),
+                                 tuple(image_size))
+        if not writer.isOpened():
+            raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
+        try:
+            for frame in frames:
+                writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
+        finally:
+            writer.release()
+
+    # the temporary name ends in .mp4 because OpenCV picks the container from the extension
+    write_atomically(path, write, suffix=".mp4")
+    return path

@@ -1,10 +1,9 @@
-"""Sequence files: round trip, damaged and foreign files, atomic writes, video."""
+"""Sequence files: round trip, damaged and foreign files, atomic writes."""
 
 import json
 import zipfile
 from functools import cache
 
-import cv2
 import numpy as np
 import pytest
 
@@ -14,7 +13,6 @@ from jaxtrack.body.sequence import (
     SequenceFormatError,
     load_sequence,
     save_sequence,
-    write_video,
 )
 from jaxtrack.data import load_clip
 
@@ -107,19 +105,3 @@ def test_failed_write_leaves_no_partial_file_and_keeps_the_old_one(tmp_path, mon
         save_sequence(tmp_path / "new.npz", sequence())
     assert sorted(p.name for p in tmp_path.iterdir()) == ["seq.npz"]
     assert target.read_bytes() == before
-
-
-def test_video_has_every_frame_and_fails_cleanly(tmp_path):
-    video = write_video(sequence(), tmp_path / "walk.mp4", overlay=True)
-    capture = cv2.VideoCapture(str(video))
-    frames = []
-    while True:
-        ok, frame = capture.read()
-        if not ok:
-            break
-        frames.append(frame)
-    capture.release()
-    assert len(frames) == sequence().num_frames and frames[0].shape == (72, 96, 3)
-    with pytest.raises(OSError):
-        write_video(sequence(), tmp_path / "missing" / "walk.mp4")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.mp4"]

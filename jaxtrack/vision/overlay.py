@@ -1,9 +1,12 @@
-"""Videos of several trackers' estimates drawn over the frames, for looking at what the numbers say.
+"""Markers and stick figures drawn over frames, and the videos made of them.
 
-Each method's stick figure gets its own colour; the ground truth, when given, is drawn thin and
-white underneath; a legend names the colours and a counter shows the frame. The video is written
-like :func:`jaxtrack.body.sequence.write_video`: OpenCV `mp4v`, atomically (a failed write leaves
-no file). cv2 is imported inside the functions.
+:func:`draw_tracks` is the one drawer: each method's stick figure in its own colour, the ground
+truth (when given) thin and white underneath, with markers that are not visible drawn hollow,
+a legend naming the colours and an optional frame counter. It serves both videos:
+:func:`write_overlay_video` (several trackers' estimates, for looking at what the numbers say)
+and :func:`write_video` (a rendered sequence, optionally with its ground truth). Videos are
+written by :func:`jaxtrack.vision.video.write_frames`: OpenCV `mp4v`, atomically (a failed write
+leaves no file). cv2 is imported inside the functions.
 """
 
 from __future__ import annotations
@@ -15,9 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from jaxtrack.body.markers import marker_edges
-from jaxtrack.body.sequence import write_frames
+from jaxtrack.body.sequence import RenderedSequence
+from jaxtrack.vision.video import write_frames
 
-__all__ = ["METHOD_COLOURS", "TRUTH_COLOUR", "draw_tracks", "write_overlay_video"]
+__all__ = ["METHOD_COLOURS", "TRUTH_COLOUR", "draw_tracks", "write_overlay_video", "write_video"]
 
 METHOD_COLOURS = (
     (255, 64, 64), (64, 160, 255), (64, 224, 64), (255, 208, 0), (224, 64, 255), (0, 224, 224),
@@ -35,14 +39,15 @@ def _point(xy) -> tuple[int, int] | None:
 
 
 def _draw_figure(cv2, image: np.ndarray, markers: np.ndarray, edges, colour, thickness: int,
-                 radius: int) -> None:
+                 radius: int, visible: np.ndarray | None = None) -> None:
     points = [_point(p) for p in markers]
     for a, b in edges:
         if points[a] is not None and points[b] is not None:
             cv2.line(image, points[a], points[b], colour, thickness, cv2.LINE_AA)
-    for point in points:
+    for index, point in enumerate(points):
         if point is not None:
-            cv2.circle(image, point, radius, colour, -1, cv2.LINE_AA)
+            filled = visible is None or visible[index]
+            cv2.circle(image, point, radius, colour, -1 if filled else 1, cv2.LINE_AA)
 
 
 def _text(cv2, image: np.ndarray, text: str, origin: tuple[int, int], colour, scale: float
@@ -63,16 +68,20 @@ def _colours(tracks: Mapping, colours: Mapping | None) -> dict:
 
 def draw_tracks(image: np.ndarray, tracks: Mapping[str, np.ndarray], marker_names: Sequence[str],
                 *, truth: np.ndarray | None = None, label: str | None = None,
-                colours: Mapping[str, tuple[int, int, int]] | None = None) -> np.ndarray:
+                colours: Mapping[str, tuple[int, int, int]] | None = None,
+                visible: np.ndarray | None = None) -> np.ndarray:
     """A copy of one frame with each method's markers and skeleton in its colour.
 
     Args:
         image: `(height, width, 3)` uint8 RGB.
-        tracks: method -> `(markers, 2)` pixels; non-finite points are not drawn.
+        tracks: method -> `(markers, 2)` pixels (may be empty: truth alone); non-finite points
+            are not drawn.
         marker_names: `(markers,)` names (the skeleton is `jaxtrack.body.marker_edges`).
         truth: optional `(markers, 2)` true markers, drawn thin and white under the methods.
         label: text for the bottom-left corner (the frame counter).
         colours: method -> RGB; defaults to :data:`METHOD_COLOURS` in the order of `tracks`.
+        visible: optional `(markers,)` bool for `truth`: markers that are not visible (hidden
+            by a nearer body part or an occluder, or outside the image) are drawn hollow.
 
     Returns:
         `(height, width, 3)` uint8 RGB.
@@ -97,8 +106,15 @@ def draw_tracks(image: np.ndarray, tracks: Mapping[str, np.ndarray], marker_name
     figures = {method: checked(f"tracks[{method!r}]", markers)
                for method, markers in tracks.items()}
     colours = _colours(tracks, colours)
+    if visible is not None:
+        visible = np.asarray(visible, dtype=bool)
+        if truth is None:
+            raise ValueError("visible marks the truth's markers, but no truth was given")
+        if visible.shape != expected[:1]:
+            raise ValueError(f"visible has shape {visible.shape}, expected ({len(marker_names)},)")
     if truth is not None:
-        _draw_figure(cv2, image, checked("truth", truth), edges, TRUTH_COLOUR, 1, thickness)
+        _draw_figure(cv2, image, checked("truth", truth), edges, TRUTH_COLOUR, 1, thickness,
+                     visible)
     for method, markers in figures.items():
         _draw_figure(cv2, image, markers, edges, colours[method], thickness, thickness + 2)
     legend = [(str(method), colours[method]) for method in tracks]
@@ -164,3 +180,19 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
                           label=f"frame {t + 1}/{num_frames}", colours=colours)
               for t in range(num_frames))
     return write_frames(frames, path, fps, (width, height))
+
+
+def write_video(sequence: RenderedSequence, path: str | os.PathLike, fps: float | None = None, *,
+                overlay: bool = False) -> Path:
+    """Write a rendered sequence's frames as an `.mp4` (OpenCV `mp4v`), atomically; with
+    `overlay`, its ground-truth markers and skeleton are drawn on top by :func:`draw_tracks`
+    (hollow where not visible). Returns the path.
+
+    Raises:
+        OSError: OpenCV cannot open a writer for the file.
+    """
+    frames = (draw_tracks(image, {}, sequence.marker_names, truth=sequence.markers_2d[t],
+                          visible=sequence.visibility[t]) if overlay else image
+              for t, image in enumerate(sequence.images))
+    return write_frames(frames, path, float(sequence.fps if fps is None else fps),
+                        sequence.image_size)

@@ -1,10 +1,20 @@
-"""Overlay videos: per-method colours on the frame, frame count read back, refused input."""
+"""The one overlay drawer and the videos made with it: per-method colours, hidden truth markers
+hollow, frame count read back, refused input; a rendered sequence as video."""
+
+from functools import cache
 
 import numpy as np
 import pytest
 
-from jaxtrack.body import UPPER_BODY_12
-from jaxtrack.evaluation import METHOD_COLOURS, TRUTH_COLOUR, draw_tracks, write_overlay_video
+from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
+from jaxtrack.data import load_clip
+from jaxtrack.vision import (
+    METHOD_COLOURS,
+    TRUTH_COLOUR,
+    draw_tracks,
+    write_overlay_video,
+    write_video,
+)
 
 cv2 = pytest.importorskip("cv2")
 
@@ -88,3 +98,44 @@ def test_refused_input(tmp_path):
         write_overlay_video(images, tracks, tmp_path / "missing" / "overlay.mp4", fps=10,
                             marker_names=UPPER_BODY_12)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_hidden_truth_markers_are_drawn_hollow():
+    image = np.zeros((720, 960, 3), np.uint8)
+    head, wrist = UPPER_BODY_12.index("head"), UPPER_BODY_12.index("left_wrist")
+    truth = np.full((len(UPPER_BODY_12), 2), np.nan)  # two unconnected markers: no limb lines
+    truth[head], truth[wrist] = (300.0, 400.0), (600.0, 400.0)
+    visible = np.zeros(len(UPPER_BODY_12), bool)
+    visible[head] = True
+    frame = draw_tracks(image, {}, UPPER_BODY_12, truth=truth, visible=visible)
+    radius = 3  # the truth's dot radius at 720 rows
+    assert np.abs(frame[400, 300].astype(int) - TRUTH_COLOUR).max() <= 10  # visible: filled
+    assert frame[400, 600].max() == 0  # hidden: the centre stays as it was
+    assert frame[400, 600 + radius].min() > 100  # ... inside a white ring
+    with pytest.raises(ValueError, match="no truth"):
+        draw_tracks(image, {}, UPPER_BODY_12, visible=visible)
+    with pytest.raises(ValueError, match=r"visible has shape \(5,\)"):
+        draw_tracks(image, {}, UPPER_BODY_12, truth=truth, visible=visible[:5])
+
+
+@cache
+def sequence():
+    motion = load_clip("cmu_amc/07_01").resample(20.0).select(0, 6)
+    return render_motion(motion, frontal_camera(motion, (96, 72)), background="clutter",
+                         occluders=1, seed=5, progress=False)
+
+
+def test_sequence_video_has_every_frame_and_fails_cleanly(tmp_path):
+    video = write_video(sequence(), tmp_path / "walk.mp4", overlay=True)
+    capture = cv2.VideoCapture(str(video))
+    frames = []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        frames.append(frame)
+    capture.release()
+    assert len(frames) == sequence().num_frames and frames[0].shape == (72, 96, 3)
+    with pytest.raises(OSError):
+        write_video(sequence(), tmp_path / "missing" / "walk.mp4")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.mp4"]
