@@ -1,24 +1,51 @@
-"""Trackers: the published systems and their baselines, each an assembled state-space model.
+"""Trackers: the published systems and their baselines side by side, on one contract.
 
-Every tracker has ``start(key, frame)`` and ``update(key, state, frame)``; :func:`track` runs
-one over a video in compiled chunks.
+Every tracker is a :class:`Tracker` (``start``, ``update``, ``first_estimate``, ``options``),
+assembled from a prior or dynamics, a :class:`Likelihood` and, optionally, the full-state
+:class:`Refinement` stage that every tracker can take; :func:`track` runs any of them over a
+video in compiled chunks. See ``docs/trackers.md``.
 """
 
-from jaxtrack.trackers._runner import FrameEstimate, ParticleTracker, TrackResult, track
+from jaxtrack.trackers._gauss_newton import ArmijoGaussNewton, refine_pose, refinement_cost
+from jaxtrack.trackers._options import (
+    DEFAULT_ARM_GRID,
+    DEFAULT_ARM_MARGIN,
+    DEFAULT_ARM_MOMENTUM,
+    DEFAULT_ARM_SPAN,
+    DEFAULT_REFINE_STEPS,
+    ArmSearch,
+    Likelihood,
+    Refinement,
+    options_record,
+)
+from jaxtrack.trackers._refinement import RefinementState, refine, score_pose, search_arms
+from jaxtrack.trackers._runner import TrackResult, track
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, frame_at
 from jaxtrack.trackers.condensation import (
-    AR2Dynamics,
     CondensationModel,
+    CondensationState,
     CondensationTracker,
     condensation_tracker,
-    fit_ar2,
-    random_walk_dynamics,
     random_walk_tracker,
 )
-from jaxtrack.trackers.latent import LatentModel, LatentState, LatentTracker, latent_tracker
-from jaxtrack.trackers.mht import MHTState, MHTTracker, mht_tracker, refine_pose
+from jaxtrack.trackers.latent import (
+    DEFAULT_JUMP_PROBABILITY,
+    LatentModel,
+    LatentState,
+    LatentTracker,
+    default_refinement,
+    latent_tracker,
+)
+from jaxtrack.trackers.mht import MHTModel, MHTState, MHTTracker, ModePool, mht_tracker
 
-__all__ = ["FrameEstimate", "LatentModel", "LatentState", "LatentTracker", "ParticleTracker",
-           "TrackResult", "latent_tracker", "track"]
-__all__ += ["AR2Dynamics", "CondensationModel", "CondensationTracker", "MHTState", "MHTTracker",
-            "condensation_tracker", "fit_ar2", "mht_tracker", "random_walk_dynamics",
-            "random_walk_tracker", "refine_pose"]
+__all__ = [
+    "DEFAULT_ARM_GRID", "DEFAULT_ARM_MARGIN", "DEFAULT_ARM_MOMENTUM", "DEFAULT_ARM_SPAN",
+    "DEFAULT_JUMP_PROBABILITY", "DEFAULT_REFINE_STEPS",
+    "ArmSearch", "ArmijoGaussNewton", "CondensationModel", "CondensationState",
+    "CondensationTracker", "FrameEstimate", "FrameInChunk", "LatentModel", "LatentState",
+    "LatentTracker", "Likelihood", "MHTModel", "MHTState", "MHTTracker", "ModePool",
+    "Refinement", "RefinementState", "TrackResult", "Tracker",
+    "condensation_tracker", "default_refinement", "frame_at", "latent_tracker", "mht_tracker",
+    "options_record", "random_walk_tracker", "refine", "refine_pose", "refinement_cost",
+    "score_pose", "search_arms", "track",
+]

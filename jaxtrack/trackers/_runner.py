@@ -1,14 +1,9 @@
 """Running any tracker over a video: chunks of one compiled scan, a progress bar, timings.
 
-A tracker is an ``equinox.Module`` with two pure methods,
-
-    start(key, frame)         -> state                  (frame 0; the tracker was initialised on it)
-    update(key, state, frame) -> (state, FrameEstimate)  (every later frame)
-
-:class:`ParticleTracker` builds both from a ``jaxtrack.smc`` state-space model, so CONDENSATION
-trackers only say how a particle moves, how it is scored and how it becomes markers.
-:func:`track` scans ``update`` over a chunk of frames inside one ``jit`` (compiled once for the
-chunk shape, the last chunk padded), so memory is bounded by the chunk, not the video.
+:func:`track` starts a tracker (``jaxtrack.trackers.Tracker``) on frame 0 and scans its
+``update`` over chunks of frames inside one ``jit`` (compiled once for the chunk shape, the last
+chunk padded), so memory is bounded by the chunk, not the video. It never asks which tracker it
+runs: every tracker gets each frame as a ``FrameInChunk`` and reads it from the chunk in place.
 """
 
 from __future__ import annotations
@@ -22,32 +17,12 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
-from jaxtyping import Array, Float, Int, PRNGKeyArray
+from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 from tqdm.auto import tqdm
 
-from jaxtrack import smc
-from jaxtrack.likelihoods import check_observations
+from jaxtrack.trackers._tracker import FrameInChunk, Tracker
 
-__all__ = ["FrameEstimate", "ParticleTracker", "TrackResult", "track"]
-
-
-class FrameEstimate(eqx.Module):
-    """What a tracker reports for one frame.
-
-    Attributes:
-        markers: ``(markers, 2)`` the tracker's estimate (pixels).
-        best_markers: ``(markers, 2)`` the single best hypothesis.
-        ess: effective sample size (number of modes for MHT).
-        log_likelihood: the frame's log evidence increment log p(z_t | z_<t) for particle
-            filters; the best hypothesis's log-likelihood for MHT.
-        degenerate: every hypothesis had zero likelihood (the tracker re-seeded).
-    """
-
-    markers: Float[Array, "markers 2"]
-    best_markers: Float[Array, "markers 2"]
-    ess: Float[Array, ""]
-    log_likelihood: Float[Array, ""]
-    degenerate: Array
+__all__ = ["TrackResult", "track"]
 
 
 @dataclass(frozen=True)
@@ -60,6 +35,7 @@ class TrackResult:
         seconds_per_frame: run time per frame, compilation excluded.
         compile_seconds: time to compile the chunk scan.
         num_particles: particles (modes) used.
+        options: the tracker's ``options()``: the method and every option that produced it.
     """
 
     markers: np.ndarray
@@ -70,87 +46,22 @@ class TrackResult:
     seconds_per_frame: float
     compile_seconds: float
     num_particles: int
+    options: dict
 
 
-class ParticleTracker(eqx.Module):
-    """CONDENSATION on a ``jaxtrack.smc`` model: subclasses give ``model``, ``num_particles`` and
-    ``markers_of(particle)``; the estimate is the markers of the weighted mean particle unless
-    ``estimate_markers`` is overridden."""
-
-    def markers_of(self, particle) -> Float[Array, "markers 2"]:
-        raise NotImplementedError
-
-    @property
-    def model(self) -> smc.StateSpaceModel:
-        raise NotImplementedError
-
-    @property
-    def num_particles(self) -> int:
-        raise NotImplementedError
-
-    @property
-    def templates(self):
-        """The appearance templates the model scores frames with (they say which observations
-        :func:`track` needs: grey frames, or grey frames with edge maps)."""
-        return self.model.templates
-
-    def estimate_markers(self, particles, log_weights) -> Float[Array, "markers 2"]:
-        return self.markers_of(smc.weighted_mean(particles, log_weights))
-
-    def _estimate(self, state: smc.FilterState, info: smc.StepInfo) -> FrameEstimate:
-        best = smc.best_particle(state.particles, state.log_weights)
-        return FrameEstimate(
-            markers=self.estimate_markers(state.particles, state.log_weights),
-            best_markers=self.markers_of(best),
-            ess=info.ess,
-            log_likelihood=info.log_evidence_increment,
-            degenerate=info.degenerate,
-        )
-
-    def start(self, key: PRNGKeyArray, frame) -> smc.FilterState:
-        state, _ = smc.initialize(key, self.model, frame, self.num_particles)
-        return state
-
-    def update(self, key: PRNGKeyArray, state: smc.FilterState, frame
-               ) -> tuple[smc.FilterState, FrameEstimate]:
-        state, info = smc.step(key, state, frame, self.model)
-        return state, self._estimate(state, info)
-
-    def update_in_chunk(self, key: PRNGKeyArray, state: smc.FilterState,
-                        frames: Float[Array, "time height width"], index: Int[Array, ""]
-                        ) -> tuple[smc.FilterState, FrameEstimate]:
-        """``update(key, state, frames[index])`` inside :func:`track`'s scan over a chunk.
-
-        The same numbers, but the frame is never cut out of the chunk: the engine hands its
-        observation to the re-seeding branch of a ``lax.cond``, and a frame sliced from the
-        chunk would be copied whole into a buffer for it on every frame (1.2 MB at 640 × 480,
-        a sixth of the latent tracker's step). Here the cond gets the chunk and the index, and
-        each particle's likelihood reads its pixels from the chunk directly.
-        """
-        state, info = smc.step(key, state, (frames, index), _FrameOfChunk(self.model))
-        return state, self._estimate(state, info)
-
-    def first_estimate(self, state: smc.FilterState) -> FrameEstimate:
-        ess = smc.effective_sample_size(state.log_weights)
-        info = smc.StepInfo(state.log_evidence, ess, jnp.asarray(False), jnp.asarray(False),
-                            jnp.asarray(0), jnp.arange(self.num_particles))
-        return self._estimate(state, info)
-
-
-class _FrameOfChunk(smc.StateSpaceModel):
-    """``model`` with observations ``(frames, index)`` standing for ``frames[index]``."""
-
-    model: smc.StateSpaceModel
-
-    def init(self, key: PRNGKeyArray):
-        return self.model.init(key)
-
-    def propagate(self, key: PRNGKeyArray, particle, time):
-        return self.model.propagate(key, particle, time)
-
-    def log_likelihood(self, particle, observation) -> Float[Array, ""]:
-        frames, index = observation
-        return self.model.log_likelihood(particle, frames[index])
+def _needs_edge_maps(tracker: Tracker, shape: tuple[int, ...]) -> bool:
+    """Check that observations of ``shape`` suit the tracker's likelihood; say whether edge
+    maps must still be added to them (grey frames suit every likelihood; ``"limbs+edges"``
+    also takes ``(time, 3, height, width)`` frames with their edge maps)."""
+    edges = tracker.likelihood.needs_edges
+    if len(shape) == 3:
+        return edges
+    if edges and len(shape) == 4 and shape[1] == 3:
+        return False
+    expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
+                "with their edge maps (jaxtrack.vision.edge_observations)" if edges
+                else "(time, height, width) grey images")
+    raise ValueError(f"frames must be {expected}, got shape {tuple(shape)}")
 
 
 def _aligned_empty(shape: tuple[int, ...], dtype, alignment: int = 64) -> np.ndarray:
@@ -188,26 +99,23 @@ def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarra
 
 
 @eqx.filter_jit
-def _start(tracker, key, frame):
-    state = tracker.start(key, frame)
-    return state, tracker.first_estimate(state)
+def _first_estimate(tracker, state):
+    return tracker.first_estimate(state)
 
 
 @eqx.filter_jit
 def _chunk(tracker, state, keys, frames):
     def body(state, inputs):
         key, index = inputs
-        if isinstance(tracker, ParticleTracker):
-            return tracker.update_in_chunk(key, state, frames, index)
-        return tracker.update(key, state, frames[index])
+        return tracker.update(key, state, FrameInChunk(frames, index))
 
     return jax.lax.scan(body, state, (keys, jnp.arange(frames.shape[0])))
 
 
-def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"], *,
-          chunk_size: int = 64, progress: bool = True, description: str = "tracking"
-          ) -> TrackResult:
-    """Track ``frames`` (grey, frame 0 being the one the tracker was initialised on).
+def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
+          initial_pose: Float[ArrayLike, "markers 2"], *, chunk_size: int = 64,
+          progress: bool = True, description: str = "tracking") -> TrackResult:
+    """Track ``frames`` (grey) from ``initial_pose``, the ``(markers, 2)`` pose in frame 0.
 
     A tracker scored by ``"limbs+edges"`` also needs each frame's edge maps: they are computed
     here chunk by chunk (``jaxtrack.vision.edge_observations``, OpenCV, counted in the run
@@ -218,14 +126,20 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
     the last chunk is padded by repeating its final frame and the padding's output is dropped.
     The result does not depend on the chunk size.
     """
+    if not isinstance(tracker, Tracker):
+        raise TypeError(f"tracker must be a jaxtrack.trackers.Tracker, got "
+                        f"{type(tracker).__name__}")
     frames = np.asarray(frames)
-    add_edges = check_observations(tracker.templates, frames.shape)
+    add_edges = _needs_edge_maps(tracker, frames.shape)
+    if frames.shape[0] < 1:
+        raise ValueError("frames hold no frame")
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
     num_frames = frames.shape[0]
     key_start, key_frames = jr.split(key)
     observe = _edge_observations if add_edges else _copy_frames
-    state, first = _start(tracker, key_start, jnp.asarray(observe(frames[:1])[0]))
+    state = tracker.start(key_start, observe(frames[:1])[0], initial_pose)
+    first = _first_estimate(tracker, state)
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
     shape, dtype = (((3, *frames.shape[1:]), np.float32) if add_edges
                     else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
@@ -288,5 +202,5 @@ def track(tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
         markers=merged.markers, best_markers=merged.best_markers, ess=merged.ess,
         log_likelihood=merged.log_likelihood, degenerate=merged.degenerate,
         seconds_per_frame=run_seconds / max(num_frames - 1, 1), compile_seconds=compile_seconds,
-        num_particles=int(tracker.num_particles),
+        num_particles=int(tracker.num_particles), options=tracker.options(),
     )

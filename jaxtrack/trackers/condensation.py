@@ -2,17 +2,17 @@
 
 Tian, Li & Sclaroff (2005, §5) compare their latent-space tracker with "CONDENSATION in the
 original 25-D state space with second-order auto-regressive dynamics learned from the first 30
-frames" of ground truth. This module is that baseline, on the same engine and the same NCC
-likelihood (eq. 7) as :mod:`jaxtrack.trackers.latent`:
+frames" of ground truth. This module is that baseline, on the same engine and the same
+likelihood as the latent tracker:
 
     x_t = A₁ x_{t−1} + A₂ x_{t−2} + d + w_t,   w_t ~ N(0, Q),
 
-with diagonal A₁, A₂ and Q (:func:`fit_ar2`). A particle holds ``(x_t, x_{t−1})``. Its weight is
-the same appearance likelihood as the latent tracker's at the markers ``spm_forward(x_t)``
-(limb strips by default, ``likelihood="markers"`` for the paper's patches; nearest-pixel by
-default, ``nearest=False`` for bilinear); the estimate is the markers of
-the weighted mean state (SPM angles are measured from the template's directions, so ordinary
-poses sit near 0, far from the ±π wrap, and plain means are fine).
+with diagonal A₁, A₂ and Q (:func:`jaxtrack.priors.dynamics.fit_ar2`). A particle holds
+``(x_t, x_{t−1})``; its weight is the likelihood at the markers ``spm_forward(x_t)``; the
+estimate is the markers of the weighted mean state (SPM angles are measured from the
+template's directions, so ordinary poses sit near 0, far from the ±π wrap, and plain means are
+fine). Given a :class:`~jaxtrack.trackers.Refinement`, the reported pose is refined in the full
+state exactly as the latent tracker's is.
 
 :func:`random_walk_tracker` is the same filter with ``x_t = x_{t−1} + w_t``: the ablation
 "prior replaced by a random walk in the full state".
@@ -27,186 +27,29 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from jaxtrack import smc
-from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward, spm_initial_state
-from jaxtrack.likelihoods import (
-    DEFAULT_LIKELIHOOD,
-    AppearanceTemplates,
-    default_sharpness,
-    make_appearance_templates,
+from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward
+from jaxtrack.likelihoods import AppearanceTemplates
+from jaxtrack.priors.dynamics import (
+    DEFAULT_RIDGE,
+    AR2Dynamics,
+    default_noise_floor,
+    fit_ar2,
+    random_walk_dynamics,
 )
-from jaxtrack.trackers._runner import ParticleTracker
+from jaxtrack.trackers._options import Likelihood, Refinement, options_record
+from jaxtrack.trackers._particles import (
+    check_initial_pose,
+    cloud_estimate,
+    filter_step,
+    first_info,
+    frame0_state,
+    frame0_templates,
+)
+from jaxtrack.trackers._refinement import RefinementState, refine, refinement_prior_std
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
-__all__ = [
-    "AR2Dynamics",
-    "CondensationModel",
-    "CondensationTracker",
-    "condensation_tracker",
-    "default_noise_floor",
-    "fit_ar2",
-    "random_walk_dynamics",
-    "random_walk_tracker",
-]
-
-DEFAULT_RIDGE = 1e-4
-"""Relative ridge of :func:`fit_ar2`: the penalty is this fraction of the lag Gram matrix's mean
-diagonal, so it is unit-free and the same for pixels and radians. The lags of a smooth
-trajectory are nearly collinear (x_{t−1} ≈ x_{t−2}), so even this little damps an oscillation
-a bit (a sine of 0.2 rad/frame over 30 frames: root modulus 1 → 0.997; 1e-3 gives 0.97)."""
-
-
-class AR2Dynamics(eqx.Module):
-    """Diagonal second-order auto-regressive dynamics ``x_t = A₁ x_{t−1} + A₂ x_{t−2} + d + w``.
-
-    Attributes:
-        first_coefficients: ``(state,)`` the diagonal of A₁.
-        second_coefficients: ``(state,)`` the diagonal of A₂.
-        offset: ``(state,)`` d.
-        noise_std: ``(state,)`` standard deviations of w (the square root of diag Q).
-    """
-
-    first_coefficients: Float[Array, " state"]
-    second_coefficients: Float[Array, " state"]
-    offset: Float[Array, " state"]
-    noise_std: Float[Array, " state"]
-
-    def predict(self, current: Float[Array, " state"], previous: Float[Array, " state"]
-                ) -> Float[Array, " state"]:
-        """The noise-free prediction ``A₁ x_{t−1} + A₂ x_{t−2} + d``."""
-        return self.first_coefficients * current + self.second_coefficients * previous + self.offset
-
-    def sample(self, key: PRNGKeyArray, current: Float[Array, " state"],
-               previous: Float[Array, " state"]) -> Float[Array, " state"]:
-        """One draw of x_t given ``current = x_{t−1}`` and ``previous = x_{t−2}``."""
-        noise = smc.fast_normal(key, current.shape, current.dtype)
-        return self.predict(current, previous) + self.noise_std * noise
-
-    def astype(self, dtype) -> AR2Dynamics:
-        return jax.tree.map(lambda leaf: jnp.asarray(leaf, dtype), self)
-
-
-def _check_states(states: Array, minimum: int) -> None:
-    if states.ndim != 2 or states.shape[0] < minimum:
-        raise ValueError(f"states must be (time, state) with at least {minimum} frames, got "
-                         f"shape {states.shape}")
-    if not bool(jnp.all(jnp.isfinite(states))):
-        raise ValueError("states hold non-finite values")
-
-
-def _stabilise(first: Array, second: Array, max_root: float) -> tuple[Array, Array]:
-    """Shrink the roots of z² − A₁ z − A₂ to modulus ≤ ``max_root`` (per dimension)."""
-    discriminant = first**2 + 4 * second
-    # complex pair r e^{±iθ}: A₁ = 2 r cos θ, A₂ = −r², so scaling r scales A₁ by the same factor
-    modulus = jnp.sqrt(jnp.maximum(-second, 0.0))
-    factor = jnp.minimum(1.0, max_root / jnp.maximum(modulus, 1e-30))
-    complex_first, complex_second = first * factor, second * factor**2
-    # two real roots p, q: clip each, then A₁ = p + q, A₂ = −p q
-    root = jnp.sqrt(jnp.maximum(discriminant, 0.0))
-    p = jnp.clip((first + root) / 2, -max_root, max_root)
-    q = jnp.clip((first - root) / 2, -max_root, max_root)
-    real = discriminant >= 0
-    return (jnp.where(real, p + q, complex_first), jnp.where(real, -p * q, complex_second))
-
-
-@eqx.filter_jit
-def _fit_ar2(states: Array, ridge: Array, min_noise_std: Array, max_root: float) -> AR2Dynamics:
-    mean = jnp.mean(states, axis=0)
-    centred = states - mean
-    target, lag1, lag2 = centred[2:], centred[1:-1], centred[:-2]
-    # per-dimension 2×2 normal equations of target ≈ a₁ lag1 + a₂ lag2
-    g11, g12, g22 = (jnp.sum(lag1 * lag1, 0), jnp.sum(lag1 * lag2, 0), jnp.sum(lag2 * lag2, 0))
-    b1, b2 = jnp.sum(lag1 * target, 0), jnp.sum(lag2 * target, 0)
-    # ridge toward the random walk (a₁, a₂) = (1, 0): a constant dimension becomes a random walk
-    penalty = ridge * 0.5 * (g11 + g22)
-    g11, g22 = g11 + penalty, g22 + penalty
-    b1 = b1 + penalty
-    determinant = g11 * g22 - g12 * g12
-    solvable = determinant > 0  # not so for a constant dimension, or collinear lags and no ridge
-    safe = jnp.where(solvable, determinant, 1)
-    first = jnp.where(solvable, (g22 * b1 - g12 * b2) / safe, 1)
-    second = jnp.where(solvable, (g11 * b2 - g12 * b1) / safe, 0)
-    first, second = _stabilise(first, second, max_root)
-    residuals = target - first * lag1 - second * lag2
-    dof = jnp.maximum(target.shape[0] - 2, 1)
-    noise_std = jnp.sqrt(jnp.sum(residuals**2, axis=0) / dof)
-    return AR2Dynamics(
-        first_coefficients=first,
-        second_coefficients=second,
-        offset=(1 - first - second) * mean,  # x − μ follows the AR(2): d = (1 − A₁ − A₂) μ
-        noise_std=jnp.maximum(noise_std, min_noise_std),
-    )
-
-
-def fit_ar2(
-    states: Float[ArrayLike, "time state"],
-    *,
-    ridge: float = DEFAULT_RIDGE,
-    min_noise_std: float | Float[ArrayLike, " state"] = 1e-6,
-    max_root: float = 1.0,
-) -> AR2Dynamics:
-    """Learn diagonal AR(2) dynamics from a trajectory by ridge least squares.
-
-    Each dimension is its own AR(2) process about the trajectory's mean μ,
-    ``x_t − μ = a₁ (x_{t−1} − μ) + a₂ (x_{t−2} − μ) + w`` (so ``d = (1 − a₁ − a₂) μ``).
-    A full 25 × 50 coefficient matrix cannot be learned from the 28 transitions of the paper's
-    30 training frames (it would interpolate them exactly and leave no noise); per dimension it
-    is two numbers from 28 equations. The ridge pulls (a₁, a₂) toward the random walk (1, 0)
-    with weight ``ridge × mean(diag of the lag Gram matrix)``, which keeps the nearly collinear
-    lags of a smooth trajectory well conditioned and makes a constant dimension a random walk.
-    The characteristic roots are then shrunk to modulus ≤ ``max_root`` so that the dynamics
-    cannot explode when run past the training frames (1 allows a random walk; less than 1
-    makes every dimension revert to μ).
-
-    Args:
-        states: ``(time, state)`` trajectory, at least 4 frames (Tian et al.: the first 30
-            frames of ground-truth SPM states).
-        ridge: relative ridge (see above); 0 is plain least squares.
-        min_noise_std: floor of the noise standard deviation (scalar or ``(state,)``), so that
-            no dimension gets zero noise.
-        max_root: largest modulus allowed for the roots of ``z² − a₁ z − a₂``.
-
-    Returns:
-        :class:`AR2Dynamics` in the dtype of ``states`` (float32 unless float64 comes in).
-    """
-    states = jnp.asarray(states)
-    if not jnp.issubdtype(states.dtype, jnp.floating):
-        states = states.astype(jnp.float32)
-    _check_states(states, 4)
-    if ridge < 0 or max_root <= 0:
-        raise ValueError(f"ridge must be >= 0 and max_root > 0, got {ridge}, {max_root}")
-    floor = jnp.broadcast_to(jnp.asarray(min_noise_std, states.dtype), states.shape[1:])
-    if not bool(jnp.all(floor > 0)):
-        raise ValueError("min_noise_std must be positive in every dimension")
-    return _fit_ar2(states, jnp.asarray(ridge, states.dtype), floor, float(max_root))
-
-
-def random_walk_dynamics(
-    states: Float[ArrayLike, "time state"],
-    *,
-    min_noise_std: float | Float[ArrayLike, " state"] = 1e-6,
-) -> AR2Dynamics:
-    """A random walk ``x_t = x_{t−1} + w`` as :class:`AR2Dynamics` (A₁ = I, A₂ = 0, d = 0).
-
-    The noise standard deviation of each dimension is the RMS of its frame-to-frame differences
-    in ``states`` (``(time, state)``, at least 2 frames), floored at ``min_noise_std``.
-    """
-    states = jnp.asarray(states)
-    if not jnp.issubdtype(states.dtype, jnp.floating):
-        states = states.astype(jnp.float32)
-    _check_states(states, 2)
-    steps = jnp.sqrt(jnp.mean(jnp.diff(states, axis=0) ** 2, axis=0))
-    floor = jnp.broadcast_to(jnp.asarray(min_noise_std, states.dtype), steps.shape)
-    return AR2Dynamics(
-        first_coefficients=jnp.ones_like(steps), second_coefficients=jnp.zeros_like(steps),
-        offset=jnp.zeros_like(steps), noise_std=jnp.maximum(steps, floor),
-    )
-
-
-def default_noise_floor(torso_pixels: float, relative: float = 0.002) -> np.ndarray:
-    """A ``(25,)`` noise floor for SPM states: ``relative`` in log scale, angles (radians) and
-    log lengths, ``relative × torso`` pixels in the translation."""
-    floor = np.full(SPM_STATE_SIZE, relative)
-    floor[1:3] = relative * torso_pixels
-    return floor
+__all__ = ["CondensationModel", "CondensationState", "CondensationTracker",
+           "condensation_tracker", "random_walk_tracker"]
 
 
 class CondensationModel(smc.StateSpaceModel):
@@ -250,120 +93,194 @@ class CondensationModel(smc.StateSpaceModel):
                                              self.sharpness, self.nearest)
 
 
-class CondensationTracker(ParticleTracker):
-    """CONDENSATION in the full SPM state (see :func:`condensation_tracker`)."""
+class CondensationState(eqx.Module):
+    """What the CONDENSATION tracker carries between frames.
 
-    condensation_model: CondensationModel
+    Attributes:
+        model: the state-space model assembled at frame 0 (its templates cut from the first
+            frame); constant over the sequence.
+        filter: the particle filter's state.
+        refined: the refinement stage's carried poses (None without a refinement).
+        refine_std: ``(25,)`` σ of the refinement's prior (None without a refinement).
+    """
+
+    model: CondensationModel
+    filter: smc.FilterState
+    refined: RefinementState | None
+    refine_std: Float[Array, " 25"] | None
+
+
+class CondensationTracker(Tracker):
+    """CONDENSATION in the full SPM state (module docstring; :func:`condensation_tracker`).
+
+    Attributes:
+        dynamics: AR(2) (or random-walk) dynamics of the 25-d state.
+        template: the SPM template the states are expressed in.
+        likelihood: how frames are scored.
+        particles: static N.
+        refinement: the full-state refinement of the reported pose; None: the weighted mean.
+        background: ``(height, width)`` grey background of a static camera for the
+            ``"limbs+edges"`` likelihood's foreground term; None: none.
+        initial_spread: initial particles spread by this many noise stds about frame 0's state.
+    """
+
+    dynamics: AR2Dynamics
+    template: SPMTemplate
+    likelihood: Likelihood
     particles: int = eqx.field(static=True)
+    refinement: Refinement | None = None
+    background: Float[Array, "height width"] | None = None
+    initial_spread: float = eqx.field(static=True, default=1.0)
 
-    @property
-    def model(self) -> CondensationModel:
-        return self.condensation_model
+    def __check_init__(self):
+        if not isinstance(self.particles, int) or self.particles < 1:
+            raise ValueError(f"num_particles must be a positive integer, got {self.particles!r}")
+        if not self.initial_spread >= 0:
+            raise ValueError(f"initial_spread must be >= 0, got {self.initial_spread!r}")
 
     @property
     def num_particles(self) -> int:
         return self.particles
 
-    def markers_of(self, particle) -> Array:
-        return self.condensation_model.markers_of(particle)
+    @property
+    def dtype(self):
+        return self.dynamics.noise_std.dtype
+
+    def options(self) -> dict:
+        return {"method": "condensation", "particles": self.particles,
+                "likelihood": options_record(self.likelihood),
+                "refinement": options_record(self.refinement),
+                "foreground": self.background is not None,
+                "initial_spread": self.initial_spread}
+
+    def start(self, key: PRNGKeyArray, first_frame, initial_pose) -> CondensationState:
+        markers = check_initial_pose(initial_pose)
+        dtype = self.dtype
+        initial = frame0_state(markers, self.template, dtype)
+        model = CondensationModel(
+            dynamics=self.dynamics, template=self.template,
+            templates=frame0_templates(self.likelihood, first_frame, markers, self.background,
+                                       dtype),
+            initial_state=initial,
+            initial_std=jnp.asarray(self.initial_spread, dtype) * self.dynamics.noise_std,
+            sharpness=jnp.asarray(self.likelihood.lam, dtype),
+            nearest=self.likelihood.nearest)
+        refined = refine_std = None
+        if self.refinement is not None:
+            torso = float(np.exp(np.asarray(initial[0], np.float64)))
+            refined = RefinementState(initial, initial)
+            refine_std = jnp.asarray(refinement_prior_std(self.refinement, torso), dtype)
+        filtered = _initialize(key, model, jnp.asarray(first_frame, dtype), self.particles)
+        return CondensationState(model, filtered, refined, refine_std)
+
+    def first_estimate(self, state: CondensationState) -> FrameEstimate:
+        return self._estimate(state, state.filter, first_info(state.filter), None)
+
+    def update(self, key: PRNGKeyArray, state: CondensationState, frame: Array | FrameInChunk
+               ) -> tuple[CondensationState, FrameEstimate]:
+        with jax.named_scope("filter"):
+            filtered, info = filter_step(key, state.filter, frame, state.model)
+        return self._report(state, filtered, info, frame)
+
+    def _report(self, state: CondensationState, filtered: smc.FilterState, info: smc.StepInfo,
+                frame) -> tuple[CondensationState, FrameEstimate]:
+        refined = state.refined
+        if self.refinement is not None:
+            model = state.model
+            with jax.named_scope("candidates"):
+                mean = smc.weighted_mean(filtered.particles, filtered.log_weights)["current"]
+            refined, _ = refine(self.refinement, state.refined, mean, frame, model.templates,
+                                model.template, model.sharpness, state.refine_std)
+        new = CondensationState(state.model, filtered, refined, state.refine_std)
+        return new, self._estimate(new, filtered, info, refined)
+
+    def _estimate(self, state: CondensationState, filtered: smc.FilterState,
+                  info: smc.StepInfo, refined: RefinementState | None) -> FrameEstimate:
+        model = state.model
+        if refined is None or self.refinement is None:
+            mean = smc.weighted_mean(filtered.particles, filtered.log_weights)
+            markers = model.markers_of(mean)
+        else:
+            markers = spm_forward(refined.pose, model.template)
+        return cloud_estimate(filtered, info, markers, model.markers_of)
 
 
-def _build(dynamics: AR2Dynamics, template: SPMTemplate, first_frame, first_markers,
-           num_particles: int, initial_spread: float, likelihood: str, sharpness: float | None,
-           nearest: bool, dtype, background=None) -> CondensationTracker:
-    if sharpness is None:
-        sharpness = default_sharpness(likelihood)
-    cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
-    template = jax.tree.map(cast, template)
-    initial = spm_initial_state(cast(first_markers), template)
-    dynamics = dynamics.astype(dtype)
-    model = CondensationModel(
-        dynamics=dynamics, template=template,
-        templates=make_appearance_templates(likelihood, cast(first_frame), cast(first_markers),
-                                            background),
-        initial_state=initial, initial_std=jnp.asarray(initial_spread, dtype) * dynamics.noise_std,
-        sharpness=cast(sharpness), nearest=bool(nearest),
-    )
-    return CondensationTracker(condensation_model=model, particles=int(num_particles))
+@eqx.filter_jit
+def _initialize(key: PRNGKeyArray, model: smc.StateSpaceModel, frame: Array,
+                num_particles: int) -> smc.FilterState:
+    return smc.initialize(key, model, frame, num_particles)[0]
 
 
-def _prepare(template, first_markers, training_states, min_noise_std):
-    first_markers = np.asarray(first_markers, np.float64)
-    if first_markers.shape != (12, 2) or not np.all(np.isfinite(first_markers)):
-        raise ValueError(f"first_markers must be 12 finite (x, y) markers, got shape "
-                         f"{first_markers.shape}")
-    training_states = np.asarray(training_states, np.float64)
-    if training_states.ndim != 2 or training_states.shape[1] != SPM_STATE_SIZE:
+def _training_states(training_states) -> np.ndarray:
+    states = np.asarray(training_states, np.float64)
+    if states.ndim != 2 or states.shape[1] != SPM_STATE_SIZE:
         raise ValueError(f"training_states must be (time, {SPM_STATE_SIZE}) SPM states "
                          f"(jaxtrack.body.spm_fit of the first frames' markers), got "
-                         f"{training_states.shape}")
+                         f"{states.shape}")
+    return states
+
+
+def _noise_floor(states: np.ndarray, min_noise_std) -> np.ndarray:
     if min_noise_std is None:
-        min_noise_std = default_noise_floor(float(np.exp(np.median(training_states[:, 0]))))
-    return first_markers, training_states, np.asarray(min_noise_std, np.float64)
+        return default_noise_floor(float(np.exp(np.median(states[:, 0]))))
+    return np.asarray(min_noise_std, np.float64)
+
+
+def _cast(tree, dtype):
+    return jax.tree.map(lambda leaf: jnp.asarray(np.asarray(leaf, np.float64), dtype), tree)
 
 
 def condensation_tracker(
     template: SPMTemplate,
-    first_frame: Float[ArrayLike, "height width"],
-    first_markers: Float[ArrayLike, "markers 2"],
     training_states: Float[ArrayLike, "time 25"],
     *,
     num_particles: int = 1000,
-    likelihood: str = DEFAULT_LIKELIHOOD,
+    likelihood: Likelihood = Likelihood(),
+    refinement: Refinement | None = None,
     background: Float[ArrayLike, "height width"] | None = None,
-    sharpness: float | None = None,
     ridge: float = DEFAULT_RIDGE,
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     max_root: float = 1.0,
     initial_spread: float = 1.0,
-    nearest: bool = True,
     dtype=jnp.float32,
 ) -> CondensationTracker:
     """Tian et al.'s baseline: CONDENSATION in the 25-d SPM state with AR(2) dynamics learned
-    from ground truth.
+    from ``training_states`` (the paper: the first 30 frames of ground truth,
+    ``spm_initial_state(truth[:30], template)``).
 
     Args:
         template: the SPM template the states are expressed in.
-        first_frame: ``(height, width)`` grey frame 0 (the NCC templates are cut from it).
-        first_markers: ``(12, 2)`` its markers (``SPM_MARKERS`` order); they give the initial
-            state.
-        training_states: ``(time, 25)`` SPM states to learn the dynamics from (the paper: the
-            first 30 frames of ground truth, ``spm_fit(truth[:30], template)``).
+        training_states: ``(time, 25)`` SPM states to learn the dynamics from.
         num_particles: N.
-        likelihood: ``"limbs+edges"``, ``"limbs"`` or ``"markers"``
-            (:mod:`jaxtrack.likelihoods.appearance`).
-        background: ``(height, width)`` grey background of a static camera for the
-            ``"limbs+edges"`` likelihood's foreground term
-            (``jaxtrack.vision.median_grey_background``); None: no foreground term.
-        sharpness: λ of the likelihood; None for the likelihood's default.
-        ridge, max_root: see :func:`fit_ar2`.
+        likelihood: how frames are scored (:class:`~jaxtrack.trackers.Likelihood`).
+        refinement: the full-state refinement of the reported pose; None: the weighted mean.
+        background: grey background of a static camera for the foreground term; None: none.
+        ridge, max_root: see :func:`~jaxtrack.priors.dynamics.fit_ar2`.
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:
-            :func:`default_noise_floor` of the training torso length.
-        initial_spread: initial particles spread by this many noise stds around frame 0's state.
-        nearest: nearest-pixel sampling (fast, as the latent tracker) rather than bilinear.
+            ``default_noise_floor`` of the training torso length.
+        initial_spread: initial particles spread by this many noise stds about frame 0's state.
         dtype: the filter's float type.
     """
-    first_markers, training_states, floor = _prepare(template, first_markers, training_states,
-                                                     min_noise_std)
-    dynamics = fit_ar2(training_states, ridge=ridge, min_noise_std=floor, max_root=max_root)
-    return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  likelihood, sharpness, nearest, dtype, background)
+    states = _training_states(training_states)
+    floor = _noise_floor(states, min_noise_std)
+    dynamics = fit_ar2(states, ridge=ridge, min_noise_std=floor, max_root=max_root)
+    return CondensationTracker(
+        dynamics=dynamics.astype(dtype), template=_cast(template, dtype), likelihood=likelihood,
+        particles=num_particles, refinement=refinement, background=background,
+        initial_spread=float(initial_spread))
 
 
 def random_walk_tracker(
     template: SPMTemplate,
-    first_frame: Float[ArrayLike, "height width"],
-    first_markers: Float[ArrayLike, "markers 2"],
     training_states: Float[ArrayLike, "time 25"],
     *,
     num_particles: int = 1000,
-    likelihood: str = DEFAULT_LIKELIHOOD,
+    likelihood: Likelihood = Likelihood(),
+    refinement: Refinement | None = None,
     background: Float[ArrayLike, "height width"] | None = None,
-    sharpness: float | None = None,
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     step_scale: float = 1.0,
     initial_spread: float = 1.0,
-    nearest: bool = True,
     dtype=jnp.float32,
 ) -> CondensationTracker:
     """CONDENSATION in the 25-d SPM state with a random walk: the ablation of the learned prior.
@@ -372,9 +289,10 @@ def random_walk_tracker(
     ``training_states`` (floored as in :func:`condensation_tracker`). Other arguments as
     :func:`condensation_tracker`.
     """
-    first_markers, training_states, floor = _prepare(template, first_markers, training_states,
-                                                     min_noise_std)
-    dynamics = random_walk_dynamics(training_states, min_noise_std=floor)
+    states = _training_states(training_states)
+    dynamics = random_walk_dynamics(states, min_noise_std=_noise_floor(states, min_noise_std))
     dynamics = eqx.tree_at(lambda d: d.noise_std, dynamics, step_scale * dynamics.noise_std)
-    return _build(dynamics, template, first_frame, first_markers, num_particles, initial_spread,
-                  likelihood, sharpness, nearest, dtype, background)
+    return CondensationTracker(
+        dynamics=dynamics.astype(dtype), template=_cast(template, dtype), likelihood=likelihood,
+        particles=num_particles, refinement=refinement, background=background,
+        initial_spread=float(initial_spread))

@@ -2,7 +2,8 @@
 
 import pytest
 
-from jaxtrack.evaluation.protocol import render_test_sequences, train_prior
+from jaxtrack.experiments.protocol import render_test_sequences
+from jaxtrack.priors.train import train_prior
 
 HISTORY = "animateddrawings/history_c119d6b/"
 TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "cmu_1006_wave_hello_1")

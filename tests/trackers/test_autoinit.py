@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
-from jaxtrack.body.sequence import write_frames
+from jaxtrack.vision import write_frames
 from jaxtrack.cli import main
 from jaxtrack.data import load_clip
 from jaxtrack.priors.gplvm import save_gplvm

@@ -1,0 +1,94 @@
+"""What the particle-filter trackers share: frame 0's SPM pose and templates, the engine's step
+on a frame read from the chunk in place, and the per-frame report of a particle cloud."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
+
+from jaxtrack import smc
+from jaxtrack.body import SPM_MARKERS, SPMTemplate, spm_initial_state
+from jaxtrack.likelihoods import AppearanceTemplates, make_appearance_templates
+from jaxtrack.trackers._options import Likelihood
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk
+
+__all__ = ["check_initial_pose", "cloud_estimate", "first_info", "filter_step", "frame0_state",
+           "frame0_templates"]
+
+
+def check_initial_pose(initial_pose: Float[ArrayLike, "markers 2"]) -> np.ndarray:
+    """``initial_pose`` as ``(markers, 2)`` float64 image markers in ``SPM_MARKERS`` order, or a
+    ValueError that says what is wrong."""
+    markers = np.asarray(initial_pose, np.float64)
+    expected = (len(SPM_MARKERS), 2)
+    if markers.shape != expected:
+        raise ValueError(f"initial_pose must be {expected[0]} (x, y) image markers in "
+                         f"SPM_MARKERS order, shape {expected}, got shape {markers.shape}")
+    if not np.all(np.isfinite(markers)):
+        raise ValueError("initial_pose holds non-finite values")
+    return markers
+
+
+def frame0_templates(likelihood: Likelihood, first_frame: Float[ArrayLike, "..."],
+                     markers: np.ndarray, background: Array | None, dtype
+                     ) -> AppearanceTemplates:
+    """The likelihood's templates cut from frame 0 at its markers, in ``dtype``."""
+    first_frame = np.asarray(first_frame)
+    if not np.all(np.isfinite(first_frame)):
+        raise ValueError("first_frame holds non-finite values")
+    cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
+    return make_appearance_templates(likelihood.kind, cast(first_frame), cast(markers),
+                                     background)
+
+
+def frame0_state(markers: np.ndarray, template: SPMTemplate, dtype) -> Float[Array, " 25"]:
+    """Frame 0's SPM state from its markers, in ``dtype`` (the template already in it)."""
+    return spm_initial_state(jnp.asarray(np.asarray(markers, np.float64), dtype), template)
+
+
+class _FrameOfChunk(smc.StateSpaceModel):
+    """``model`` with observations ``(frames, index)`` standing for ``frames[index]``."""
+
+    model: smc.StateSpaceModel
+
+    def init(self, key: PRNGKeyArray):
+        return self.model.init(key)
+
+    def propagate(self, key: PRNGKeyArray, particle, time):
+        return self.model.propagate(key, particle, time)
+
+    def log_likelihood(self, particle, observation) -> Float[Array, ""]:
+        frames, index = observation
+        return self.model.log_likelihood(particle, frames[index])
+
+
+def filter_step(key: PRNGKeyArray, state: smc.FilterState, frame: Array | FrameInChunk,
+                model: smc.StateSpaceModel) -> tuple[smc.FilterState, smc.StepInfo]:
+    """``smc.step`` on ``frame``. A :class:`FrameInChunk` is never cut out of the chunk: the
+    engine hands its observation to the re-seeding branch of a ``lax.cond``, and a frame sliced
+    from the chunk would be copied whole into a buffer for it on every frame (1.2 MB at
+    640 × 480); here the cond gets the chunk and the index, and each particle's likelihood
+    reads its pixels from the chunk directly."""
+    if isinstance(frame, FrameInChunk):
+        return smc.step(key, state, (frame.frames, frame.index), _FrameOfChunk(model))
+    return smc.step(key, state, frame, model)
+
+
+def first_info(state: smc.FilterState) -> smc.StepInfo:
+    """Frame 0's ``StepInfo`` of a filter that was initialised on it."""
+    num = state.log_weights.shape[0]
+    ess = smc.effective_sample_size(state.log_weights)
+    return smc.StepInfo(state.log_evidence, ess, jnp.asarray(False), jnp.asarray(False),
+                        jnp.asarray(0), jnp.arange(num))
+
+
+def cloud_estimate(state: smc.FilterState, info: smc.StepInfo, markers: Array,
+                   markers_of) -> FrameEstimate:
+    """A particle cloud's report: ``markers`` (the tracker's estimate), the best particle's
+    markers (``markers_of``), the ESS, the log evidence increment and the degenerate flag."""
+    best = smc.best_particle(state.particles, state.log_weights)
+    return FrameEstimate(markers=markers, best_markers=markers_of(best), ess=info.ess,
+                         log_likelihood=info.log_evidence_increment,
+                         degenerate=info.degenerate)
+
