@@ -1,5 +1,10 @@
-"""Likelihoods: one particle's fit to one frame's observations, pure JAX (the engine vmaps)."""
+"""Likelihoods: one particle's fit to one frame's observations, pure JAX (the engine vmaps).
 
+Every appearance likelihood keeps one contract, :class:`PartTemplates` (``_base.py``); the
+design page is ``docs/likelihoods.md``.
+"""
+
+from jaxtrack.likelihoods._base import PartTemplates
 from jaxtrack.likelihoods.appearance import (
     DEFAULT_LIKELIHOOD,
     LIKELIHOODS,
@@ -49,7 +54,7 @@ __all__ = [
     "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD",
     "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS",
     "LIMB_SEGMENTS",
-    "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates",
+    "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates", "PartTemplates",
     "bilinear_sample", "check_observations", "default_sharpness", "fit_border_widths",
     "limb_edge_distances",
     "make_edge_limb_templates", "needs_edges",

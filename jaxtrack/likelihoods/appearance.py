@@ -2,14 +2,12 @@
 ``"markers"``.
 
 All three are template models cut from the first frame at its known markers and scored as
-``−λ Σ (1 − NCC)`` (Tian et al. 2005, eq. 7's form), the first with an edge term added; all
-expose ``log_likelihood(markers, observation, sharpness, nearest)`` and ``residuals(markers,
-observation, sharpness)``, which is all a tracker calls, so every tracker (and every baseline)
-runs on any of them. The latent tracker's arm search and refinement also read their terms part
-by part: ``part_markers`` (the markers each part depends on), ``part_log_likelihoods``,
-``part_residuals`` and, for the refinement's Jacobian (``jaxtrack.trackers._parts_gauss_newton``),
-``spine_markers`` and ``direct_part_markers`` (the strips read the neck–pelvis length, which
-``part_residuals(..., spine=s)`` may be given apart; None and ``part_markers`` for the patches).
+``−λ Σ (1 − NCC)`` (Tian et al. 2005, eq. 7's form), the first with an edge term added. All
+three subclass :class:`~jaxtrack.likelihoods.PartTemplates` (``_base.py``), the contract the
+trackers call: ``log_likelihood`` and ``residuals``, and, part by part, ``part_markers``,
+``part_log_likelihoods``, ``part_residuals``, ``spine_markers`` and ``direct_part_markers``
+(the latent tracker's arm search and the refinement's block-sparse Jacobian), so every tracker
+(and every baseline) runs on any of them. ``docs/likelihoods.md`` says which file holds what.
 
 * ``"limbs+edges"`` (the default): the limb strips plus the distance of their borders to the
   frame's edges (:mod:`jaxtrack.likelihoods.edges`), which do not drift as limbs turn in depth.
@@ -18,7 +16,7 @@ by part: ``part_markers`` (the markers each part depends on), ``part_log_likelih
   ``jaxtrack.trackers.track`` builds them from grey frames (:func:`check_observations`).
 * ``"limbs"``: strips along the body's segments (:mod:`jaxtrack.likelihoods.limbs`); grey
   frames.
-* ``"markers"``: square patches at the 12 markers, the paper's eq. 7
+* ``"markers"``: square patches at the body's markers, the paper's eq. 7
   (:mod:`jaxtrack.likelihoods.ncc`); grey frames.
 """
 
@@ -36,6 +34,8 @@ __all__ = ["DEFAULT_LIKELIHOOD", "LIKELIHOODS", "AppearanceTemplates", "default_
 LIKELIHOODS = ("limbs", "limbs+edges", "markers")
 DEFAULT_LIKELIHOOD = "limbs+edges"
 AppearanceTemplates = NCCTemplates | LimbTemplates | EdgeLimbTemplates
+"""The templates :func:`make_appearance_templates` makes, one kind per name of
+:data:`LIKELIHOODS`; each is a :class:`~jaxtrack.likelihoods.PartTemplates`."""
 
 
 def _check(likelihood: str) -> None:
@@ -63,10 +63,11 @@ def make_appearance_templates(
     markers_2d: Float[ArrayLike, "markers 2"],
     background: Float[ArrayLike, "height width"] | None = None,
 ) -> AppearanceTemplates:
-    """The templates of ``likelihood`` cut from a reference frame at its ``(12, 2)`` markers
-    (for ``"limbs+edges"`` the grey frame or its ``(3, height, width)`` observation), with the
-    static camera's grey ``background`` for ``"limbs+edges"``'s foreground term (None: none;
-    the other likelihoods take none), cast to the templates' dtype."""
+    """The templates of ``likelihood`` cut from a reference frame (for ``"limbs+edges"`` the
+    grey frame or its ``(3, height, width)`` observation) at its ``(markers, 2)`` pixel markers
+    in ``SPM_MARKERS`` order, with the static camera's grey ``background`` for
+    ``"limbs+edges"``'s foreground term (None: none; the other likelihoods take none), cast to
+    the templates' dtype."""
     _check(likelihood)
     if likelihood == "limbs+edges":
         return make_edge_limb_templates(image, markers_2d, background=background)

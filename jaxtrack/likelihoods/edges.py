@@ -79,27 +79,24 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from jaxtrack.likelihoods.limbs import (
-    _SPINE,
-    DEFAULT_STRIP_WIDTH,
+from jaxtrack.likelihoods._base import SPINE_MARKERS, PartTemplates, check_markers
+from jaxtrack.likelihoods._correlation import correlation, template_residuals
+from jaxtrack.likelihoods._sampling import (
+    bilinear_sample,
+    float_dtype,
+    nearest_pixels,
+    sample_points,
+)
+from jaxtrack.likelihoods._strips import (
     LIMB_SEGMENTS,
     PART_MARKERS,
     STRIP_ENDS,
-    LimbTemplates,
-    _nearest_pixels,
-    _read_strips,
-    _segment_axes,
-    _segments,
-    _strip_points,
-    make_limb_templates,
+    segment_axes,
+    select_segments,
     spine_length,
+    strip_points,
 )
-from jaxtrack.likelihoods.ncc import (
-    _correlation,
-    _float_dtype,
-    _template_residuals,
-    bilinear_sample,
-)
+from jaxtrack.likelihoods.limbs import DEFAULT_STRIP_WIDTH, LimbTemplates, make_limb_templates
 
 __all__ = ["DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE",
            "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_FOREGROUND_THRESHOLD",
@@ -164,7 +161,7 @@ def _borders(values: Array) -> Array:
 
 def _axis_angles(markers: Array, segments: tuple[int, ...] | None = None) -> Array:
     """Direction of each strip's axis (start to end marker), ``(segments,)`` radians."""
-    axis = _segment_axes(markers, segments)
+    axis = segment_axes(markers, segments)
     return jnp.arctan2(axis[:, 1], axis[:, 0])
 
 
@@ -179,14 +176,15 @@ def limb_edge_distances(
     """Distance to the nearest edge at each border point of each strip of one pose (pixels)."""
     markers = jnp.asarray(markers_2d)
     distance_map = jnp.asarray(distance_map)
-    dtype = _float_dtype(distance_map, markers)
-    x, y = _strip_points(markers.astype(dtype), along, 2, width)
-    return _read_strips(distance_map.astype(dtype), _borders(x), _borders(y), nearest)
+    dtype = float_dtype(distance_map, markers)
+    x, y = strip_points(markers.astype(dtype), along, 2, width)
+    return sample_points(distance_map.astype(dtype), _borders(x), _borders(y), nearest)
 
 
-class EdgeLimbTemplates(eqx.Module):
+class EdgeLimbTemplates(PartTemplates):
     """Limb-strip templates plus the edge term's weight, scale and angular tolerance (see the
-    module docstring).
+    module docstring): a :class:`PartTemplates` whose parts are the strips with their borders
+    (and their foreground terms).
 
     Attributes:
         strips: the :class:`LimbTemplates` (NCC part).
@@ -230,7 +228,7 @@ class EdgeLimbTemplates(eqx.Module):
     @property
     def spine_markers(self) -> tuple[int, int]:
         """Neck and pelvis: every part also reads their distance (the strips' widths, σ)."""
-        return _SPINE
+        return SPINE_MARKERS
 
     @property
     def direct_part_markers(self) -> tuple[tuple[int, ...], ...]:
@@ -254,15 +252,15 @@ class EdgeLimbTemplates(eqx.Module):
         """
         observation = _check_observation(observation)
         markers = jnp.asarray(markers_2d)
-        dtype = _float_dtype(observation, markers)
+        dtype = float_dtype(observation, markers)
         markers, observation = markers.astype(dtype), observation.astype(dtype)
         strips = self.strips
-        x, y = _strip_points(markers, strips.along, strips.across, strips.width, segments,
+        x, y = strip_points(markers, strips.along, strips.across, strips.width, segments,
                              spine)
-        samples = _read_strips(observation, x, y, nearest, channel=0)
+        samples = sample_points(observation, x, y, nearest, channel=0)
         widths = self.border_widths.astype(dtype)
         if segments is not None:
-            widths = widths[jnp.asarray(_segments(segments))]
+            widths = widths[jnp.asarray(select_segments(segments))]
         borders = _border_values(markers, observation, widths, self, nearest, segments, spine)
         return samples, borders, self._off_foreground(samples, x, y, nearest, segments)
 
@@ -277,11 +275,11 @@ class EdgeLimbTemplates(eqx.Module):
         dtype = samples.dtype
         off = jnp.zeros(samples.shape[0], dtype)
         # only the arm strips' centre lines are read (a hot path: every particle, every frame)
-        arms = np.flatnonzero(np.isin(_segments(segments), FOREGROUND_SEGMENTS))
+        arms = np.flatnonzero(np.isin(select_segments(segments), FOREGROUND_SEGMENTS))
         if arms.size == 0:
             return off
         centre = samples.shape[-1] // 2
-        background = _read_strips(self.background.astype(dtype), x[arms, :, centre],
+        background = sample_points(self.background.astype(dtype), x[arms, :, centre],
                                   y[arms, :, centre], nearest)
         still = jnp.abs(samples[arms, :, centre] - background) <= self.foreground_threshold
         return jax.lax.stop_gradient(off.at[arms].set(jnp.mean(still.astype(dtype), axis=-1)))
@@ -290,7 +288,7 @@ class EdgeLimbTemplates(eqx.Module):
                        ) -> Array:
         """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i² (− μ Σ_arms b_s)`` for one pose."""
         samples, scaled, off = self._read(markers_2d, observation, nearest)
-        scores = _correlation(samples, self.strips.strips)
+        scores = correlation(samples, self.strips.strips)
         appearance = -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
         edges = jnp.sum(jnp.mean(scaled**2, axis=-1))
         value = appearance - self.edge_weight.astype(appearance.dtype) * edges
@@ -303,7 +301,7 @@ class EdgeLimbTemplates(eqx.Module):
         and distances), then ``√(2μ b_s)`` per strip with a background: half the squared norm
         is the negative log-likelihood. ``spine``: as in :meth:`part_residuals`."""
         samples, scaled, off = self._read(markers_2d, observation, nearest=False, spine=spine)
-        appearance = _template_residuals(samples, self.strips.strips, sharpness)
+        appearance = template_residuals(samples, self.strips.strips, sharpness)
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
         residuals = [appearance, (weight * scaled).reshape(-1)]
         if off is not None:  # √(2μ b_s), constant in the pose (no root's derivative at 0)
@@ -317,7 +315,7 @@ class EdgeLimbTemplates(eqx.Module):
         into ``LIMB_SEGMENTS``; None: all): the terms :meth:`log_likelihood` sums, computed
         for the picked strips alone."""
         samples, scaled, off = self._read(markers_2d, observation, nearest, parts)
-        scores = _correlation(samples, self.strips.strips[jnp.asarray(_segments(parts))])
+        scores = correlation(samples, self.strips.strips[jnp.asarray(select_segments(parts))])
         appearance = -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
         value = appearance - self.edge_weight.astype(scores.dtype) * jnp.mean(scaled**2, axis=-1)
         if off is not None:
@@ -351,9 +349,9 @@ def _border_values(markers: Array, observation: Array, widths: Array,
     dtype = observation.dtype
     height, width = observation.shape[1:]
     border_x, border_y = (_borders(values) for values in
-                          _strip_points(markers, templates.strips.along, 2, widths, segments,
+                          strip_points(markers, templates.strips.along, 2, widths, segments,
                                         spine))
-    border = _nearest_pixels(border_x, border_y, height, width)
+    border = nearest_pixels(border_x, border_y, height, width)
     flat = observation.reshape(-1)  # grey, distances, tangents: offsets of height · width
     if nearest:
         distances = jnp.take(flat, border + height * width, mode="clip")
@@ -408,9 +406,7 @@ def fit_border_widths(
     if not (np.isfinite(margin) and margin >= 0):
         raise ValueError(f"margin must be a non-negative number, got {margin}")
     markers = jnp.asarray(markers_2d)
-    if markers.shape != (12, 2) or not bool(jnp.all(jnp.isfinite(markers))):
-        raise ValueError(f"markers_2d must be 12 finite (x, y) markers, got shape "
-                         f"{markers.shape}")
+    check_markers(markers, name="markers_2d", finite=True)
     dtype = templates.strips.strips.dtype
     costs = np.asarray(_border_costs(templates, markers, observation,
                                      jnp.asarray(np.append(scales, 1.0), dtype)))

@@ -34,20 +34,21 @@ the limb's outline against the background as much as on its texture.
 
 from __future__ import annotations
 
-import functools
-
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from jaxtrack.likelihoods.ncc import (
-    _SPINE,
-    _correlation,
-    _float_dtype,
-    _normalise,
-    _template_residuals,
-    bilinear_sample,
+from jaxtrack.likelihoods._base import SPINE_MARKERS, PartTemplates, check_markers
+from jaxtrack.likelihoods._correlation import correlation, normalise, template_residuals
+from jaxtrack.likelihoods._sampling import float_dtype, sample_points
+from jaxtrack.likelihoods._strips import (
+    LIMB_SEGMENTS,
+    PART_MARKERS,
+    STRIP_ENDS,
+    point_coordinates,
+    select_segments,
+    spine_length,
+    strip_points,
 )
 
 __all__ = [
@@ -64,22 +65,6 @@ __all__ = [
     "spine_length",
 ]
 
-LIMB_SEGMENTS: tuple[tuple[str, int, int, float, float], ...] = (
-    # name, start marker, end marker (SPM_MARKERS order), extension before start and after end
-    # as fractions of the segment's length
-    ("head", 0, 1, 0.3, 0.0),
-    ("upper spine", 1, 2, 0.0, 0.0),
-    ("lower spine", 2, 3, 0.0, 0.0),
-    ("right upper arm", 4, 5, 0.0, 0.0),
-    ("right forearm and hand", 5, 6, 0.0, 0.35),
-    ("left upper arm", 8, 9, 0.0, 0.0),
-    ("left forearm and hand", 9, 10, 0.0, 0.35),
-    ("shoulders", 4, 8, 0.0, 0.0),
-    ("hips", 7, 11, 0.0, 0.0),
-)
-"""The strips: the three spine segments, both arms (forearms carried over the hand), and the
-shoulder and hip lines, which fix the torso's width and turn."""
-
 DEFAULT_STRIP_WIDTH = 0.1
 """Half width of a strip as a fraction of the spine (neck–pelvis) length. On the rendered wave
 gesture (see the module docstring) the best-scoring grid pose was 8.8 % of the torso from the
@@ -91,21 +76,6 @@ DEFAULT_LIMB_SHARPNESS = 4.0
 there are fewer terms than markers; in a first comparison on the held-out wave (200 particles,
 3 seeds), λ = 4 tracked better than 1 or 2 (particles spread too evenly) and than 10 (an
 effective sample size of ~5 of 200)."""
-
-_NUM_MARKERS = 12
-
-STRIP_ENDS: tuple[tuple[int, int], ...] = tuple((segment[1], segment[2])
-                                               for segment in LIMB_SEGMENTS)
-"""The markers (``SPM_MARKERS`` indices) each strip reads other than through the spine length:
-its two ends."""
-PART_MARKERS: tuple[tuple[int, ...], ...] = tuple((*ends, *_SPINE) for ends in STRIP_ENDS)
-"""The markers (``SPM_MARKERS`` indices) each strip's terms depend on: its two ends, and the
-neck and pelvis, whose distance sets its width. What the arm search and the refinement's
-Gauss–Newton Jacobian use to touch only the strips a change reaches."""
-_STARTS = tuple(segment[1] for segment in LIMB_SEGMENTS)
-_ENDS = tuple(segment[2] for segment in LIMB_SEGMENTS)
-_BEFORE = tuple(segment[3] for segment in LIMB_SEGMENTS)
-_AFTER = tuple(segment[4] for segment in LIMB_SEGMENTS)
 
 
 def limb_points(
@@ -119,137 +89,36 @@ def limb_points(
 
     Point ``[s, i, j]`` lies at fraction ``u_i`` along segment ``s`` (from ``−before`` to
     ``1 + after`` of :data:`LIMB_SEGMENTS`) and ``v_j ∈ [−1, 1]`` half widths across it, the
-    half width being ``width ×`` the pose's neck–pelvis distance.
+    half width being ``width ×`` the pose's neck–pelvis distance (the strips' geometry:
+    :mod:`jaxtrack.likelihoods._strips`).
 
     Args:
         markers_2d: ``(12, 2)`` pixel markers in ``SPM_MARKERS`` order.
         along, across: static sample counts per strip.
         width: half width over spine length.
     """
-    points = _point_coordinates(jnp.asarray(markers_2d), along, across, width)
+    points = point_coordinates(jnp.asarray(markers_2d), along, across, width)
     return points.T.reshape(len(LIMB_SEGMENTS), along, across, 2)
-
-
-@functools.cache
-def _point_matrix(along: int, across: int, dtype: str, segments: tuple[int, ...] | None = None
-                  ) -> np.ndarray:
-    """The constant ``(markers + segments, points)`` matrix of :func:`_point_coordinates`.
-
-    Its first 12 rows put each point at its fraction of its segment, ``start + u (end −
-    start)`` (linear in the markers); the last rows add ``v ×`` the segment's scaled normal.
-    Points are ordered ``(segments, along, across)``; ``segments`` (indices into
-    :data:`LIMB_SEGMENTS`, None for all) picks the strips.
-    """
-    chosen = _segments(segments)
-    fraction = np.linspace(0, 1, along)
-    v = np.linspace(-1, 1, across)
-    matrix = np.zeros((_NUM_MARKERS + len(chosen), len(chosen), along, across))
-    for row, index in enumerate(chosen):
-        _, start, end, before, after = LIMB_SEGMENTS[index]
-        u = -before + fraction * (1 + before + after)
-        matrix[start, row] += (1 - u)[:, None]
-        matrix[end, row] += u[:, None]
-        matrix[_NUM_MARKERS + row, row] = v[None, :]
-    return matrix.reshape(_NUM_MARKERS + len(chosen), -1).astype(dtype)
-
-
-def _segments(segments: tuple[int, ...] | None) -> tuple[int, ...]:
-    """The strips a static ``segments`` argument picks (None: all of :data:`LIMB_SEGMENTS`)."""
-    if segments is None:
-        return tuple(range(len(LIMB_SEGMENTS)))
-    segments = tuple(int(index) for index in segments)
-    if not segments or any(not 0 <= index < len(LIMB_SEGMENTS) for index in segments):
-        raise ValueError(f"segments must be indices into LIMB_SEGMENTS (0 to "
-                         f"{len(LIMB_SEGMENTS) - 1}), got {segments}")
-    return segments
-
-
-def _segment_axes(markers: Array, segments: tuple[int, ...] | None = None) -> Array:
-    """``(segments, 2)``: each picked strip's axis, its end marker minus its start marker."""
-    chosen = _segments(segments)
-    return (markers[jnp.asarray([_ENDS[index] for index in chosen])]
-            - markers[jnp.asarray([_STARTS[index] for index in chosen])])
-
-
-def spine_length(markers: Array, ends: tuple[int, int] = _SPINE) -> Array:
-    """The neck–pelvis distance of ``(12, 2)`` markers (``ends``: the two markers, neck and
-    pelvis by default): the length the strips' widths (and the edge term's scale) are
-    fractions of."""
-    return jnp.sqrt(jnp.sum((markers[ends[1]] - markers[ends[0]]) ** 2))
-
-
-def _point_coordinates(markers: Array, along: int, across: int, width,
-                       segments: tuple[int, ...] | None = None, spine: Array | None = None
-                       ) -> Array:
-    """``(2, segments · along · across)``: x and y of :func:`limb_points` (of the strips
-    ``segments`` picks; ``width`` a scalar or one half width per picked strip; ``spine`` the
-    length the widths are fractions of, None: the markers' own :func:`spine_length`).
-
-    One ``(2, 21) @ (21, points)`` matrix product per pose (:func:`_point_matrix`), which XLA
-    on CPU runs several times faster than the same points broadcast elementwise into
-    ``(segments, along, across, 2)`` (a trailing axis of 2 defeats its vectorisation).
-    """
-    if markers.shape != (_NUM_MARKERS, 2):
-        raise ValueError(f"markers must be (12, 2) in SPM_MARKERS order, got {markers.shape}")
-    dtype = _float_dtype(markers)
-    markers = markers.astype(dtype)
-    axis = _segment_axes(markers, segments)  # (segments, 2)
-    spine = spine_length(markers) if spine is None else jnp.asarray(spine, dtype)
-    length = jnp.sqrt(jnp.sum(axis**2, axis=-1))
-    # the unit normal times the half width; a segment of zero length gets a zero normal (its
-    # strip collapses to a line, still a valid, if uninformative, sample)
-    scale = jnp.asarray(width, dtype) * spine / jnp.where(length > 0, length, jnp.inf)
-    normal = jnp.stack([-axis[:, 1] * scale, axis[:, 0] * scale])  # (2, segments)
-    coefficients = jnp.concatenate([markers.T, normal], axis=1)
-    matrix = _point_matrix(along, across, jnp.dtype(dtype).name, segments)
-    return coefficients @ jnp.asarray(matrix)
-
-
-def _nearest_pixels(x: Array, y: Array, height: int, width: int) -> Array:
-    """Flat index of the pixel nearest each point, clamped to the image."""
-    # clamp in floating point so that far-off points cannot overflow the int32 conversion
-    column = jnp.clip(jnp.floor(x + 0.5), 0, width - 1).astype(jnp.int32)
-    row = jnp.clip(jnp.floor(y + 0.5), 0, height - 1).astype(jnp.int32)
-    return row * width + column
-
-
-def _read_strips(image: Array, x: Array, y: Array, nearest: bool, channel: int | None = None
-                 ) -> Array:
-    """``image`` at the strip points ``x, y`` (any matching shapes): the nearest pixel or
-    bilinearly; ``channel`` as in :func:`bilinear_sample` (one channel of a ``(channels,
-    height, width)`` image, read in place)."""
-    if not nearest:
-        return bilinear_sample(image, x, y, channel=channel)
-    height, width = image.shape[-2:]
-    offset = 0 if channel is None else channel * height * width
-    # a clipping take: a "promise_in_bounds" gather copies the image first (bilinear_sample)
-    return jnp.take(image.reshape(-1), _nearest_pixels(x, y, height, width) + offset,
-                    mode="clip")
-
-
-def _strip_points(markers: Array, along: int, across: int, width,
-                  segments: tuple[int, ...] | None = None, spine: Array | None = None
-                  ) -> tuple[Array, Array]:
-    """x and y of :func:`limb_points`, each ``(segments, along, across)``."""
-    x, y = _point_coordinates(markers, along, across, width, segments, spine)
-    shape = (len(_segments(segments)), along, across)
-    return x.reshape(shape), y.reshape(shape)
 
 
 def _strips(image: Array, markers: Array, along: int, across: int, width, nearest: bool,
             segments: tuple[int, ...] | None = None, spine: Array | None = None) -> Array:
+    """The grey frame at the strips' sample points, ``(segments, along, across)`` (the strips
+    ``segments`` picks; ``spine`` the length the width is a fraction of, None: the markers'
+    own), at the nearest pixel or bilinearly."""
     image = jnp.asarray(image)
     if image.ndim != 2:
         raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
                          f"convert colour frames with jaxtrack.vision.to_grey")
     markers = jnp.asarray(markers)
-    dtype = _float_dtype(image, markers)
-    x, y = _strip_points(markers.astype(dtype), along, across, width, segments, spine)
-    return _read_strips(image.astype(dtype), x, y, nearest)
+    dtype = float_dtype(image, markers)
+    x, y = strip_points(markers.astype(dtype), along, across, width, segments, spine)
+    return sample_points(image.astype(dtype), x, y, nearest)
 
 
-class LimbTemplates(eqx.Module):
-    """Limb-strip templates for :func:`limb_ncc_scores`.
+class LimbTemplates(PartTemplates):
+    """Limb-strip templates for :func:`limb_ncc_scores`: a :class:`PartTemplates` whose parts
+    are the strips.
 
     Attributes:
         strips: ``(segments, along, across)`` zero-mean, unit-norm strips of the reference frame
@@ -283,7 +152,7 @@ class LimbTemplates(eqx.Module):
         length the strips' widths are fractions of, None: the markers' own."""
         strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest=False,
                          spine=spine)
-        return _template_residuals(strips, self.strips, sharpness)
+        return template_residuals(strips, self.strips, sharpness)
 
     @property
     def part_markers(self) -> tuple[tuple[int, ...], ...]:
@@ -293,7 +162,7 @@ class LimbTemplates(eqx.Module):
     @property
     def spine_markers(self) -> tuple[int, int]:
         """Neck and pelvis: every part also reads their distance (the strips' widths)."""
-        return _SPINE
+        return SPINE_MARKERS
 
     @property
     def direct_part_markers(self) -> tuple[tuple[int, ...], ...]:
@@ -308,7 +177,7 @@ class LimbTemplates(eqx.Module):
         :data:`LIMB_SEGMENTS`; None: all): the terms :meth:`log_likelihood` sums, computed
         for the picked strips alone."""
         strips = _strips(image, markers_2d, self.along, self.across, self.width, nearest, parts)
-        scores = _correlation(strips, self.strips[jnp.asarray(_segments(parts))])
+        scores = correlation(strips, self.strips[jnp.asarray(select_segments(parts))])
         return -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
 
     def part_residuals(self, markers_2d, image, sharpness, spine=None) -> Array:
@@ -340,10 +209,9 @@ def make_limb_templates(
     if not (np.isfinite(width) and width > 0):
         raise ValueError(f"width must be a positive fraction of the spine, got {width}")
     markers = jnp.asarray(markers_2d)
-    if not bool(jnp.all(jnp.isfinite(markers))):
-        raise ValueError("the reference markers must be finite")
+    check_markers(markers, name="the reference markers", finite=True)
     strips = _strips(image, markers, int(along), int(across), width, nearest=False)
-    strips, _ = _normalise(strips)
+    strips, _ = normalise(strips)
     return LimbTemplates(strips=strips, width=jnp.asarray(width, strips.dtype))
 
 
@@ -369,7 +237,7 @@ def limb_ncc_scores(
     """
     strips = _strips(image, markers_2d, templates.along, templates.across, templates.width,
                      nearest)
-    return _correlation(strips, templates.strips)
+    return correlation(strips, templates.strips)
 
 
 def limb_ncc_log_likelihood(

@@ -51,6 +51,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from jaxtrack.likelihoods._base import SPINE_MARKERS, PartTemplates, check_markers
+from jaxtrack.likelihoods._correlation import correlation, normalise, template_residuals
+from jaxtrack.likelihoods._sampling import bilinear_sample, float_dtype
+
 __all__ = [
     "DEFAULT_NCC_SHARPNESS",
     "NCCTemplates",
@@ -80,21 +84,13 @@ e⁻²⁵); it also over-trusts fixed templates whose dissimilarity at the true 
 by 2–3 within half a second as the body turns. Raise λ with many particles or a tight prior.
 """
 
-_SPINE = (1, 3)  # neck, pelvis in SPM_MARKERS order
-
-
-def _float_dtype(*arrays: Array) -> jnp.dtype:
-    """The promoted floating dtype of the floating inputs (float32 if there are none)."""
-    floating = [a.dtype for a in arrays if jnp.issubdtype(a.dtype, jnp.floating)]
-    return jnp.result_type(*floating) if floating else jnp.dtype(jnp.float32)
-
 
 def patch_half_size(markers_2d: Float[ArrayLike, "*batch markers 2"]) -> int:
     """Half the side of the NCC patches for a body of this size: a static Python int.
 
     Tian et al. (2005) take patches whose side is a tenth of the spine height (the neck–pelvis
-    distance, markers 1 and 3 of ``SPM_MARKERS``). The side is ``2 · half + 1`` pixels with
-    ``half = round((spine / 10 − 1) / 2)``, at least 2 (a 5 × 5 patch).
+    distance). The side is ``2 · half + 1`` pixels with ``half = round((spine / 10 − 1) / 2)``,
+    at least 2 (a 5 × 5 patch).
 
     Args:
         markers_2d: ``(12, 2)`` pixel markers of one pose, or ``(..., 12, 2)`` of several (the
@@ -104,10 +100,10 @@ def patch_half_size(markers_2d: Float[ArrayLike, "*batch markers 2"]) -> int:
     if isinstance(markers_2d, jax.core.Tracer):
         raise ValueError("patch_half_size needs concrete markers (it decides an array shape); "
                          "call it outside jit, e.g. once on the first frame's markers")
+    check_markers(markers_2d, batched=True)
     markers = np.asarray(markers_2d, np.float64)
-    if markers.ndim < 2 or markers.shape[-1] != 2 or markers.shape[-2] <= max(_SPINE):
-        raise ValueError(f"markers must be (..., 12, 2) in SPM_MARKERS order, got {markers.shape}")
-    spine = np.linalg.norm(markers[..., _SPINE[1], :] - markers[..., _SPINE[0], :], axis=-1)
+    neck, pelvis = SPINE_MARKERS
+    spine = np.linalg.norm(markers[..., pelvis, :] - markers[..., neck, :], axis=-1)
     spine = float(np.median(spine))
     if not np.isfinite(spine):
         raise ValueError("the neck or pelvis marker is not finite; cannot size the patches")
@@ -141,7 +137,7 @@ def sample_patches(
                          f"convert colour frames with jaxtrack.vision.to_grey")
     if centres.ndim != 2 or centres.shape[-1] != 2:
         raise ValueError(f"centres must be (markers, 2) pixel positions, got {centres.shape}")
-    dtype = _float_dtype(image, centres)
+    dtype = float_dtype(image, centres)
     offsets = jnp.arange(-half_size, half_size + 1, dtype=dtype)
     centres = centres.astype(dtype)
     x = centres[:, None, None, 0] + offsets[None, None, :]
@@ -150,68 +146,9 @@ def sample_patches(
     return bilinear_sample(image.astype(dtype), x, y)
 
 
-def bilinear_sample(image: Float[Array, "*channels height width"], x: Float[Array, "*points"],
-                    y: Float[Array, "*points"], *, channel: int | None = None
-                    ) -> Float[Array, "*points"]:
-    """``image`` interpolated bilinearly at the points ``(x, y)`` (any matching shapes), points
-    outside clamped to the border; one gather per neighbour, in ``x``'s dtype.
-
-    ``image`` is ``(height, width)``, or ``(channels, height, width)`` with the static
-    ``channel`` to read: the gather then reads that channel in place, where slicing it out
-    first can make XLA copy it.
-    """
-    if channel is None:
-        if image.ndim != 2:
-            raise ValueError(f"image must be (height, width), or (channels, height, width) with "
-                             f"a channel, got shape {image.shape}")
-        offset = 0
-    else:
-        if image.ndim != 3 or not 0 <= channel < image.shape[0]:
-            raise ValueError(f"channel {channel} of an image of shape {image.shape}")
-        offset = channel * image.shape[1] * image.shape[2]
-    height, width = image.shape[-2:]
-    x = jnp.clip(x, 0, width - 1)
-    y = jnp.clip(y, 0, height - 1)
-    x0 = jnp.floor(x)
-    y0 = jnp.floor(y)
-    fx, fy = x - x0, y - y0
-    x0 = x0.astype(jnp.int32)
-    y0 = y0.astype(jnp.int32)
-    x1 = jnp.minimum(x0 + 1, width - 1)
-    y1 = jnp.minimum(y0 + 1, height - 1)
-    flat = image.reshape(-1).astype(x.dtype)
-    # four gathers, one per neighbour, each with its index arithmetic fused into it: one
-    # gather of the four stacked indices made XLA on CPU write the stacked indices out first
-    # (~0.4 ms per frame in the arm search, 33 000 points per arm, stop 22). The indices are
-    # in bounds by construction, but a "promise_in_bounds" (or "fill") gather makes XLA on
-    # CPU copy the whole image first (~55 µs for 640 × 480 float32, 4× the gather of one
-    # pose's strips); a clipping take reads it in place
-    top = y0 * width + offset
-    bottom = y1 * width + offset
-    top_left, top_right, bottom_left, bottom_right = (
-        jnp.take(flat, index, mode="clip")
-        for index in (top + x0, top + x1, bottom + x0, bottom + x1))
-    top = top_left + fx * (top_right - top_left)
-    bottom = bottom_left + fx * (bottom_right - bottom_left)
-    return top + fy * (bottom - top)
-
-
-def _normalise(patches: Array) -> tuple[Array, Array]:
-    """Zero-mean, unit-norm patches and whether each had any variance at all."""
-    centred = patches - jnp.mean(patches, axis=(-2, -1), keepdims=True)
-    energy = jnp.sum(centred**2, axis=(-2, -1), keepdims=True)
-    # "flat" is judged relative to the patch's magnitude, so rounding residue of a constant
-    # patch (mean subtraction is inexact) is not mistaken for texture, at any brightness
-    size = patches.shape[-1] * patches.shape[-2]
-    magnitude = jnp.max(jnp.abs(patches), axis=(-2, -1), keepdims=True)
-    floor = size * (16 * jnp.finfo(patches.dtype).eps * magnitude) ** 2
-    textured = energy > floor
-    norm = jnp.sqrt(jnp.where(textured, energy, 1))
-    return jnp.where(textured, centred / norm, 0), textured[..., 0, 0]
-
-
-class NCCTemplates(eqx.Module):
-    """Template patches, one per marker, for the NCC likelihood.
+class NCCTemplates(PartTemplates):
+    """Template patches, one per marker, for the NCC likelihood: a :class:`PartTemplates`
+    whose parts are the patches, each reading its own marker.
 
     Attributes:
         patches: ``(markers, size, size)`` zero-mean, unit-norm patches (all zeros for a marker
@@ -237,12 +174,13 @@ class NCCTemplates(eqx.Module):
         score = ncc_log_likelihood_nearest if nearest else ncc_log_likelihood
         return score(markers_2d, image, self, sharpness)
 
-    def residuals(self, markers_2d, image, sharpness) -> Array:
+    def residuals(self, markers_2d, image, sharpness, spine=None) -> Array:
         """``√λ (p̂ − t̂)`` over all patches (bilinear): since ``‖p̂ − t̂‖² = 2 − 2 NCC``, half
         its squared norm is eq. 7's cost ``λ Σ_m (1 − NCC_m)``, a sum of squares for
-        Gauss–Newton."""
-        return _template_residuals(sample_patches(image, markers_2d, self.half_size),
-                                   self.patches, sharpness)
+        Gauss–Newton. ``spine`` must be None: the patches do not read the spine length."""
+        _no_spine(spine)
+        return template_residuals(sample_patches(image, markers_2d, self.half_size),
+                                  self.patches, sharpness)
 
     @property
     def part_markers(self) -> tuple[tuple[int, ...], ...]:
@@ -275,10 +213,16 @@ class NCCTemplates(eqx.Module):
         scores = (ncc_scores_nearest if nearest else ncc_scores)(markers, image, templates)
         return -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
 
-    def part_residuals(self, markers_2d, image, sharpness) -> Array:
+    def part_residuals(self, markers_2d, image, sharpness, spine=None) -> Array:
         """:meth:`residuals` grouped by patch, ``(markers, size²)``: each row depends only on
-        its own marker."""
-        return self.residuals(markers_2d, image, sharpness).reshape(self.num_markers, -1)
+        its own marker. ``spine`` must be None, as in :meth:`residuals`."""
+        return self.residuals(markers_2d, image, sharpness, spine).reshape(self.num_markers, -1)
+
+
+def _no_spine(spine) -> None:
+    if spine is not None:
+        raise ValueError("the marker patches do not read the spine length (their "
+                         "spine_markers is None); pass spine=None")
 
 
 def make_templates(
@@ -298,7 +242,7 @@ def make_templates(
         half_size = patch_half_size(markers_2d)
     if int(half_size) != half_size or half_size < 0:
         raise ValueError(f"half_size must be a non-negative integer, got {half_size}")
-    patches, _ = _normalise(sample_patches(image, markers_2d, int(half_size)))
+    patches, _ = normalise(sample_patches(image, markers_2d, int(half_size)))
     return NCCTemplates(patches=patches, half_size=int(half_size))
 
 
@@ -321,37 +265,7 @@ def ncc_scores(
     markers = jnp.asarray(markers_2d)
     if markers.shape[0] != templates.num_markers:
         raise ValueError(f"{markers.shape[0]} markers but {templates.num_markers} templates")
-    return _correlation(sample_patches(image, markers, templates.half_size), templates.patches)
-
-
-def _correlation(samples: Array, templates: Array) -> Array:
-    """NCC of each sample block (last two axes) with its zero-mean, unit-norm template.
-
-    ``Σ (s − s̄) t̂ / |s − s̄|``, 0 for a flat block, as :func:`_normalise` then a dot product,
-    but without materialising the centred and normalised blocks: XLA on CPU runs each pass
-    over the particles' samples as a loop of its own, and this makes one for the mean and
-    reads the samples once more for the energy and the dot product.
-    A block is flat when its energy is within the rounding residue of its magnitude, judged
-    with ``|s̄| + |s − s̄|`` ≥ max |s| in place of :func:`_normalise`'s max |s|.
-    """
-    axes = (-2, -1)
-    size = samples.shape[-1] * samples.shape[-2]
-    mean = jnp.mean(samples, axis=axes, keepdims=True)
-    centred = samples - mean
-    energy = jnp.sum(centred**2, axis=axes)
-    dot = jnp.sum(centred * templates.astype(samples.dtype), axis=axes)
-    magnitude = jnp.abs(mean[..., 0, 0]) + jnp.sqrt(energy)
-    textured = energy > size * (16 * jnp.finfo(samples.dtype).eps * magnitude) ** 2
-    scores = jnp.where(textured, dot * jax.lax.rsqrt(jnp.where(textured, energy, 1)), 0)
-    return jnp.clip(scores, -1, 1)  # Cauchy–Schwarz, up to rounding
-
-
-def _template_residuals(samples: Array, templates: Array, sharpness) -> Array:
-    """``√λ (ŝ − t̂)`` flattened: half its squared norm is ``λ Σ (1 − NCC)`` (textured blocks),
-    the NCC cost as a sum of squares for Gauss–Newton."""
-    samples, _ = _normalise(samples)
-    return jnp.sqrt(jnp.asarray(sharpness, samples.dtype)) * (
-        samples - templates.astype(samples.dtype)).reshape(-1)
+    return correlation(sample_patches(image, markers, templates.half_size), templates.patches)
 
 
 def ncc_log_likelihood(
@@ -439,7 +353,7 @@ def sample_patches_nearest(
     image = jnp.asarray(image)
     centres = jnp.asarray(centres)
     _check_image_and_centres(image, centres, half_size)
-    dtype = _float_dtype(image, centres)
+    dtype = float_dtype(image, centres)
     x, y = _patch_corners(centres, image.shape, half_size, dtype)
     return _blocks(image.astype(dtype), x, y, 2 * half_size + 1)
 
@@ -489,7 +403,7 @@ def ncc_scores_nearest(
     _check_image_and_centres(image, markers, half)
     if markers.shape[0] != templates.num_markers:
         raise ValueError(f"{markers.shape[0]} markers but {templates.num_markers} templates")
-    dtype = _float_dtype(image, markers)
+    dtype = float_dtype(image, markers)
     image = image.astype(dtype)
     size = 2 * half + 1
     x, y = _patch_corners(markers, image.shape, half, dtype)
