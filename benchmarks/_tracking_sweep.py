@@ -75,7 +75,7 @@ def _track_once(method, prior, sequence, particles, seed, likelihood) -> dict:
     """One tracked run: the evaluation's scalars, timings, and the re-seeded frame count."""
     start = time.perf_counter()
     tracker = build_tracker(method, prior, sequence, particles, likelihood)
-    result = track(tracker, jr.PRNGKey(seed), sequence.frames,
+    result = track(tracker, jr.PRNGKey(seed), sequence.frames, sequence.truth[0],
                    chunk_size=max(len(sequence.frames) - 1, 1), progress=False)
     wall = time.perf_counter() - start
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,

@@ -75,11 +75,11 @@ def _trace_events(directory: Path) -> list[dict]:
         return [event for event in json.load(handle)["traceEvents"] if event.get("ph") == "X"]
 
 
-def profile_chunk(tracker, frames, repeats: int) -> dict:
+def profile_chunk(tracker, frames, initial_pose, repeats: int) -> dict:
     """Untraced ms per frame of the chunk scan, and the traced ops grouped by stage."""
     from jaxtrack.trackers._runner import _chunk
 
-    arguments = _chunk_arguments(tracker, _tracked_state(tracker, frames), frames)
+    arguments = _chunk_arguments(tracker, _tracked_state(tracker, frames, initial_pose), frames)
     compiled = _chunk.lower(*arguments).compile()
     instructions = _instructions(compiled.compiled.as_text())
     jax.block_until_ready(compiled(*arguments))
@@ -155,9 +155,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=10)
     parser.add_argument("--output", default=str(RESULTS / "profile_step.json"))
     args = parser.parse_args()
-    tracker, frames, _ = build(args.particles, likelihood="limbs+edges")
+    tracker, frames, _, initial_pose = build(args.particles, likelihood="limbs+edges")
     load = _load_average()
-    profile = profile_chunk(tracker, frames, args.repeats)
+    profile = profile_chunk(tracker, frames, initial_pose, args.repeats)
     dispatch = dispatch_cost()
     print(f"{device_description()}, load {load:.2f}")
     print(f"\nlatent tracker, {args.particles} particles: {profile['ms_per_frame']:.2f} ms and "

@@ -80,8 +80,9 @@ def _load_average() -> float:
 
 def build(num_particles: int, frames: int | None = None, seed: int = 0,
           likelihood: str = "limbs"):
-    """(tracker, observations) for the demo's held-out wave, ``frames`` frames of it: grey
-    frames, or grey frames with edge maps for ``"limbs+edges"``."""
+    """(tracker, observations, grey frames, frame 0's pose) for the demo's held-out wave,
+    ``frames`` frames of it; the observations are grey frames, or grey frames with edge maps
+    for ``"limbs+edges"``."""
     from jaxtrack import trackers
     from jaxtrack.experiments import render_test_sequences
     from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
@@ -100,19 +101,20 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     # as jaxtrack evaluate builds it: with limbs+edges, the foreground term against the
     # sequence's median background
     background = (median_grey_background(sequence.frames) if needs_edges(likelihood) else None)
-    tracker = trackers.latent_tracker(prior.model, prior.template, observations[0],
-                                      sequence.truth[0], num_particles=num_particles,
-                                      fps=sequence.fps, likelihood=likelihood,
+    tracker = trackers.latent_tracker(prior.model, prior.template, num_particles=num_particles,
+                                      fps=sequence.fps,
+                                      likelihood=trackers.Likelihood(likelihood),
                                       background=background)
-    return tracker, observations, np.asarray(sequence.frames, np.float32)
+    return (tracker, observations, np.asarray(sequence.frames, np.float32),
+            sequence.truth[0])
 
 
-def _tracked_state(tracker, frames, steps: int = 8):
+def _tracked_state(tracker, frames, initial_pose, steps: int = 8):
     """The tracker state after ``steps`` tracked frames (a realistic, spread particle cloud)."""
-    from jaxtrack.trackers._runner import _chunk, _start
+    from jaxtrack.trackers._runner import _chunk
 
     key_start, key_frames = jr.split(jr.PRNGKey(1))
-    state, _ = _start(tracker, key_start, jnp.asarray(frames[0]))
+    state = tracker.start(key_start, frames[0], initial_pose)
     state, _ = _chunk(tracker, state, jr.split(key_frames, steps), jnp.asarray(frames[1:steps + 1]))
     return state
 
@@ -149,14 +151,16 @@ def _scan_timing(tracker, state, frames, repeats: int) -> dict:
             "cpu_ms": 1e3 * statistics.median(cpu_times) / CHUNK}
 
 
-def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
+def components(tracker, frames, initial_pose, repeats: int, grey=None) -> dict[str, dict]:
     """Compile and time each component on the same tracked state; ``{name: timings}``.
     ``grey``: the grey frames, when ``frames`` are observations built from them."""
-    from jaxtrack.trackers import track
+    from jaxtrack.trackers import Refinement, search_arms, track
+    from jaxtrack.trackers._refinement import _predicted
 
-    model = tracker.latent_model
-    paper = dataclasses.replace(tracker, refine_steps=0)
-    tracker_state = _tracked_state(tracker, frames)
+    paper = dataclasses.replace(tracker, refinement=None)
+    tracker_state = _tracked_state(tracker, frames, initial_pose)
+    paper_state = dataclasses.replace(tracker_state, refined=None, refine_std=None)
+    model = tracker_state.model
     state = tracker_state.filter
     particles, log_weights = state.particles, state.log_weights
     frame = jnp.asarray(frames[9])
@@ -198,17 +202,21 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
         return smc.step(key, state, frame, model)
 
     def estimate(state, info):
-        return tracker._estimate(state, info)
+        return tracker._cloud(model, state, info)
 
     def search(carried, frame):
-        return tracker.search_arms(carried.pose, frame, tracker._predicted(carried))
+        arms = tracker.refinement.arm_search
+        return search_arms(arms, carried.refined.pose, frame, model.templates, model.template,
+                           model.sharpness, _predicted(arms, carried.refined))
 
     def refine(carried, filtered, estimate, frame):
-        return tracker._refined(carried, filtered, estimate, frame)
+        return tracker._report(carried, filtered, estimate, frame)
 
     def refine_only(carried, filtered, estimate, frame):
-        return dataclasses.replace(tracker, arm_grid=0)._refined(carried, filtered, estimate,
-                                                                 frame)
+        no_search = Refinement(steps=tracker.refinement.steps,
+                               prior_std=tracker.refinement.prior_std, arm_search=None)
+        return dataclasses.replace(tracker, refinement=no_search)._report(carried, filtered,
+                                                                          estimate, frame)
 
     def update(key, state, frame):
         return tracker.update(key, state, frame)
@@ -238,16 +246,16 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
         rows[name] = {"compile_s": compile_s, "ms": 1e3 * wall_s, "cpu_ms": 1e3 * cpu_s}
 
     rows["track"] = _scan_timing(tracker, tracker_state, frames, repeats)
-    rows["track, paper's estimate"] = _scan_timing(paper, tracker_state, frames, repeats)
+    rows["track, paper's estimate"] = _scan_timing(paper, paper_state, frames, repeats)
     # the same scan with a likelihood that reads no pixel: what is left is the engine's own
     # cost (draws, μ, decoding, resampling, estimate), the floor of any likelihood's ms/frame
-    blind = eqx.tree_at(lambda t: t.latent_model.templates, paper, _NoImage())
-    rows["track, no image"] = _scan_timing(blind, tracker_state, frames, repeats)
+    blind = eqx.tree_at(lambda s: s.model.templates, paper_state, _NoImage())
+    rows["track, no image"] = _scan_timing(paper, blind, frames, repeats)
 
     # the whole clip through track() itself: a first call (which compiles the chunk shape),
     # then the median of the timed ones
-    results = [track(tracker, jr.PRNGKey(seed), frames, chunk_size=CHUNK, progress=False)
-               for seed in range(TRACK_CALLS + 1)]
+    results = [track(tracker, jr.PRNGKey(seed), frames, initial_pose, chunk_size=CHUNK,
+                     progress=False) for seed in range(TRACK_CALLS + 1)]
     rows["track()"] = {"compile_s": results[0].compile_seconds,
                        "ms": 1e3 * statistics.median(r.seconds_per_frame for r in results[1:]),
                        "cpu_ms": None}
@@ -261,8 +269,8 @@ def components(tracker, frames, repeats: int, grey=None) -> dict[str, dict]:
             times.append((time.perf_counter() - tick) / len(grey))
         rows["edge maps"] = {"compile_s": None, "ms": 1e3 * statistics.median(times),
                              "cpu_ms": None}
-        results = [track(tracker, jr.PRNGKey(seed), grey, chunk_size=CHUNK, progress=False)
-                   for seed in range(TRACK_CALLS)]
+        results = [track(tracker, jr.PRNGKey(seed), grey, initial_pose, chunk_size=CHUNK,
+                         progress=False) for seed in range(TRACK_CALLS)]
         rows["track() from grey"] = {
             "compile_s": None, "cpu_ms": None,
             "ms": 1e3 * statistics.median(r.seconds_per_frame for r in results)}
@@ -285,9 +293,10 @@ def main() -> None:
     frames_needed = None  # the whole clip (138 frames at 30 fps)
     results = {}
     for likelihood, num_particles in itertools.product(args.likelihood, args.particles):
-        tracker, frames, grey = build(num_particles, frames_needed, likelihood=likelihood)
+        tracker, frames, grey, initial_pose = build(num_particles, frames_needed,
+                                                    likelihood=likelihood)
         load_before = _load_average()
-        rows = components(tracker, frames, args.repeats, grey)
+        rows = components(tracker, frames, initial_pose, args.repeats, grey)
         load_after = _load_average()
         print(f"\nlatent tracker, {likelihood}, {num_particles} particles, {grey.shape[2]}x"
               f"{grey.shape[1]} frames (load average {load_before:.2f} → {load_after:.2f})")

@@ -23,6 +23,7 @@ from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import render_test_sequences, run_method
 from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.priors.train import train_prior
+from jaxtrack.trackers import Likelihood
 
 prior = train_prior(TRAIN_CLIPS, cache="jaxtrack-demo/gplvm_waves.npz")
 print(prior.description["num_poses"], "training poses; ν =", np.asarray(prior.model.dynamics_std))
@@ -55,8 +56,8 @@ for method, result in results.items():
 # when their texture has drifted from the frame-0 strips, and the foreground term (a static
 # camera's median background) keeps an arm off the place it has left.
 no_foreground = run_method("latent", prior, sequence, particles=200, background=False)
-strips = run_method("latent", prior, sequence, particles=200, likelihood="limbs")
-paper = run_method("latent", prior, sequence, particles=200, likelihood="markers")
+strips = run_method("latent", prior, sequence, particles=200, likelihood=Likelihood("limbs"))
+paper = run_method("latent", prior, sequence, particles=200, likelihood=Likelihood("markers"))
 for name, result in (("strips + edges + fg", results["latent"]),
                      ("strips + edges", no_foreground), ("limb strips", strips),
                      ("marker patches", paper)):
@@ -64,29 +65,31 @@ for name, result in (("strips + edges + fg", results["latent"]),
     print(f"latent, {name:19s} {metrics['mean_error_torso']:.3f} of torso, "
           f"{metrics['fraction_within_15']:.0%} of frames within 15 %")
 
-# %% The reported pose is refined in the full SPM state (the default), each refinement starting
-# from a grid search over both arms' two image angles, about the carried arm and about its
-# constant-velocity prediction; arm_momentum=0 searches about the carried arm alone, arm_grid=0
-# leaves the search out and refine_steps=0 reports the paper's estimate, μ of the particles'
-# mean latent. The particles are the same in all four runs: the refinement only leaves the
-# latent space for the pose it reports (README, "Architecture").
-from jaxtrack.trackers import latent_tracker, track  # noqa: E402
+# %% The reported pose is refined in the full SPM state (the default `Refinement()` stage),
+# each refinement starting from a grid search over both arms' two image angles, about the
+# carried arm and about its constant-velocity prediction; `ArmSearch(momentum=0)` searches
+# about the carried arm alone, `arm_search=None` leaves the search out and `refinement=None`
+# reports the paper's estimate, μ of the particles' mean latent. The particles are the same in
+# all four runs: the refinement only leaves the latent space for the pose it reports. Every
+# tracker takes the same stage (`condensation_tracker(..., refinement=Refinement())`).
+from jaxtrack.trackers import ArmSearch, Refinement, latent_tracker, track  # noqa: E402
 from jaxtrack.vision import median_grey_background  # noqa: E402
 
 scene = median_grey_background(sequence.frames)  # what run_method scores the arms against
 
 
-def latent_run(**options):
-    return track(latent_tracker(prior.model, prior.template, sequence.frames[0],
-                                sequence.truth[0], fps=sequence.fps, background=scene,
-                                **options),
-                 jr.PRNGKey(0), sequence.frames)
+def latent_run(refinement):
+    tracker = latent_tracker(prior.model, prior.template, fps=sequence.fps, background=scene,
+                             refinement=refinement)
+    return track(tracker, jr.PRNGKey(0), sequence.frames, sequence.truth[0])
 
 
-for name, result in (("searched + refined (default)", results["latent"]),
-                     ("searched about the carried arm alone", latent_run(arm_momentum=0)),
-                     ("refined, no arm search", latent_run(arm_grid=0)),
-                     ("paper's estimate", latent_run(refine_steps=0))):
+for name, result in (
+        ("searched + refined (default)", results["latent"]),
+        ("searched about the carried arm alone",
+         latent_run(Refinement(arm_search=ArmSearch(momentum=0.0)))),
+        ("refined, no arm search", latent_run(Refinement(arm_search=None))),
+        ("paper's estimate", latent_run(None))):
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
     print(f"latent, {name:36s} {metrics['mean_error_torso']:.3f} of torso, "
           f"{metrics['fraction_within_15']:.0%} of frames within 15 %")
@@ -119,7 +122,7 @@ plt.axis("off")
 from jaxtrack.vision import to_grey  # noqa: E402
 
 grey = to_grey(video.frames)
-tracker = latent_tracker(prior.model, prior.template, grey[0], found.markers, fps=video.fps,
+tracker = latent_tracker(prior.model, prior.template, fps=video.fps,
                          background=median_grey_background(grey))
-result = track(tracker, jr.PRNGKey(0), grey)
+result = track(tracker, jr.PRNGKey(0), grey, found.markers)
 print(f"{1e3 * result.seconds_per_frame:.2f} ms/frame, compile {result.compile_seconds:.1f} s")

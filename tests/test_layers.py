@@ -31,7 +31,7 @@ LAYERS = {
     "trackers": 5,
     "evaluation": 6,
     "experiments": 7,
-    "cli": 8, "_tracker_options": 8,  # the command-line options of the tracker commands
+    "cli": 8,
 }
 
 

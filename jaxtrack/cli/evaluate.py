@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jaxtrack._tracker_options import add_tracker_options, check_tracker_options
 from jaxtrack.cli._common import UserError, check_clips
+from jaxtrack.cli._options import add_tracker_options, tracker_options
 from jaxtrack.priors.gplvm import OPTIMISERS
 
 __all__ = ["add_parser"]
@@ -65,25 +65,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--particles must be positive, got {args.particles}")
     if args.views < 1:
         raise UserError(f"--views must be positive, got {args.views}")
-    check_tracker_options(args, UserError)
+    options = tracker_options(args)
     if args.json.suffix != ".json" or not args.json.parent.exists():
         raise UserError(f"--json {args.json}: must be a .json path in an existing folder")
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
     particles = args.particles or DEFAULT_PARTICLES[args.method]
-    refine_steps = arm_grid = arm_momentum = None  # only the latent tracker refines
-    if args.method == "latent":
-        from jaxtrack.trackers.latent import (
-            DEFAULT_ARM_GRID,
-            DEFAULT_ARM_MOMENTUM,
-            default_refine_steps,
-        )
-
-        refine_steps = (default_refine_steps(args.likelihood) if args.refine_steps is None
-                        else args.refine_steps)
-        arm_grid = DEFAULT_ARM_GRID if args.arm_grid is None else args.arm_grid
-        arm_momentum = (DEFAULT_ARM_MOMENTUM if args.arm_momentum is None
-                        else args.arm_momentum)
     prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed,
                         optimiser=args.prior_optimiser)
     per_sequence = []
@@ -92,10 +79,9 @@ def run(args: argparse.Namespace) -> int:
                                               backgrounds=args.backgrounds, seed=args.seed,
                                               max_frames=args.max_frames):
             result = run_method(args.method, prior, sequence, particles=particles,
-                                seed=args.seed, likelihood=args.likelihood,
-                                refine_steps=refine_steps, arm_grid=arm_grid,
-                                arm_momentum=arm_momentum,
-                                background=args.foreground == "median")
+                                seed=args.seed, likelihood=options.likelihood,
+                                refinement=options.refinement, background=options.foreground)
+            tracker_record = result.options
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
                                      compile_seconds=result.compile_seconds)
@@ -112,9 +98,7 @@ def run(args: argparse.Namespace) -> int:
     overall = summarise(per_sequence)
     write_json_atomically(args.json, {
         "method": args.method, "particles": particles, "seed": args.seed,
-        "likelihood": args.likelihood, "refine_steps": refine_steps,
-        "arm_grid": arm_grid, "arm_momentum": arm_momentum,
-        "foreground": args.foreground if args.likelihood == "limbs+edges" else None,
+        "tracker": tracker_record,
         "train": args.train, "test": args.test,
         "prior": prior.description,
         "overall": overall, "sequences": per_sequence})

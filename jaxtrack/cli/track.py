@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack._tracker_options import add_tracker_options, check_tracker_options
 from jaxtrack.cli._common import UserError
+from jaxtrack.cli._options import add_tracker_options, tracker_options
 
 __all__ = ["add_parser"]
 
@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--particles must be positive, got {args.particles}")
     if args.max_size < 32:
         raise UserError(f"--max-size must be at least 32, got {args.max_size}")
-    check_tracker_options(args, UserError)
+    options = tracker_options(args)
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model)
@@ -188,14 +188,12 @@ def run(args: argparse.Namespace) -> int:
           + (f", {init['source']} box, overlap {init['score']:.2f}" if "score" in init else "")
           + ")")
     grey = to_grey(frames)
-    foreground = (args.foreground == "median" and args.likelihood == "limbs+edges"
-                  and len(grey) >= 3)  # a median of one or two frames holds the person
-    tracker = latent_tracker(model, template, grey[0], markers, num_particles=args.particles,
-                             fps=fps, likelihood=args.likelihood,
-                             background=median_grey_background(grey) if foreground else None,
-                             refine_steps=args.refine_steps, arm_grid=args.arm_grid,
-                             arm_momentum=args.arm_momentum)
-    result = track(tracker, jr.PRNGKey(args.seed), grey)
+    # a median of one or two frames holds the person
+    foreground = options.foreground and len(grey) >= 3
+    tracker = latent_tracker(model, template, num_particles=args.particles, fps=fps,
+                             likelihood=options.likelihood, refinement=options.refinement,
+                             background=median_grey_background(grey) if foreground else None)
+    result = track(tracker, jr.PRNGKey(args.seed), grey, markers)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
         raise UserError(f"tracking produced non-finite markers from frame {bad}; nothing written")
@@ -222,9 +220,7 @@ def run(args: argparse.Namespace) -> int:
     json_path = write_json_atomically(args.out / "track.json", {
         "video": str(args.video), "model": str(args.model), "size": [width, height],
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
-        "particles": args.particles, "seed": args.seed, "likelihood": args.likelihood,
-        "refine_steps": tracker.refine_steps, "arm_grid": tracker.arm_grid,
-        "arm_momentum": tracker.arm_momentum, "foreground": "median" if foreground else "none",
+        "particles": args.particles, "seed": args.seed, "tracker": result.options,
         "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})

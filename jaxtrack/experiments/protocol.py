@@ -24,8 +24,8 @@ from jaxtrack.body import (
     render_motion,
     spm_initial_state,
 )
-from jaxtrack.likelihoods import DEFAULT_LIKELIHOOD
 from jaxtrack.priors.train import TrainedPrior
+from jaxtrack.trackers import Likelihood, Refinement
 
 __all__ = ["AR_TRAINING_FRAMES", "DEFAULT_PARTICLES", "METHODS", "TestSequence", "build_tracker",
            "render_test_sequences", "run_method"]
@@ -77,53 +77,54 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
 
 
 def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int,
-                  likelihood: str = DEFAULT_LIKELIHOOD, refine_steps: int | None = None,
-                  arm_grid: int | None = None, arm_momentum: float | None = None,
-                  background: bool = True):
-    """The tracker ``method`` initialised on the sequence's first frame (ground truth), scored
-    by ``likelihood`` (``"limbs+edges"``, ``"limbs"`` or ``"markers"``, the same for every
-    method); ``refine_steps``: the latent tracker's full-state refinement (None: its default,
-    0: the paper's estimate; the other methods ignore it); ``arm_grid``: its arm search (None:
-    the default, 0: none); ``arm_momentum``: its constant-velocity arm centre (None: the default,
-    0: none); ``background``: with ``"limbs+edges"``, score the arms against the sequence's
-    median background too (the foreground term, ``jaxtrack.likelihoods.edges``)."""
+                  likelihood: Likelihood = Likelihood(),
+                  refinement: Refinement | None | str = "default", background: bool = True):
+    """The tracker ``method`` for a test sequence (start it at frame 0's ground truth).
+
+    Every method is scored by the same ``likelihood``; ``refinement`` is the full-state
+    refinement stage, the same for every method that takes it (``"default"``: the method's
+    default, the latent tracker's :func:`~jaxtrack.trackers.default_refinement` and none for
+    CONDENSATION and MHT, which report their own estimates as the paper did; None: none);
+    ``background``: with ``"limbs+edges"``, score the arms against the sequence's median
+    background too (the foreground term, ``jaxtrack.likelihoods.edges``). CONDENSATION's AR(2)
+    and MHT's step are learned from the first :data:`AR_TRAINING_FRAMES` frames of ground
+    truth, as Tian et al. did."""
     from jaxtrack import trackers
-    from jaxtrack.likelihoods import needs_edges
     from jaxtrack.vision import median_grey_background
 
-    frame, markers = sequence.frames[0], sequence.truth[0]
     scene = (median_grey_background(sequence.frames)
-             if background and needs_edges(likelihood) else None)
+             if background and likelihood.needs_edges else None)
     if method == "latent":
-        return trackers.latent_tracker(prior.model, prior.template, frame, markers,
-                                       num_particles=particles, fps=sequence.fps,
-                                       likelihood=likelihood, background=scene,
-                                       refine_steps=refine_steps, arm_grid=arm_grid,
-                                       arm_momentum=arm_momentum)
+        return trackers.latent_tracker(prior.model, prior.template, num_particles=particles,
+                                       fps=sequence.fps, likelihood=likelihood,
+                                       refinement=refinement, background=scene)
+    if refinement == "default":
+        refinement = None
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES]),
                                           prior.template))
     if method == "condensation":
-        return trackers.condensation_tracker(prior.template, frame, markers, states,
-                                             num_particles=particles, likelihood=likelihood,
+        return trackers.condensation_tracker(prior.template, states, num_particles=particles,
+                                             likelihood=likelihood, refinement=refinement,
                                              background=scene)
     if method == "mht":
-        return trackers.mht_tracker(prior.template, frame, markers, states, num_modes=particles,
-                                    likelihood=likelihood, background=scene)
+        return trackers.mht_tracker(prior.template, states, num_modes=particles,
+                                    likelihood=likelihood, refinement=refinement,
+                                    background=scene)
     raise ValueError(f"method must be one of {METHODS}, got {method!r}")
 
 
 def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
-               particles: int | None = None, seed: int = 0, likelihood: str = DEFAULT_LIKELIHOOD,
-               refine_steps: int | None = None, arm_grid: int | None = None,
-               arm_momentum: float | None = None, background: bool = True,
+               particles: int | None = None, seed: int = 0,
+               likelihood: Likelihood = Likelihood(),
+               refinement: Refinement | None | str = "default", background: bool = True,
                progress: bool = True):
-    """Track a test sequence with one method; returns the :class:`TrackResult`
-    (``refine_steps``, ``arm_grid``, ``arm_momentum``, ``background``: see
-    :func:`build_tracker`)."""
+    """Track a test sequence with one method from frame 0's ground truth; returns the
+    :class:`~jaxtrack.trackers.TrackResult` (its ``options`` say what ran; the other
+    arguments: :func:`build_tracker`)."""
     from jaxtrack.trackers import track
 
     particles = particles or DEFAULT_PARTICLES[method]
-    tracker = build_tracker(method, prior, sequence, particles, likelihood, refine_steps,
-                            arm_grid, arm_momentum, background)
-    return track(tracker, jr.PRNGKey(seed), sequence.frames, progress=progress,
-                 description=f"{method} N={particles}")
+    tracker = build_tracker(method, prior, sequence, particles, likelihood, refinement,
+                            background)
+    return track(tracker, jr.PRNGKey(seed), sequence.frames, sequence.truth[0],
+                 progress=progress, description=f"{method} N={particles}")

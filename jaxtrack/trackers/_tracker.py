@@ -17,8 +17,7 @@ produced it (``options()``: a JSON-able record written into every result file).
 See ``docs/trackers.md``.
 """
 
-from __future__ import annotations
-
+# no `from __future__ import annotations`: equinox reads AbstractVar from the live annotation
 import abc
 
 import equinox as eqx
@@ -84,7 +83,7 @@ class Tracker(eqx.Module):
         """Frame 0's report (the initial pose, as the tracker holds it)."""
 
     @abc.abstractmethod
-    def update(self, key: PRNGKeyArray, state, frame: Float[Array, "..."] | FrameInChunk
+    def update(self, key: PRNGKeyArray, state, frame: "Float[Array, '...'] | FrameInChunk"
                ) -> tuple[object, FrameEstimate]:
         """The state at the next frame and that frame's estimate (pure; jit and scan it)."""
 

@@ -249,10 +249,15 @@ class LatentTracker(Tracker):
 
     def update(self, key: PRNGKeyArray, state: LatentState, frame: Array | FrameInChunk
                ) -> tuple[LatentState, FrameEstimate]:
-        model = state.model
         with jax.named_scope("filter"):
-            filtered, info = filter_step(key, state.filter, frame, model)
-            estimate = self._cloud(model, filtered, info)
+            filtered, info = filter_step(key, state.filter, frame, state.model)
+            estimate = self._cloud(state.model, filtered, info)
+        return self._report(state, filtered, estimate, frame)
+
+    def _report(self, state: LatentState, filtered: smc.FilterState, estimate: FrameEstimate,
+                frame: Array | FrameInChunk) -> tuple[LatentState, FrameEstimate]:
+        """The new state and the frame's report, the refinement stage run on ``frame``."""
+        model = state.model
         if self.refinement is None:
             return LatentState(model, filtered, None, None), estimate
         with jax.named_scope("candidates"):

@@ -6,13 +6,12 @@ import numpy as np
 import pytest
 
 from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
-from jaxtrack.vision import write_frames
 from jaxtrack.cli import main
 from jaxtrack.data import load_clip
 from jaxtrack.priors.gplvm import save_gplvm
 from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise, search_poses
 from jaxtrack.trackers.latent import DEFAULT_ARM_GRID
-from jaxtrack.vision import foreground_mask, head_boxes, median_background
+from jaxtrack.vision import foreground_mask, head_boxes, median_background, write_frames
 
 HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 

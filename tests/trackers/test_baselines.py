@@ -13,19 +13,20 @@ import jaxtrack
 from jaxtrack.body import UPPER_BODY_12, build_template, spm_fit, spm_forward, spm_initial_state
 from jaxtrack.data import load_clip
 from jaxtrack.likelihoods import make_templates, ncc_log_likelihood
+from jaxtrack.priors.dynamics import AR2Dynamics, fit_ar2, random_walk_dynamics
 from jaxtrack.trackers import (
-    AR2Dynamics,
     CondensationTracker,
+    FrameInChunk,
+    Likelihood,
     MHTTracker,
     condensation_tracker,
-    fit_ar2,
     mht_tracker,
-    random_walk_dynamics,
     random_walk_tracker,
     refine_pose,
+    refinement_cost,
     track,
 )
-from jaxtrack.trackers.mht import _surviving, refinement_cost
+from jaxtrack.trackers.mht import _surviving
 from jaxtrack.vision import edge_observations, to_grey
 
 CLIP = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
@@ -173,11 +174,10 @@ def test_ar2_predicts_the_training_frames_better_than_a_random_walk(wave):
 
 @pytest.mark.parametrize("make", [condensation_tracker, random_walk_tracker])
 def test_condensation_follows_the_first_frames(wave, make):
-    tracker = make(wave["template"], wave["frames"][0], wave["truth"][0], wave["states"],
-                   num_particles=200)
+    tracker = make(wave["template"], wave["states"], num_particles=200)
     assert isinstance(tracker, CondensationTracker)
-    result = track(tracker, jr.key(0), wave["frames"][:TRACKED], chunk_size=TRACKED - 1,
-                   progress=False)
+    result = track(tracker, jr.key(0), wave["frames"][:TRACKED], wave["truth"][0],
+                   chunk_size=TRACKED - 1, progress=False)
     truth = wave["truth"][:TRACKED]
     assert result.markers.shape == truth.shape
     assert np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))
@@ -191,15 +191,17 @@ def test_condensation_follows_the_first_frames(wave, make):
 
 @pytest.mark.parametrize("nearest", [True, False])
 def test_condensation_model_jit_matches_eager(wave, nearest):
-    tracker = condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0],
-                                   wave["states"], num_particles=4, nearest=nearest)
+    tracker = condensation_tracker(wave["template"], wave["states"], num_particles=4,
+                                   likelihood=Likelihood(nearest=nearest))
     # the default likelihood observes the grey frame with its edge maps
-    model, frame = tracker.model, jnp.asarray(edge_observations(wave["frames"][1:2])[0])
+    frames = edge_observations(wave["frames"][:2])
+    model = tracker.start(jr.key(0), frames[0], wave["truth"][0]).model
+    frame = jnp.asarray(frames[1])
 
     def one_particle(key):
         key_init, key_propagate = jr.split(key)
         child = model.propagate(key_propagate, model.init(key_init), 1)
-        return child, model.log_likelihood(child, frame), tracker.markers_of(child)
+        return child, model.log_likelihood(child, frame), model.markers_of(child)
 
     jitted = eqx.filter_jit(one_particle)(jr.key(3))
     with jax.disable_jit():
@@ -209,9 +211,8 @@ def test_condensation_model_jit_matches_eager(wave, nearest):
 
 
 def test_condensation_particles_hold_the_previous_state(wave):
-    tracker = condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0],
-                                   wave["states"], num_particles=4)
-    model = tracker.model
+    tracker = condensation_tracker(wave["template"], wave["states"], num_particles=4)
+    model = tracker.start(jr.key(0), wave["frames"][0], wave["truth"][0]).model
     particle = model.init(jr.key(0))
     np.testing.assert_array_equal(particle["current"], particle["previous"])
     child = model.propagate(jr.key(1), particle, 1)
@@ -224,11 +225,11 @@ def test_condensation_particles_hold_the_previous_state(wave):
 
 def test_condensation_rejects_bad_training_states(wave):
     with pytest.raises(ValueError, match="training_states"):
-        condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0],
-                             wave["states"][:, :10])
-    with pytest.raises(ValueError, match="first_markers"):
-        condensation_tracker(wave["template"], wave["frames"][0], wave["truth"][0, :5],
-                             wave["states"])
+        condensation_tracker(wave["template"], wave["states"][:, :10])
+    with pytest.raises(ValueError, match="num_particles"):
+        condensation_tracker(wave["template"], wave["states"], num_particles=0)
+    with pytest.raises(ValueError, match="initial_spread"):
+        condensation_tracker(wave["template"], wave["states"], initial_spread=-1.0)
 
 
 # ---------------------------------------------------------------- MHT
@@ -279,11 +280,10 @@ def test_refinement_cost_is_the_ncc_cost_plus_the_prior(wave):
 
 
 def test_mht_follows_the_first_frames(wave):
-    tracker = mht_tracker(wave["template"], wave["frames"][0], wave["truth"][0], wave["states"],
-                          num_modes=6, max_steps=6)
+    tracker = mht_tracker(wave["template"], wave["states"], num_modes=6, max_steps=6)
     assert isinstance(tracker, MHTTracker)
-    result = track(tracker, jr.key(0), wave["frames"][:TRACKED], chunk_size=TRACKED - 1,
-                   progress=False)
+    result = track(tracker, jr.key(0), wave["frames"][:TRACKED], wave["truth"][0],
+                   chunk_size=TRACKED - 1, progress=False)
     truth = wave["truth"][:TRACKED]
     assert np.all(np.isfinite(result.markers))
     np.testing.assert_allclose(result.markers[0], truth[0], atol=1e-3)  # frame 0 is given
@@ -299,21 +299,21 @@ def test_mht_scan_matches_a_loop_of_updates(wave):
     # track() scans update over a chunk; one jitted update per frame must give the same track
     # (same settings and chunk as above, so the chunk's compilation is shared)
     frames = wave["frames"][:TRACKED]
-    tracker = mht_tracker(wave["template"], frames[0], wave["truth"][0], wave["states"],
-                          num_modes=6, max_steps=6)
+    tracker = mht_tracker(wave["template"], wave["states"], num_modes=6, max_steps=6)
     key = jr.key(5)
-    scanned = track(tracker, key, frames, chunk_size=TRACKED - 1, progress=False)
+    scanned = track(tracker, key, frames, wave["truth"][0], chunk_size=TRACKED - 1,
+                    progress=False)
     key_start, key_frames = jr.split(key)
-    state = tracker.start(key_start, jnp.asarray(frames[0]))
+    observations = edge_observations(frames[:4])  # what track() adds for the default likelihood
+    state = tracker.start(key_start, observations[0], wave["truth"][0])
     update = eqx.filter_jit(tracker.update)
     looped = [tracker.first_estimate(state).markers]
-    observations = edge_observations(frames[1:4])  # what track() adds for the default likelihood
-    for frame_key, frame in zip(jr.split(key_frames, TRACKED - 1)[:3], observations,
+    for frame_key, frame in zip(jr.split(key_frames, TRACKED - 1)[:3], observations[1:],
                                 strict=True):
         state, estimate = update(frame_key, state, jnp.asarray(frame))
         looped.append(estimate.markers)
     np.testing.assert_allclose(scanned.markers[:4], np.stack(looped), atol=1e-3)
-    assert int(state.time) == 3 and int(state.failed_refinements) == 0
+    assert int(state.pool.time) == 3 and int(state.pool.failed_refinements) == 0
 
 
 def test_mht_merges_duplicates_and_prunes_unlikely_modes():
@@ -330,11 +330,15 @@ def test_mht_merges_duplicates_and_prunes_unlikely_modes():
 
 def test_mht_rejects_bad_input(wave):
     with pytest.raises(ValueError, match="step_std"):
-        mht_tracker(wave["template"], wave["frames"][0], wave["truth"][0], step_std=np.ones(3))
+        mht_tracker(wave["template"], step_std=np.ones(3))
     with pytest.raises(ValueError, match="training_states"):
-        mht_tracker(wave["template"], wave["frames"][0], wave["truth"][0], wave["states"][:1])
+        mht_tracker(wave["template"], wave["states"][:1])
     with pytest.raises(ValueError, match="num_modes"):
-        mht_tracker(wave["template"], wave["frames"][0], wave["truth"][0], num_modes=0)
+        mht_tracker(wave["template"], num_modes=0)
+    with pytest.raises(ValueError, match="max_steps"):
+        mht_tracker(wave["template"], max_steps=0)
+    with pytest.raises(ValueError, match="prune_below"):
+        mht_tracker(wave["template"], prune_below=-1.0)
 
 
 def test_marker_colours_never_put_two_markers_of_one_part_together():
@@ -373,15 +377,16 @@ def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
     (reference, reference_result), (parts, parts_result) = refined("optimistix"), refined("parts")
     np.testing.assert_allclose(parts, reference, atol=1e-8)
     assert parts_result == reference_result
-    # the frame given as (frames, index), read in place inside the loop: the same iterate (to
+    # the frame given as a FrameInChunk, read in place inside the loop: the same iterate (to
     # rounding: XLA fuses the reads differently)
     frames = jnp.stack([jnp.zeros_like(frame), frame])
-    in_place, _ = jax.jit(lambda s, i: refine_pose(s, (frames, i), templates, template, s, std,
-                                                   4.0, max_steps=8, solver="parts"))(start, 1)
+    in_place, _ = jax.jit(lambda s, i: refine_pose(s, FrameInChunk(frames, i), templates,
+                                                   template, s, std, 4.0, max_steps=8,
+                                                   solver="parts"))(start, 1)
     np.testing.assert_allclose(in_place, parts, rtol=0, atol=1e-12)
     assert float(refinement_cost(parts, frame, templates, template, start, std, 4.0)) < float(
         refinement_cost(start, frame, templates, template, start, std, 4.0))
     with pytest.raises(ValueError, match="solver"):
         refine_pose(start, frame, templates, template, start, std, solver="lbfgs")
-    with pytest.raises(ValueError, match=r"\(frames, index\) pair"):
+    with pytest.raises(ValueError, match="FrameInChunk"):
         refine_pose(start, (frames, 1, 0), templates, template, start, std, solver="parts")

@@ -172,3 +172,44 @@ def test_no_tracker_module_imports_another():
         others = {f"jaxtrack.trackers.{other}" for other in TRACKER_MODULES if other != name}
         assert not imported & others, (name, imported & others)
         assert "jaxtrack.trackers" not in imported  # not through the package either
+
+
+def test_a_tracker_must_declare_the_whole_contract():
+    class NoLikelihood(Tracker):
+        @property
+        def num_particles(self):
+            return 1
+
+        def start(self, key, first_frame, initial_pose):
+            return None
+
+        def first_estimate(self, state):
+            return None
+
+        def update(self, key, state, frame):
+            return state, None
+
+        def options(self):
+            return {}
+
+    with pytest.raises(TypeError, match="abstract attributes.*likelihood"):
+        NoLikelihood()
+
+    class NoUpdate(Tracker):
+        likelihood: Likelihood = Likelihood()
+
+        @property
+        def num_particles(self):
+            return 1
+
+        def start(self, key, first_frame, initial_pose):
+            return None
+
+        def first_estimate(self, state):
+            return None
+
+        def options(self):
+            return {}
+
+    with pytest.raises(TypeError, match="abstract method.*update"):
+        NoUpdate()

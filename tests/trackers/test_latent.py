@@ -9,17 +9,26 @@ import pytest
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.cli import main
 from jaxtrack.evaluation import evaluate_track
-from jaxtrack.trackers import latent_tracker, track
-from jaxtrack.trackers.latent import LatentState
+from jaxtrack.trackers import (
+    ArmSearch,
+    Likelihood,
+    Refinement,
+    RefinementState,
+    latent_tracker,
+    score_pose,
+    search_arms,
+    track,
+)
+from jaxtrack.trackers._refinement import _predicted
 from jaxtrack.vision import edge_observations
 
 HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 
 
 def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=100, fps=sequence.fps)
-    result = track(tracker, jr.PRNGKey(0), sequence.frames, chunk_size=8, progress=False)
+    tracker = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps)
+    result = track(tracker, jr.PRNGKey(0), sequence.frames, sequence.truth[0], chunk_size=8,
+                   progress=False)
     assert result.markers.shape == sequence.truth.shape
     assert np.all(np.isfinite(result.markers))
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
@@ -35,21 +44,24 @@ def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior
     """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
     frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before."""
 
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=100, fps=sequence.fps, likelihood="limbs+edges")
-    from_grey = track(tracker, jr.PRNGKey(0), sequence.frames, chunk_size=8, progress=False)
-    given = track(tracker, jr.PRNGKey(0), edge_observations(sequence.frames), chunk_size=8,
-                  progress=False)
+    tracker = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps,
+                             likelihood=Likelihood("limbs+edges"))
+    truth = sequence.truth[0]
+    from_grey = track(tracker, jr.PRNGKey(0), sequence.frames, truth, chunk_size=8,
+                      progress=False)
+    given = track(tracker, jr.PRNGKey(0), edge_observations(sequence.frames), truth,
+                  chunk_size=8, progress=False)
     np.testing.assert_array_equal(from_grey.markers, given.markers)
     metrics = evaluate_track(from_grey.markers, sequence.truth, UPPER_BODY_12)
     assert np.all(np.isfinite(from_grey.log_likelihood))
     assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
     with pytest.raises(ValueError, match="edge maps"):
-        track(tracker, jr.PRNGKey(0), sequence.images, progress=False)
-    strips = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                            num_particles=8, likelihood="limbs")
+        track(tracker, jr.PRNGKey(0), sequence.images, truth, progress=False)
+    strips = latent_tracker(prior.model, prior.template, num_particles=8,
+                            likelihood=Likelihood("limbs"))
     with pytest.raises(ValueError, match="grey images, got"):
-        track(strips, jr.PRNGKey(0), edge_observations(sequence.frames[:2]), progress=False)
+        track(strips, jr.PRNGKey(0), edge_observations(sequence.frames[:2]), truth,
+              progress=False)
 
 
 def test_random_walk_in_the_full_state_does_worse(wave_prior, whole_take):
@@ -65,35 +77,33 @@ def test_random_walk_in_the_full_state_does_worse(wave_prior, whole_take):
     from jaxtrack.trackers.condensation import random_walk_tracker
 
     def error(tracker):
-        result = track(tracker, jr.PRNGKey(0), sequence.frames, chunk_size=8, progress=False)
+        result = track(tracker, jr.PRNGKey(0), sequence.frames, sequence.truth[0],
+                       chunk_size=8, progress=False)
         return evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)["mean_error_torso"]
 
-    latent = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                            num_particles=100, fps=sequence.fps)
+    latent = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps)
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth), prior.template))
-    walk = random_walk_tracker(prior.template, sequence.frames[0], sequence.truth[0], states,
-                               num_particles=100)
+    walk = random_walk_tracker(prior.template, states, num_particles=100)
     assert error(latent) < error(walk)
 
 
 def test_full_state_refinement_leaves_the_latent_space_and_lowers_the_error(wave_prior,
                                                                           whole_take):
-    """The reported pose is refined in the full 25-d state (``refine_steps``, on by default)
-    while the particles stay in the latent space: the same run with ``refine_steps = 0`` has the
+    """The reported pose is refined in the full 25-d state (``refinement``, on by default)
+    while the particles stay in the latent space: the same run without the refinement has the
     very same particles (best particle, ESS, evidence), and the refined poses score at least as
     well as the paper's estimate on every frame and lie closer to the truth over the take (here
     12–13 % of the torso against 15–17 %, seeds 0–2)."""
     prior, sequence = wave_prior, whole_take
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=100, fps=sequence.fps)
-    paper = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                           num_particles=100, fps=sequence.fps, refine_steps=0)
-    refined, plain = (track(t, jr.PRNGKey(0), sequence.frames, chunk_size=8, progress=False)
-                      for t in (tracker, paper))
+    tracker = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps)
+    paper = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps,
+                           refinement=None)
+    refined, plain = (track(t, jr.PRNGKey(0), sequence.frames, sequence.truth[0],
+                            chunk_size=8, progress=False) for t in (tracker, paper))
     for name in ("best_markers", "ess", "log_likelihood"):
         np.testing.assert_array_equal(getattr(refined, name), getattr(plain, name))
-    model = tracker.latent_model
     observations = jnp.asarray(edge_observations(sequence.frames))
+    model = tracker.start(jr.PRNGKey(0), observations[0], sequence.truth[0]).model
     score = jax.jit(jax.vmap(lambda markers, observation: model.templates.log_likelihood(
         markers, observation, model.sharpness, False)))
     gain = np.asarray(score(jnp.asarray(refined.markers, jnp.float32), observations)
@@ -104,9 +114,9 @@ def test_full_state_refinement_leaves_the_latent_space_and_lowers_the_error(wave
               for result in (refined, plain)]
     assert errors[0] < 0.9 * errors[1], errors
     # eq. 7's marker patches give Gauss–Newton nothing to climb: no refinement by default there
-    assert tracker.refine_steps > 0
-    assert latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                          likelihood="markers").refine_steps == 0
+    assert tracker.refinement == Refinement()
+    assert latent_tracker(prior.model, prior.template,
+                          likelihood=Likelihood("markers")).refinement is None
 
 
 def _waving_frames(tracker, sequence, indices):
@@ -114,7 +124,7 @@ def _waving_frames(tracker, sequence, indices):
     SPM pose, and the right wrist's distance from the truth (in torso lengths) of a pose."""
     from jaxtrack.body import spm_forward, spm_initial_state
 
-    template = tracker.latent_model.template
+    template = tracker.template
     wrist = 6  # SPM_MARKERS: right_wrist
     for index in indices:
         frame = jnp.asarray(edge_observations(sequence.frames[index:index + 1])[0])
@@ -128,6 +138,22 @@ def _waving_frames(tracker, sequence, indices):
         yield frame, truth, off
 
 
+def _stage(tracker, sequence):
+    """The tracker's arm search and pose score, bound to its model started on frame 0."""
+    model = tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0]).model
+    arms = tracker.refinement.arm_search
+
+    @jax.jit
+    def search(pose, image, predicted):
+        return search_arms(arms, pose, image, model.templates, model.template, model.sharpness,
+                           predicted)
+
+    def score(pose, image, parts=None):
+        return score_pose(pose, image, model.templates, model.template, model.sharpness, parts)
+
+    return search, jax.jit(score, static_argnums=2)
+
+
 def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     """The arm search before the refinement is global over each arm's two image angles: on the
     waving frames, a right arm turned 0.5 and −0.55 rad away from the truth (its wrist 20–30 %
@@ -136,15 +162,13 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     cell scores below another), the score never drops, and the left arm, already right, stays
     within one grid step."""
     prior, sequence = wave_prior, whole_take
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=8, fps=sequence.fps)
-    search = jax.jit(lambda pose, image: tracker.search_arms(pose, image))
-    score = jax.jit(lambda pose, image: tracker._score(pose, image))
-    arm_score = jax.jit(lambda pose, image: tracker._score(pose, image, (3, 4)))
+    tracker = latent_tracker(prior.model, prior.template, num_particles=8, fps=sequence.fps)
+    search, score = _stage(tracker, sequence)
+    arm_score = jax.jit(lambda pose, image: score(pose, image, (3, 4)))
     before, after = [], []
     for frame, truth, off in _waving_frames(tracker, sequence, range(24, 48, 4)):
         displaced = truth.at[11].add(0.5).at[13].add(-0.55)  # right upper arm, right forearm
-        found = search(displaced, frame)
+        found = search(displaced, frame, None)
         before.append(off(displaced))
         after.append(off(found))
         assert float(score(found, frame)) >= float(score(displaced, frame))
@@ -160,8 +184,6 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     assert np.all(before > 0.2), before
     assert np.sum(after < 0.12) >= 4, after
     assert np.mean(after) < 0.5 * np.mean(before), (before, after)
-    assert latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                          arm_grid=0).arm_grid == 0
 
 
 def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_prior,
@@ -172,16 +194,14 @@ def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_p
     the score never drops either way. The prediction extrapolates the arm angles of the last
     two reported poses, wrapped across ±π, and nothing else."""
     prior, sequence = wave_prior, whole_take
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=8, fps=sequence.fps)
-    search = jax.jit(lambda pose, image, predicted: tracker.search_arms(pose, image, predicted))
-    search_alone = jax.jit(lambda pose, image: tracker.search_arms(pose, image))
-    score = jax.jit(lambda pose, image: tracker._score(pose, image))
+    tracker = latent_tracker(prior.model, prior.template, num_particles=8, fps=sequence.fps)
+    search, score = _stage(tracker, sequence)
     alone, predicted_off = [], []
     for frame, truth, off in _waving_frames(tracker, sequence, range(24, 48, 8)):
         displaced = truth.at[11].add(0.9).at[13].add(-1.2)  # right upper arm, right forearm
         predicted = truth.at[11].add(-0.1).at[13].add(0.1)
-        found_alone, found = search_alone(displaced, frame), search(displaced, frame, predicted)
+        found_alone = search(displaced, frame, None)
+        found = search(displaced, frame, predicted)
         for pose in (found_alone, found):
             assert float(score(pose, frame)) >= float(score(displaced, frame))
         alone.append(off(found_alone))
@@ -191,51 +211,38 @@ def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_p
     assert np.all(predicted_off < 0.12), predicted_off
 
     # the prediction: arm angles moved on by their change, wrapped; the rest is the pose
-    pose = tracker.initial_pose.at[13].set(3.1).at[11].set(0.2).at[1].add(5.0)
-    previous = tracker.initial_pose.at[13].set(-3.1).at[11].set(0.3)
-    state = LatentState(None, pose, previous)  # the prediction reads the poses alone
-    extrapolated = np.asarray(tracker._predicted(state))
+    initial = tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0]).refined.pose
+    pose = initial.at[13].set(3.1).at[11].set(0.2).at[1].add(5.0)
+    previous = initial.at[13].set(-3.1).at[11].set(0.3)
+    state = RefinementState(pose, previous)
+    extrapolated = np.asarray(_predicted(tracker.refinement.arm_search, state))
     np.testing.assert_allclose(extrapolated[13], 3.1 + (6.2 - 2 * np.pi), atol=1e-5)
     np.testing.assert_allclose(extrapolated[11], 0.1, atol=1e-5)
     others = np.setdiff1d(np.arange(25), [11, 13, 19, 21])
     np.testing.assert_array_equal(extrapolated[others], np.asarray(pose)[others])
-    still = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                           num_particles=8, arm_momentum=0.0)
-    assert still._predicted(state) is None
+    assert _predicted(ArmSearch(momentum=0.0), state) is None
+    assert _predicted(None, state) is None
 
 
 def test_latent_tracker_rejects_bad_input(prior, sequence):
-    with pytest.raises(ValueError, match="12 finite"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0],
-                       np.full((12, 2), np.nan))
     no_dynamics = type(prior.model)(**{**prior.model.__dict__,
                                        "dynamics_std": jnp.full((2,), jnp.nan)})
     with pytest.raises(ValueError, match="no latent dynamics"):
-        latent_tracker(no_dynamics, prior.template, sequence.frames[0], sequence.truth[0])
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=8)
-    with pytest.raises(ValueError, match="grey images"):
-        track(tracker, jr.PRNGKey(0), sequence.images, progress=False)
-    with pytest.raises(ValueError, match="refine_steps"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       refine_steps=-1)
-    with pytest.raises(ValueError, match="refine_std"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       refine_std=np.zeros(25))
-    for grid in (4, -1, 2.5):
-        with pytest.raises(ValueError, match="arm_grid"):
-            latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                           arm_grid=grid)
-    with pytest.raises(ValueError, match="arm_span"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       arm_span=0.0)
-    with pytest.raises(ValueError, match="arm_margin"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       arm_margin=-1.0)
-    for momentum in (-0.5, 1.5, float("nan")):
-        with pytest.raises(ValueError, match="arm_momentum"):
-            latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                           arm_momentum=momentum)
+        latent_tracker(no_dynamics, prior.template)
+    for fps in (0.0, -5.0, float("nan")):
+        with pytest.raises(ValueError, match="fps must be a positive number"):
+            latent_tracker(prior.model, prior.template, fps=fps)
+    with pytest.raises(ValueError, match="placement_std must be 3 numbers"):
+        latent_tracker(prior.model, prior.template, placement_std=(0.01, -1.0, 1.0))
+    with pytest.raises(ValueError, match="refinement must be a Refinement"):
+        latent_tracker(prior.model, prior.template, refinement="on")
+    with pytest.raises(ValueError, match="num_particles"):
+        latent_tracker(prior.model, prior.template, num_particles=0)
+    tracker = latent_tracker(prior.model, prior.template, num_particles=8)
+    with pytest.raises(ValueError, match="initial_pose holds non-finite"):
+        tracker.start(jr.PRNGKey(0), sequence.frames[0], np.full((12, 2), np.nan))
+    with pytest.raises(ValueError, match="first_frame holds non-finite"):
+        tracker.start(jr.PRNGKey(0), np.full_like(sequence.frames[0], np.nan), sequence.truth[0])
 
 
 def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
@@ -253,10 +260,12 @@ def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
         assert main(["evaluate", "--method", "latent", "--train",
                      "animateddrawings/fair1_wave_hello", "--test", HELD_OUT, "--json", out,
                      "--arm-grid", grid]) == 2
-        assert f"--arm-grid must be 0 or odd, got {grid}" in capsys.readouterr().err
+        assert f"--arm-grid must be an odd positive integer (offset 0 on the grid), got {grid}" \
+            in capsys.readouterr().err
     assert main(["evaluate", "--method", "latent", "--train", "animateddrawings/fair1_wave_hello",
                  "--test", HELD_OUT, "--json", out, "--arm-momentum", "1.5"]) == 2
-    assert "--arm-momentum must be in [0, 1], got 1.5" in capsys.readouterr().err
+    assert "--arm-momentum must be a finite number >= 0 and <= 1, got 1.5" in (
+        capsys.readouterr().err)
     assert not (tmp_path / "out.json").exists()
 
 
@@ -275,29 +284,19 @@ def test_markers_from_features_equals_the_two_step_conversion(prior):
     assert np.allclose(direct, two_step, atol=1e-6 * np.abs(two_step).max())
 
 
-def test_track_gives_the_same_result_for_any_chunk_size(prior, sequence):
-    tracker = latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                             num_particles=16, fps=sequence.fps)
-    results = [track(tracker, jr.PRNGKey(1), sequence.frames[:11], chunk_size=size,
-                     progress=False) for size in (3, 10)]
-    assert np.array_equal(results[0].markers, results[1].markers)
-    assert np.array_equal(results[0].ess, results[1].ess)
-
-
 def test_jumps_redraw_a_fraction_of_particles_at_training_latents(prior, sequence):
     """ε = 0 is the paper's random walk; with ε = 0.3 (same keys, so the same normal draws) about
     30 % of the particles take their step from a training latent instead of their own."""
     def propagate(jump_probability):
-        tracker = latent_tracker(prior.model, prior.template, sequence.frames[0],
-                                 sequence.truth[0], jump_probability=jump_probability)
-        model = tracker.latent_model
+        tracker = latent_tracker(prior.model, prior.template, jump_probability=jump_probability)
+        model = tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0]).model
         particle = {"latent": model.initial_latent, "placement": model.initial_placement}
         keys = jr.split(jr.PRNGKey(3), 4000)
         moved = jax.jit(jax.vmap(model.propagate, in_axes=(0, None, None)))(keys, particle, 1)
         return np.asarray(moved["latent"]), model
 
     walked, model = propagate(0.0)
-    steps = (walked - np.asarray(model.initial_latent)) / np.asarray(model.latent_std)
+    steps = (walked - np.asarray(model.initial_latent)) / np.asarray(model.walk.latent_std)
     assert np.abs(steps).max() < 6 and abs(steps.std() - 1) < 0.05
     mixed, _ = propagate(0.3)
     jumped = np.any(mixed != walked, axis=-1)
@@ -309,11 +308,9 @@ def test_jumps_redraw_a_fraction_of_particles_at_training_latents(prior, sequenc
     assert np.all(distance < 1e-4 * np.abs(pool).max())
     assert len(np.unique(np.round(starts, 4), axis=0)) > 100  # from all over the pool
     with pytest.raises(ValueError, match="jump_probability"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       jump_probability=1.0)
+        latent_tracker(prior.model, prior.template, jump_probability=1.0)
     with pytest.raises(ValueError, match="mode_radius"):
-        latent_tracker(prior.model, prior.template, sequence.frames[0], sequence.truth[0],
-                       mode_radius=0.0)
+        latent_tracker(prior.model, prior.template, mode_radius=0.0)
 
 
 def test_chunks_are_capped_by_bytes_not_only_by_frame_count():
