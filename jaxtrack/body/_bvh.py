@@ -6,7 +6,9 @@ Conventions handled (all seen in the files under shared/data):
 - position channels on any joint replace that joint's OFFSET (Bandai puts 6 channels on every joint;
   Blender reads them the same way);
 - `Frames:`/`Frame Time:` separated by spaces or tabs, numbers such as `.0083333`;
-- `End Site` blocks are parsed and dropped: a Motion has one joint per ROOT/JOINT.
+- `End Site` blocks are parsed and dropped: a Motion has one joint per ROOT/JOINT;
+- the CMU MotionBuilder-friendly dialect's frame 0 is a reference pose, not motion: it is dropped
+  when it is recognised exactly (`_drops_reference_frame`).
 """
 
 from __future__ import annotations
@@ -242,7 +244,49 @@ def detect_rig(names: list[str]) -> str:
         return "cmu_bvh"
     if {"Spine3", "RightHandThumb1", "RightHandEnd", "RightToeBase"} <= found and len(names) == 27:
         return "animateddrawings"
+    # cgspeed's MotionBuilder-friendly CMU conversion: the ASF bones under MotionBuilder names
+    # (lowerback -> LowerBack, upperneck -> Neck1, lhand -> LeftFingerBase, ...)
+    if {"LHipJoint", "LowerBack", "Spine1", "Neck1", "LeftFingerBase", "LThumb"} <= found:
+        return "cmu_bvh_mb"
+    if found == _DEEPMIMIC_JOINTS and len(names) == len(_DEEPMIMIC_JOINTS):
+        return "deepmimic"
     return "generic_bvh"
+
+
+_DEEPMIMIC_JOINTS = frozenset(
+    ("Hips", "Spine", "Neck", "Head")
+    + tuple(f"{side}{part}" for side in ("Left", "Right")
+            for part in ("Arm", "ForeArm", "Hand", "UpLeg", "Leg", "Foot")))
+"""The DeepMimic humanoid's 15 joints plus the head sphere's centre, nothing else."""
+
+# The reference frame cgspeed's MotionBuilder-friendly conversion puts before the motion: every
+# rotation 0 except these whole-degree rest corrections (root position free). Matching it exactly
+# cannot drop a captured frame by accident.
+_CMU_MB_REFERENCE_POSE = {
+    ("LeftUpLeg", "Zrotation"): -21.0, ("RightUpLeg", "Zrotation"): 21.0,
+    ("Neck", "Xrotation"): -16.0, ("Neck1", "Xrotation"): 21.0, ("Head", "Xrotation"): 11.0,
+    ("LeftArm", "Zrotation"): -8.0, ("RightArm", "Zrotation"): 8.0,
+}
+
+
+def _drops_reference_frame(rig: str, skeleton: BvhSkeleton, values: np.ndarray) -> bool:
+    """Whether frame 0 is the CMU MotionBuilder-friendly reference pose (and motion follows it).
+
+    This is decided here, from what the file holds, rather than in the data catalogue: the pose
+    belongs to the conversion dialect, not to a folder, so a clip loaded by path (or copied
+    elsewhere) loses it too, and a file of that dialect without it keeps every frame.
+    """
+    if rig != "cmu_bvh_mb" or values.shape[0] < 2:
+        return False
+    columns, expected = [], []
+    column = 0
+    for name, channels in zip(skeleton.names, skeleton.channels, strict=True):
+        for channel in channels:
+            if channel.endswith("rotation"):
+                columns.append(column)
+                expected.append(_CMU_MB_REFERENCE_POSE.get((name, channel), 0.0))
+            column += 1
+    return bool(np.array_equal(values[0, columns], expected))
 
 
 def _to_y_up(positions: np.ndarray) -> np.ndarray:
@@ -261,7 +305,8 @@ def _guess_unit(positions: np.ndarray) -> float:
 
 
 _RIG_UNIT_AND_UP = {"cmu_bvh": (_CMU_UNIT, "Y"), "animateddrawings": (_INCH, "Z"),
-                    "bandai": (0.01, "Y")}
+                    "bandai": (0.01, "Y"), "cmu_bvh_mb": (_CMU_UNIT, "Y"),
+                    "deepmimic": (0.01, "Y")}
 
 
 def load_bvh(path: Path) -> Motion:
@@ -284,8 +329,10 @@ def load_bvh(path: Path) -> Motion:
     skeleton = parse_hierarchy(path, lines, motion_line)
     num_channels = sum(len(channels) for channels in skeleton.channels)
     values, frame_time = parse_motion_block(path, lines, motion_line, num_channels)
-    positions = forward_kinematics(skeleton, values)
     rig = detect_rig(skeleton.names)
+    if _drops_reference_frame(rig, skeleton, values):
+        values = values[1:]  # the Motion's frame 0 is the file's frame 1, 1/fps s into the file
+    positions = forward_kinematics(skeleton, values)
     unit, up = _RIG_UNIT_AND_UP.get(rig, (None, "Y"))
     if up == "Z":
         positions = _to_y_up(positions)

@@ -4,13 +4,16 @@ A marker is a named body point that every rig can supply, so trackers, priors an
 one vocabulary whatever file the motion came from. Joint positions in a Motion sit at the joint
 (the proximal end of a bone), which fixes what each marker means:
 
-- `head`: the head joint (base of the skull, top of the neck); the rigs have no skull-centre joint.
-- `neck`: the neck joint at about shoulder height (CMU ASF `upperneck`, CMU BVH `Neck`).
+- `head`: the head joint (base of the skull, top of the neck); the rigs have no skull-centre
+  joint, except DeepMimic, whose only head joint is the centre of its head sphere.
+- `neck`: the neck joint at about shoulder height (CMU ASF `upperneck`, CMU BVH `Neck`, CMU
+  MotionBuilder-friendly BVH `Neck1`, DeepMimic `Neck`).
 - `thorax`: the spine joint the shoulder girdle hangs from (AnimatedDrawings `Spine3`, Bandai
-  `Chest`, CMU `thorax`/`Chest2`).
+  `Chest`, CMU `thorax`/`Chest2`/`Spine1`, DeepMimic `Spine`).
 - `pelvis`: the spine base / hip centre (the root in every rig).
 - `*_shoulder`: the shoulder (gleno-humeral) joint, the start of the upper arm (BVH `RightArm`,
-  Bandai `UpperArm_R`, CMU ASF `rhumerus`, CMU BVH `RightShoulder`), not the clavicle.
+  Bandai `UpperArm_R`, CMU ASF `rhumerus`, CMU BVH `RightShoulder`), not the clavicle (CMU
+  MotionBuilder-friendly `RightShoulder`).
 - `*_elbow`, `*_wrist`: start of the forearm and of the hand; `*_hip`, `*_knee`, `*_ankle`: start
   of the thigh, shin and foot.
 """
@@ -73,6 +76,22 @@ RIG_MARKER_MAPS: dict[str, dict[str, str | tuple[str, ...]]] = {
         **_sided({"shoulder": ("UpperArm_R", "UpperArm_L"), "elbow": ("LowerArm_R", "LowerArm_L"),
                   "wrist": ("Hand_R", "Hand_L"), "hip": ("UpperLeg_R", "UpperLeg_L"),
                   "knee": ("LowerLeg_R", "LowerLeg_L"), "ankle": ("Foot_R", "Foot_L")}),
+    },
+    # CMU, MotionBuilder-friendly names: LeftShoulder is the clavicle, LeftArm the humerus; Neck
+    # sits where the clavicles start (ASF lowerneck), Neck1 is ASF upperneck, as in `cmu_bvh`
+    "cmu_bvh_mb": {
+        "head": "Head", "neck": "Neck1", "thorax": "Spine1", "pelvis": "Hips",
+        **_sided({"shoulder": ("RightArm", "LeftArm"), "elbow": ("RightForeArm", "LeftForeArm"),
+                  "wrist": ("RightHand", "LeftHand"), "hip": ("RightUpLeg", "LeftUpLeg"),
+                  "knee": ("RightLeg", "LeftLeg"), "ankle": ("RightFoot", "LeftFoot")}),
+    },
+    # DeepMimic humanoid: Spine is its chest (the arms hang from it), Neck its neck at about
+    # shoulder height, Head the centre of the head sphere (it has no base-of-skull joint)
+    "deepmimic": {
+        "head": "Head", "neck": "Neck", "thorax": "Spine", "pelvis": "Hips",
+        **_sided({"shoulder": ("RightArm", "LeftArm"), "elbow": ("RightForeArm", "LeftForeArm"),
+                  "wrist": ("RightHand", "LeftHand"), "hip": ("RightUpLeg", "LeftUpLeg"),
+                  "knee": ("RightLeg", "LeftLeg"), "ankle": ("RightFoot", "LeftFoot")}),
     },
     # any other BVH: the Mixamo/MotionBuilder names most exporters use; first joint found wins
     "generic_bvh": {

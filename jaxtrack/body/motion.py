@@ -16,8 +16,8 @@ rest of jaxtrack never sees a file's quirks:
   rate: CMU captured at 120 Hz.
 
 Joint counts of the real files: AnimatedDrawings 27, Bandai 22 (21 body joints + `joint_Root`),
-CMU BVH 31, CMU ASF 31 (`root` + 30 bones; the AMC lists 29 lines per frame, root and the 28
-bones with DOFs).
+CMU BVH 31 (both dialects), CMU ASF 31 (`root` + 30 bones; the AMC lists 29 lines per frame, root
+and the 28 bones with DOFs), DeepMimic 16 (its 15 joints + `Head`, the head sphere's centre).
 
 Units and axes per rig (what each reader converts from):
 
@@ -27,6 +27,8 @@ Units and axes per rig (what each reader converts from):
 | `cmu_bvh` | CMU BVH (cgspeed, 31 joints) | same scaled inch as the ASF (0.0254/0.45 m) | Y |
 | `animateddrawings` | AnimatedDrawings fair1/history (27 joints) | inch (0.0254 m), see below | Z |
 | `bandai` | Bandai Namco Research Motiondataset-2 | centimetre | Y |
+| `cmu_bvh_mb` | CMU BVH, MotionBuilder-friendly names (31 joints) | same scaled inch | Y |
+| `deepmimic` | DeepMimic humanoid (16 joints, ZXY channels) | centimetre | Y |
 | `generic_bvh` | anything else | guessed from body height (m, cm, mm or inch) | Y |
 
 The rig is recognised from joint names, not from the folder: `cmu1_jumping_jacks.bvh` in the
@@ -34,8 +36,12 @@ AnimatedDrawings folder is a CMU BVH. Units were worked out from the bones: with
 CMU subjects' femurs are 0.39-0.43 m and their hips 0.95 m above the floor; AnimatedDrawings
 adults (cmu_1006, cmu_new clips) come out 1.6-1.65 m from head joint to floor, and the fair1 rig is
 shared with the clip named `8yr_old_wave_hello`, a child about 1.1-1.2 m tall, in the same inches.
+The MotionBuilder-friendly CMU files begin with a reference pose (every rotation 0 except fixed
+hip, neck and arm corrections); the BVH reader drops that frame when it matches exactly, so frame 0
+of such a Motion is the file's frame 1.
 Z-up files are turned Y-up by a rotation (x, y, z) -> (x, z, -y), never a reflection, so a subject's
-left stays left; every real clip was checked to face the way its toes point.
+left stays left; every real clip was checked to face the way its toes point (DeepMimic keeps no
+toe joint: the way its knees bend).
 """
 
 from __future__ import annotations
@@ -50,7 +56,8 @@ import numpy as np
 
 __all__ = ["MocapFormatError", "Motion", "load_motion", "counterpart_joint"]
 
-RIGS = ("cmu_asf", "cmu_bvh", "animateddrawings", "bandai", "generic_bvh")
+RIGS = ("cmu_asf", "cmu_bvh", "animateddrawings", "bandai", "cmu_bvh_mb", "deepmimic",
+        "generic_bvh")
 
 
 class MocapFormatError(ValueError):

@@ -12,6 +12,10 @@ Places searched, in order (the first that has the file wins):
 3. a `shared/data` folder in any folder above the package or the working directory (the project's
    full collection, e.g. `/work/shared/data`, or `../shared/data` beside a CI clone);
 4. `tests/data` of a source checkout (the non-commercial Bandai clips used by the tests).
+
+Clips come back exactly as the readers make them: format quirks (units, axes, the reference frame 0
+of the MotionBuilder-friendly CMU BVHs) are handled by the readers, from what the file holds, not
+here by folder, so a file loaded by path reads the same as one found by name.
 """
 
 from __future__ import annotations

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _clips import upright_frame
 
 from jaxtrack.body.markers import (
     HUMANEVA_15,
@@ -37,6 +38,7 @@ def test_marker_sets_are_as_published():
     assert len(HUMANEVA_15) == 15 and len(UPPER_BODY_12) == 12
     assert HUMANEVA_15[:3] == ("head", "neck", "right_shoulder") and HUMANEVA_15[8] == "pelvis"
     assert UPPER_BODY_12[:4] == ("head", "neck", "thorax", "pelvis")
+    assert set(RIG_MARKER_MAPS) == set(RIGS)  # every rig a reader can report has a map
     for rig_map in RIG_MARKER_MAPS.values():
         assert set(HUMANEVA_15) | set(UPPER_BODY_12) <= set(rig_map)
 
@@ -84,16 +86,30 @@ def test_every_rig_maps_to_anatomical_markers(file):
     hips = _segment(markers, HUMANEVA_15, "left_hip", "right_hip")[0]
     # Bandai's upper-arm joints sit only 0.2 m apart; a clavicle start would be < 0.12 m
     assert 0.18 * child < shoulders < 0.5 and 0.1 * child < hips < 0.35
-    first = upper[0]
-    # thorax between neck and pelvis; neck about shoulder height, head above it
-    heights = {name: first[UPPER_BODY_12.index(name), 1] for name in UPPER_BODY_12}
+    # thorax between neck and pelvis; neck about shoulder height, head above it: heights in a
+    # frame where the subject stands, or distances along the trunk for one who never does
+    frame = upright_frame(Path(file).stem)
+    first = upper[0 if frame is None else frame]
+    up = np.array([0.0, 1.0, 0.0])
+    if frame is None:
+        up = first[UPPER_BODY_12.index("neck")] - first[UPPER_BODY_12.index("pelvis")]
+        up /= np.linalg.norm(up)
+    heights = {name: first[UPPER_BODY_12.index(name)] @ up for name in UPPER_BODY_12}
     assert heights["head"] > heights["neck"] > heights["thorax"] > heights["pelvis"]
     assert abs(heights["neck"] - heights["left_shoulder"]) < 0.15
 
 
+# rigs whose only real files are in shared/data: the DeepMimic clips are LGPL (never copied into
+# the repository) and the MotionBuilder-friendly CMU clips are not bundled;
+# test_motion.py reads both dialects from files it writes
+SHARED_ONLY_RIGS = {"cmu_bvh_mb", "deepmimic"}
+
+
 def test_every_rig_has_a_clip_here():
     rigs = {load(file).rig for file in LOCAL.values()}
-    assert rigs == set(RIGS) - {"generic_bvh"}
+    assert rigs == set(RIGS) - {"generic_bvh"} - SHARED_ONLY_RIGS
+    if SHARED:
+        assert {load(file).rig for file in SHARED.values()} == set(RIGS) - {"generic_bvh"}
 
 
 def _motion(names: tuple[str, ...], rig: str) -> Motion:
@@ -123,6 +139,17 @@ def test_unmappable_rig_names_what_is_missing():
     broken_cmu = _motion(("Hips", "LeftShoulder"), "cmu_bvh")
     with pytest.raises(MarkerMapError, match=r"cmu_bvh.*right_wrist \(looked for joint RightWrist"):
         marker_positions(broken_cmu, HUMANEVA_15)
+    # the MotionBuilder-friendly CMU names: LeftShoulder is a clavicle, never taken for a shoulder
+    clavicles_only = _motion(("Hips", "LeftShoulder", "RightShoulder"), "cmu_bvh_mb")
+    with pytest.raises(MarkerMapError,
+                       match=r"rig 'cmu_bvh_mb'.*left_shoulder \(looked for joint LeftArm\)"):
+        marker_positions(clavicles_only, UPPER_BODY_12)
+    torso_only = _motion(("Hips", "Spine", "Neck", "Head"), "deepmimic")
+    with pytest.raises(MarkerMapError) as caught:
+        marker_positions(torso_only, UPPER_BODY_12)
+    message = str(caught.value)
+    assert "rig 'deepmimic'" in message and "right_wrist (looked for joint RightHand)" in message
+    assert "thorax" not in message and "head" not in message  # those were found
     with pytest.raises(MarkerMapError, match="not a marker known"):
         marker_positions(load(LOCAL["cmu_bvh/131_01"]), ("nose",))
     assert isinstance(caught.value, KeyError)

@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _clips import knees_bend_backwards, upright_frame
 from scipy.spatial.transform import Rotation
 
 from jaxtrack.body._asf import parse_amc, parse_asf
 from jaxtrack.body._bvh import parse_hierarchy
-from jaxtrack.body.markers import marker_positions
+from jaxtrack.body.markers import HUMANEVA_15, UPPER_BODY_12, marker_positions
 from jaxtrack.body.motion import Motion, load_motion
 from jaxtrack.data import bundled_folder, clip_files, shared_folder
 
@@ -46,6 +47,12 @@ def clip(file: Path | None) -> Motion:
     return load(file)
 
 
+# frames as the files declare them (cmu_posture_bvh/ and deepmimic_getup_bvh/ SOURCE.txt)
+CMU_POSTURE_FILE_FRAMES = {"139_16": 164, "75_20": 125, "75_17": 82, "75_19": 193, "64_26": 141,
+                           "77_07": 127}
+DEEPMIMIC_FRAMES = {"getup_facedown": 183, "crawl": 177, "roll": 121}
+
+
 def documented(stem: str) -> tuple[int, float, int | None]:
     """(joints, fps, frames or None) as written in the folders' SOURCE.txt files."""
     frames = {"fair1_wave_hello": 839, "fair1_dab": 339, "fair1_jumping": 654, "fair1_zombie": 779,
@@ -54,6 +61,10 @@ def documented(stem: str) -> tuple[int, float, int | None]:
               "cmu_new_walk_clap": 1074, "cmu_new_walk_raise_the_roof": 1237,
               "cmu_new_walk_side_punch": 943, "131_01": 994, "131_02": 1247, "131_03": 1102,
               "02_01": 343}.get(stem)
+    if stem in CMU_POSTURE_FILE_FRAMES:  # MotionBuilder-friendly CMU BVH, 31 joints
+        return 31, 30.0, CMU_POSTURE_FILE_FRAMES[stem] - 1  # the reference frame 0 is dropped
+    if stem in DEEPMIMIC_FRAMES:  # DeepMimic humanoid: 15 joints + the head sphere's centre
+        return 16, 60.0, DEEPMIMIC_FRAMES[stem]
     if stem.startswith("dataset-2_"):
         return 22, 30.0, frames  # 21 body joints + the joint_Root ground projection
     if stem.startswith(("13", "cmu1_")):  # CMU BVH dialect, 31 joints
@@ -75,7 +86,7 @@ def test_bones_are_rigid_and_counts_match_the_documentation(file):
     assert np.ptp(lengths, axis=0).max() < 1e-3  # metres
     joints, fps, frames = documented(Path(file).stem)
     assert motion.num_joints == joints
-    assert motion.fps == (fps if fps in (30.0, 120.0) else pytest.approx(fps, abs=0.005))
+    assert motion.fps == (fps if fps in (30.0, 60.0, 120.0) else pytest.approx(fps, abs=0.005))
     if frames is not None:
         assert motion.num_frames == frames
     assert motion.positions.dtype == np.float64 and np.isfinite(motion.positions).all()
@@ -85,7 +96,11 @@ def test_bones_are_rigid_and_counts_match_the_documentation(file):
 def test_metres_and_y_up(file):
     motion = clip(file)
     markers = marker_positions(motion, ("head", "left_ankle", "right_ankle", "pelvis"))
-    first = markers[0]
+    frame = upright_frame(Path(file).stem)
+    if frame is None:
+        _check_crawl_is_on_the_floor(motion)
+        return
+    first = markers[frame]
     assert first[0, 1] > first[1, 1] + 0.5 and first[0, 1] > first[2, 1] + 0.5  # head over feet
     assert first[3, 1] > max(first[1, 1], first[2, 1])
     # head joint (base of the skull) over the lowest joint: stature minus about 0.2 m; the fair1
@@ -95,6 +110,17 @@ def test_metres_and_y_up(file):
     child = Path(file).stem.startswith(("fair1_", "8yr_old"))
     low, high = (0.85, 1.3) if child else (1.2, 1.95)
     assert low < head_over_floor < high
+
+
+def _check_crawl_is_on_the_floor(motion: Motion) -> None:
+    # SOURCE.txt: prone throughout, hips 0.17-0.40 m and the lower knee at or below 0.07 m above
+    # the floor (y = 0) in every frame, 0.77 m forward along +x; centimetres read as metres, or
+    # a Z-up reading, would break all three
+    points = marker_positions(motion, ("pelvis", "left_knee", "right_knee"))
+    assert np.all((0.15 < points[:, 0, 1]) & (points[:, 0, 1] < 0.42))
+    assert np.all(points[:, 1:, 1].min(axis=1) < 0.08)
+    travel = points[-1, 0] - points[0, 0]
+    assert 0.7 < travel[0] < 0.85 and abs(travel[1]) < 0.1 and abs(travel[2]) < 0.1
 
 
 def _head(motion: Motion) -> str:
@@ -119,22 +145,37 @@ def frontal_image_x(motion: Motion, frame: int = 0) -> tuple[dict[str, float], f
     x_axis = np.cross(y_axis, view)
     image_x = {name: 1000.0 * np.dot(p - camera, x_axis) / np.dot(p - camera, view) + 500.0
                for name, p in points.items()}
-    toe_file = motion.positions[frame, motion.joint_index(_toe(motion))]
+    toe = _toe(motion)
+    if toe is None:
+        return image_x, None
+    toe_file = motion.positions[frame, motion.joint_index(toe)]
     toe_forward = float(np.dot(toe_file - points["left_ankle"], forward))
     return image_x, toe_forward
 
 
-def _toe(motion: Motion) -> str:
+def _toe(motion: Motion) -> str | None:
+    # the DeepMimic foot ends in an End Site (its toe), which a Motion does not keep
     return {"cmu_asf": "ltoes", "cmu_bvh": "LeftToe", "bandai": "Toes_L",
-            "animateddrawings": "LeftToeBase"}[motion.rig]
+            "animateddrawings": "LeftToeBase", "cmu_bvh_mb": "LeftToeBase",
+            "deepmimic": None}[motion.rig]
 
 
 @pytest.mark.parametrize("file", ALL_CLIPS)
 def test_subject_left_is_viewer_right_and_mirror_keeps_it(file):
     motion = clip(file)
+    frame = upright_frame(Path(file).stem)
     for candidate in (motion, motion.mirror()):
-        image_x, toe_forward = frontal_image_x(candidate)
-        assert toe_forward > 0.03  # toes point at the camera: not mirrored back to front
+        # knees bend backwards: every bent knee's hinge says which side is left
+        bent, agreeing = knees_bend_backwards(candidate)
+        assert agreeing == bent
+        if frame is None:  # never upright (a crawl): the knees are the check
+            assert bent > 100
+            continue
+        image_x, toe_forward = frontal_image_x(candidate, frame)
+        if toe_forward is None:  # no toe joint: the knees say which way the subject faces
+            assert bent > 100
+        else:
+            assert toe_forward > 0.03  # toes point at the camera: not mirrored back to front
         assert image_x["left_wrist"] > 500.0 > image_x["right_wrist"]
         assert image_x["left_shoulder"] > image_x["right_shoulder"]
 
@@ -187,13 +228,14 @@ def test_resample_round_trip_and_select():
         motion.select(2.0, 10.0, unit="seconds")
 
 
-def _reference_bvh(file: Path, frames: int) -> tuple[np.ndarray, list[str]]:
-    """Forward kinematics one frame and one joint at a time with SciPy rotations."""
+def _reference_bvh(file: Path, frames: int, first: int = 0) -> tuple[np.ndarray, list[str]]:
+    """Forward kinematics one frame and one joint at a time with SciPy rotations, from the file's
+    frame `first` on."""
     lines = file.read_text().splitlines()
     motion_line = next(n for n, line in enumerate(lines) if line.strip() == "MOTION")
     skeleton = parse_hierarchy(file, lines, motion_line)
-    values = np.array([line.split() for line in lines[motion_line + 3:motion_line + 3 + frames]],
-                      dtype=float)
+    start = motion_line + 3 + first
+    values = np.array([line.split() for line in lines[start:start + frames]], dtype=float)
     positions = np.zeros((frames, len(skeleton.names), 3))
     for t in range(frames):
         column, world = 0, {}
@@ -218,14 +260,19 @@ def _reference_bvh(file: Path, frames: int) -> tuple[np.ndarray, list[str]]:
     return positions, skeleton.names
 
 
-@pytest.mark.parametrize(("name", "unit", "z_up"), [
-    ("cmu_bvh/131_01", 0.0254 / 0.45, False),
-    ("animateddrawings/fair1_wave_hello", 0.0254, True),
-    ("bandai/dataset-2_wave-right-hand_normal_001", 0.01, False),
+@pytest.mark.parametrize(("name", "unit", "z_up", "first"), [
+    ("cmu_bvh/131_01", 0.0254 / 0.45, False, 0),
+    ("animateddrawings/fair1_wave_hello", 0.0254, True, 0),
+    ("bandai/dataset-2_wave-right-hand_normal_001", 0.01, False, 0),
+    # ZYX channels, and the Motion starts at the file's frame 1 (frame 0 is a reference pose)
+    ("cmu_posture_bvh/75_17", 0.0254 / 0.45, False, 1),
+    ("deepmimic_getup_bvh/roll", 0.01, False, 0),  # ZXY channels, centimetres
 ])
-def test_bvh_forward_kinematics_matches_scipy(name, unit, z_up):
-    file = {**BUNDLED, **TEST_ONLY}[name]
-    reference, names = _reference_bvh(file, frames=4)
+def test_bvh_forward_kinematics_matches_scipy(name, unit, z_up, first):
+    file = {**BUNDLED, **TEST_ONLY, **SHARED}.get(name)
+    if file is None:
+        pytest.skip(f"{name} is only in the shared/data collection, not beside this checkout")
+    reference, names = _reference_bvh(file, frames=4, first=first)
     if z_up:
         reference = np.stack([reference[..., 0], reference[..., 2], -reference[..., 1]], -1)
     motion = load(file)
@@ -295,3 +342,113 @@ def test_unknown_rig_is_read_y_up_with_a_unit_guessed_from_height(tmp_path):
                        for i, v in enumerate(line.split())) for line in text[motion_line + 3:]]
     metres.write_text("\n".join(text[:motion_line + 3] + scaled))
     np.testing.assert_allclose(load_motion(metres).positions, bandai.positions, atol=1e-5)
+
+
+# CMU BVH joint names (131 dialect) -> cgspeed's MotionBuilder-friendly names, joint for joint
+CMU_MB_NAMES = dict(zip(
+    "Hips LHipJoint LeftHip LeftKnee LeftAnkle LeftToe RHipJoint RightHip RightKnee RightAnkle "
+    "RightToe lowerback Chest Chest2 lowerneck Neck Head LeftCollar LeftShoulder LeftElbow "
+    "LeftWrist lhand LFingers LThumb RightCollar RightShoulder RightElbow RightWrist rhand "
+    "RFingers RThumb".split(),
+    "Hips LHipJoint LeftUpLeg LeftLeg LeftFoot LeftToeBase RHipJoint RightUpLeg RightLeg "
+    "RightFoot RightToeBase LowerBack Spine Spine1 Neck Neck1 Head LeftShoulder LeftArm "
+    "LeftForeArm LeftHand LeftFingerBase LeftHandIndex1 LThumb RightShoulder RightArm "
+    "RightForeArm RightHand RightFingerBase RightHandIndex1 RThumb".split(), strict=True))
+CMU_MB_REFERENCE_FRAME = {"LeftUpLeg": (-21, 0, 0), "RightUpLeg": (21, 0, 0),
+                          "Neck": (0, 0, -16), "Neck1": (0, 0, 21), "Head": (0, 0, 11),
+                          "LeftArm": (-8, 0, 0), "RightArm": (8, 0, 0)}  # Z Y X degrees
+
+
+def _as_motionbuilder_dialect(lines: list[str], first_frame: str | None) -> str:
+    out, names = [], []
+    motion_line = lines.index("MOTION")
+    for line in lines[:motion_line]:
+        words = line.split()
+        if words[:1] in (["ROOT"], ["JOINT"]):
+            names.append(CMU_MB_NAMES[words[1]])
+            line = line.replace(words[1], names[-1])
+        out.append(line)
+    frames = lines[motion_line + 3:]
+    if first_frame is not None:
+        frames = [first_frame] + frames
+    return "\n".join(out + ["MOTION", f"Frames: {len(frames)}", lines[motion_line + 2], *frames])
+
+
+def _reference_frame_line(names: list[str]) -> str:
+    values = ["1.5", "17.0", "4.0"]  # root position: free
+    for name in names:
+        values += [str(v) for v in CMU_MB_REFERENCE_FRAME.get(name, (0, 0, 0))]
+    return " ".join(values)
+
+
+def test_motionbuilder_cmu_dialect_is_the_same_body_without_its_reference_frame(tmp_path):
+    # the bundled 131_01 renamed joint for joint to the MotionBuilder-friendly names: the same
+    # positions, the same markers, and a reference frame 0 in front of it is dropped
+    source = BUNDLED["cmu_bvh/131_01"]
+    original = load(source)
+    lines = source.read_text().splitlines()
+    plain = tmp_path / "plain.bvh"
+    plain.write_text(_as_motionbuilder_dialect(lines, None))
+    with_reference = tmp_path / "with_reference.bvh"
+    names = [CMU_MB_NAMES[name] for name in original.joint_names]
+    with_reference.write_text(_as_motionbuilder_dialect(lines, _reference_frame_line(names)))
+    for file in (plain, with_reference):
+        motion = load_motion(file)
+        assert motion.rig == "cmu_bvh_mb" and list(motion.joint_names) == names
+        np.testing.assert_array_equal(motion.positions, original.positions)
+        for marker_set in (HUMANEVA_15, UPPER_BODY_12):
+            np.testing.assert_array_equal(marker_positions(motion, marker_set),
+                                          marker_positions(original, marker_set))
+    # a first frame one degree away from the reference pose is motion: kept
+    near = _reference_frame_line(names).split()
+    near[3 + 3 * names.index("Head") + 2] = "12"
+    almost = tmp_path / "almost.bvh"
+    almost.write_text(_as_motionbuilder_dialect(lines, " ".join(near)))
+    assert load_motion(almost).num_frames == original.num_frames + 1
+
+
+def _deepmimic_like_bvh(extra_joint: bool = False) -> str:
+    # the DeepMimic humanoid's joint names and ZXY channels with round made-up offsets in cm
+    def joint(name, offset, children=(), end=None, root=False):
+        channels = ("CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
+                    if root else "CHANNELS 3 Zrotation Xrotation Yrotation")
+        body = [f"OFFSET {offset}", channels, *children]
+        if end is not None:
+            body.append(f"End Site {{ OFFSET {end} }}")
+        return f"{'ROOT' if root else 'JOINT'} {name} {{ " + " ".join(body) + " }"
+
+    arms = [joint(f"{side}Arm", f"{sign}18 24 0", [joint(
+        f"{side}ForeArm", "0 -27 0", [joint(f"{side}Hand", "0 -26 0", end="0 -4 0")])])
+            for side, sign in (("Left", ""), ("Right", "-"))]
+    legs = [joint(f"{side}UpLeg", f"{sign}8.5 0 0", [joint(
+        f"{side}Leg", "0 -42 0", [joint(f"{side}Foot", "0 -41 0", end="0 -5 13")])])
+            for side, sign in (("Left", ""), ("Right", "-"))]
+    head = [joint("Head", "0 17.5 0", end="0 10 0")]
+    if extra_joint:
+        head.append(joint("Jaw", "0 5 5", end="0 1 1"))
+    spine = joint("Spine", "0 23.6 0", [joint("Neck", "0 22.4 0", head), *arms])
+    hierarchy = joint("Hips", "0 0 0", [spine, *legs], root=True)
+    channels = 6 + 3 * (15 + extra_joint)
+    frame = ["10", "90", "-20", "30", "-40", "50"] + ["0"] * (channels - 6)
+    frame[6 + 3 * 4 + 1] = "90"  # LeftForeArm: 90 degrees about X, the elbow's hinge
+    return (f"HIERARCHY {hierarchy}\nMOTION\nFrames: 2\nFrame Time: 0.016666\n"
+            + "\n".join([" ".join(frame)] * 2))
+
+
+def test_deepmimic_rig_is_recognised_in_centimetres_with_zxy_channels(tmp_path):
+    file = tmp_path / "humanoid.bvh"
+    file.write_text(_deepmimic_like_bvh().replace("{ ", "{\n").replace(" }", "\n}"))
+    motion = load_motion(file)
+    assert motion.rig == "deepmimic" and motion.num_joints == 16 and motion.fps == 60.0
+    hips = Rotation.from_euler("ZXY", [30, -40, 50], degrees=True)  # R = Rz Rx Ry
+    np.testing.assert_allclose(motion.positions[0, 0], [0.1, 0.9, -0.2], atol=1e-12)
+    np.testing.assert_allclose(motion.positions[0, motion.joint_index("LeftLeg")],
+                               [0.1, 0.9, -0.2] + hips.apply([0.085, -0.42, 0.0]), atol=1e-12)
+    elbow = motion.positions[0, motion.joint_index("LeftForeArm")]
+    wrist = motion.positions[0, motion.joint_index("LeftHand")]
+    np.testing.assert_allclose(wrist - elbow, (hips * Rotation.from_euler("X", 90, degrees=True))
+                               .apply([0.0, -0.26, 0.0]), atol=1e-12)
+    # one joint more is not the DeepMimic humanoid: read as a generic BVH
+    other = tmp_path / "other.bvh"
+    other.write_text(_deepmimic_like_bvh(extra_joint=True))
+    assert load_motion(other).rig == "generic_bvh"
