@@ -101,7 +101,8 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
     # as jaxtrack evaluate builds it: with limbs+edges, the foreground term against the
     # sequence's median background
     background = (median_grey_background(sequence.frames) if needs_edges(likelihood) else None)
-    tracker = trackers.latent_tracker(prior.model, prior.template, num_particles=num_particles,
+    tracker = trackers.latent_tracker(prior.model, prior.template,
+                                      engine=trackers.Engine(num_particles),
                                       fps=sequence.fps,
                                       likelihood=trackers.Likelihood(likelihood),
                                       background=background)

@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
 
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
-    from jaxtrack.trackers import latent_tracker, track
+    from jaxtrack.trackers import Engine, latent_tracker, track
     from jaxtrack.vision import (
         VideoError,
         median_grey_background,
@@ -190,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
     grey = to_grey(frames)
     # a median of one or two frames holds the person
     foreground = options.foreground and len(grey) >= 3
-    tracker = latent_tracker(model, template, num_particles=args.particles, fps=fps,
+    tracker = latent_tracker(model, template, engine=Engine(args.particles), fps=fps,
                              likelihood=options.likelihood, refinement=options.refinement,
                              background=median_grey_background(grey) if foreground else None)
     result = track(tracker, jr.PRNGKey(args.seed), grey, markers)

@@ -95,15 +95,17 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
     scene = (median_grey_background(sequence.frames)
              if background and likelihood.needs_edges else None)
     if method == "latent":
-        return trackers.latent_tracker(prior.model, prior.template, num_particles=particles,
-                                       fps=sequence.fps, likelihood=likelihood,
-                                       refinement=refinement, background=scene)
+        return trackers.latent_tracker(prior.model, prior.template,
+                                       engine=trackers.Engine(particles), fps=sequence.fps,
+                                       likelihood=likelihood, refinement=refinement,
+                                       background=scene)
     if refinement == "default":
         refinement = None
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES]),
                                           prior.template))
     if method == "condensation":
-        return trackers.condensation_tracker(prior.template, states, num_particles=particles,
+        return trackers.condensation_tracker(prior.template, states,
+                                             engine=trackers.Engine(particles),
                                              likelihood=likelihood, refinement=refinement,
                                              background=scene)
     if method == "mht":

@@ -4,7 +4,7 @@ Every appearance likelihood keeps one contract, :class:`PartTemplates` (``_base.
 design page is ``docs/likelihoods.md``.
 """
 
-from jaxtrack.likelihoods._base import PartTemplates
+from jaxtrack.likelihoods._base import PartTemplates, check_markers
 from jaxtrack.likelihoods.appearance import (
     DEFAULT_LIKELIHOOD,
     LIKELIHOODS,
@@ -55,6 +55,7 @@ __all__ = [
     "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS",
     "LIMB_SEGMENTS",
     "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates", "PartTemplates",
+    "check_markers",
     "bilinear_sample", "check_observations", "default_sharpness", "fit_border_widths",
     "limb_edge_distances",
     "make_edge_limb_templates", "needs_edges",

@@ -13,7 +13,9 @@ from jaxtrack.trackers._options import (
     DEFAULT_ARM_MOMENTUM,
     DEFAULT_ARM_SPAN,
     DEFAULT_REFINE_STEPS,
+    RESAMPLERS,
     ArmSearch,
+    Engine,
     Likelihood,
     Refinement,
     options_record,
@@ -40,8 +42,8 @@ from jaxtrack.trackers.mht import MHTModel, MHTState, MHTTracker, ModePool, mht_
 
 __all__ = [
     "DEFAULT_ARM_GRID", "DEFAULT_ARM_MARGIN", "DEFAULT_ARM_MOMENTUM", "DEFAULT_ARM_SPAN",
-    "DEFAULT_JUMP_PROBABILITY", "DEFAULT_REFINE_STEPS",
-    "ArmSearch", "ArmijoGaussNewton", "CondensationModel", "CondensationState",
+    "DEFAULT_JUMP_PROBABILITY", "DEFAULT_REFINE_STEPS", "RESAMPLERS",
+    "ArmSearch", "ArmijoGaussNewton", "Engine", "CondensationModel", "CondensationState",
     "CondensationTracker", "FrameEstimate", "FrameInChunk", "LatentModel", "LatentState",
     "LatentTracker", "Likelihood", "MHTModel", "MHTState", "MHTTracker", "ModePool",
     "Refinement", "RefinementState", "TrackResult", "Tracker",

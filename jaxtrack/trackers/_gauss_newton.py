@@ -27,7 +27,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float, PyTree, Scalar
 
 from jaxtrack.body import SPMTemplate, spm_forward
-from jaxtrack.likelihoods import DEFAULT_NCC_SHARPNESS, AppearanceTemplates
+from jaxtrack.likelihoods import DEFAULT_NCC_SHARPNESS, PartTemplates
 from jaxtrack.trackers._parts_gauss_newton import parts_gauss_newton
 from jaxtrack.trackers._tracker import FrameInChunk
 
@@ -70,7 +70,7 @@ def _solver(tolerance: float, dtype) -> ArmijoGaussNewton:
 
 class _Problem(eqx.Module):
     frame: Float[Array, "height width"]
-    templates: AppearanceTemplates
+    templates: PartTemplates
     template: SPMTemplate
     prior_mean: Float[Array, " 25"]
     prior_std: Float[Array, " 25"]
@@ -88,7 +88,7 @@ def _residuals(state: Array, problem: _Problem) -> Array:
 def refinement_cost(
     state: Float[ArrayLike, " 25"],
     frame: Float[ArrayLike, "height width"],
-    templates: AppearanceTemplates,
+    templates: PartTemplates,
     template: SPMTemplate,
     prior_mean: Float[ArrayLike, " 25"],
     prior_std: Float[ArrayLike, " 25"],
@@ -106,7 +106,7 @@ def refinement_cost(
 def refine_pose(
     state: Float[ArrayLike, " 25"],
     frame: Float[ArrayLike, "height width"],
-    templates: AppearanceTemplates,
+    templates: PartTemplates,
     template: SPMTemplate,
     prior_mean: Float[ArrayLike, " 25"],
     prior_std: Float[ArrayLike, " 25"],

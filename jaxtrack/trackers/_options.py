@@ -2,6 +2,8 @@
 
 * :class:`Likelihood` — which appearance likelihood scores a frame, its sharpness λ and how
   pixels are read (every tracker takes one).
+* :class:`Engine` — the particle filter's settings: particles, resampler, ESS threshold (the
+  particle-filter trackers take one).
 * :class:`Refinement` — the full-state refinement stage (Gauss–Newton on the likelihood under a
   Gaussian prior about each start) with its optional :class:`ArmSearch`; any tracker that
   reports SPM poses takes one (``None``: report the filter's own estimate).
@@ -18,10 +20,12 @@ import math
 
 import equinox as eqx
 
+from jaxtrack import smc
 from jaxtrack.likelihoods import DEFAULT_LIKELIHOOD, LIKELIHOODS, default_sharpness, needs_edges
 
 __all__ = ["DEFAULT_ARM_GRID", "DEFAULT_ARM_MARGIN", "DEFAULT_ARM_MOMENTUM", "DEFAULT_ARM_SPAN",
-           "DEFAULT_REFINE_STEPS", "ArmSearch", "Likelihood", "Refinement", "options_record"]
+           "DEFAULT_REFINE_STEPS", "RESAMPLERS", "ArmSearch", "Engine", "Likelihood", "Refinement",
+           "options_record"]
 
 DEFAULT_REFINE_STEPS = 10
 """Gauss–Newton trial steps per candidate and frame of the refinement (the MHT baseline's
@@ -91,6 +95,40 @@ class Likelihood(eqx.Module):
     def needs_edges(self) -> bool:
         """Whether frames are observed with their edge maps, ``(3, height, width)``."""
         return needs_edges(self.kind)
+
+
+RESAMPLERS = {"systematic": smc.Systematic, "stratified": smc.Stratified,
+              "multinomial": smc.Multinomial, "residual": smc.Residual}
+"""The engine's resamplers by name (``jaxtrack.smc``)."""
+
+
+class Engine(eqx.Module):
+    """The particle filter's settings (``jaxtrack.smc.step``).
+
+    Attributes:
+        num_particles: N.
+        resampler: one of :data:`RESAMPLERS` (default systematic).
+        ess_threshold: resample when ESS < ess_threshold × N (1: every frame, as CONDENSATION).
+    """
+
+    num_particles: int = eqx.field(static=True)
+    resampler: str = eqx.field(static=True, default="systematic")
+    ess_threshold: float = eqx.field(static=True, default=1.0)
+
+    def __check_init__(self):
+        if (not isinstance(self.num_particles, int) or isinstance(self.num_particles, bool)
+                or self.num_particles < 1):
+            raise ValueError(f"num_particles must be a positive integer, got "
+                             f"{self.num_particles!r}")
+        if self.resampler not in RESAMPLERS:
+            raise ValueError(f"resampler must be one of {tuple(RESAMPLERS)}, got "
+                             f"{self.resampler!r}")
+        _number(self.ess_threshold, "ess_threshold", 0, 1)
+
+    def step(self, key, state: smc.FilterState, observation, model: smc.StateSpaceModel):
+        """``jaxtrack.smc.step`` with these settings."""
+        return smc.step(key, state, observation, model, resampler=RESAMPLERS[self.resampler](),
+                        ess_threshold=self.ess_threshold)
 
 
 class ArmSearch(eqx.Module):

@@ -3,38 +3,41 @@ on a frame read from the chunk in place, and the per-frame report of a particle 
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from jaxtrack import smc
-from jaxtrack.body import SPM_MARKERS, SPMTemplate, spm_initial_state
-from jaxtrack.likelihoods import AppearanceTemplates, make_appearance_templates
-from jaxtrack.trackers._options import Likelihood
+from jaxtrack.body import SPMTemplate, spm_initial_state
+from jaxtrack.likelihoods import PartTemplates, check_markers, make_appearance_templates
+from jaxtrack.trackers._options import Engine, Likelihood
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk
 
-__all__ = ["check_initial_pose", "cloud_estimate", "first_info", "filter_step", "frame0_state",
-           "frame0_templates"]
+__all__ = ["check_initial_pose", "cloud_estimate", "filter_step", "first_info", "frame0_state",
+           "frame0_templates", "initialize_filter"]
 
 
 def check_initial_pose(initial_pose: Float[ArrayLike, "markers 2"]) -> np.ndarray:
     """``initial_pose`` as ``(markers, 2)`` float64 image markers in ``SPM_MARKERS`` order, or a
     ValueError that says what is wrong."""
-    markers = np.asarray(initial_pose, np.float64)
-    expected = (len(SPM_MARKERS), 2)
-    if markers.shape != expected:
-        raise ValueError(f"initial_pose must be {expected[0]} (x, y) image markers in "
-                         f"SPM_MARKERS order, shape {expected}, got shape {markers.shape}")
-    if not np.all(np.isfinite(markers)):
-        raise ValueError("initial_pose holds non-finite values")
-    return markers
+    check_markers(initial_pose, name="initial_pose", finite=True)
+    return np.asarray(initial_pose, np.float64)
 
 
 def frame0_templates(likelihood: Likelihood, first_frame: Float[ArrayLike, "..."],
                      markers: np.ndarray, background: Array | None, dtype
-                     ) -> AppearanceTemplates:
-    """The likelihood's templates cut from frame 0 at its markers, in ``dtype``."""
+                     ) -> PartTemplates:
+    """The likelihood's templates cut from frame 0 (as the likelihood observes it) at its
+    markers, in ``dtype``."""
     first_frame = np.asarray(first_frame)
+    if likelihood.needs_edges and (first_frame.ndim != 3 or first_frame.shape[0] != 3):
+        raise ValueError(f"first_frame must be the {likelihood.kind!r} likelihood's observation, "
+                         f"(3, height, width): the grey frame and its edge maps "
+                         f"(jaxtrack.vision.edge_observations), got shape {first_frame.shape}")
+    if not likelihood.needs_edges and first_frame.ndim != 2:
+        raise ValueError(f"first_frame must be a (height, width) grey frame for the "
+                         f"{likelihood.kind!r} likelihood, got shape {first_frame.shape}")
     if not np.all(np.isfinite(first_frame)):
         raise ValueError("first_frame holds non-finite values")
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
@@ -63,16 +66,24 @@ class _FrameOfChunk(smc.StateSpaceModel):
         return self.model.log_likelihood(particle, frames[index])
 
 
-def filter_step(key: PRNGKeyArray, state: smc.FilterState, frame: Array | FrameInChunk,
-                model: smc.StateSpaceModel) -> tuple[smc.FilterState, smc.StepInfo]:
-    """``smc.step`` on ``frame``. A :class:`FrameInChunk` is never cut out of the chunk: the
+def filter_step(engine: Engine, key: PRNGKeyArray, state: smc.FilterState,
+                frame: Array | FrameInChunk, model: smc.StateSpaceModel
+                ) -> tuple[smc.FilterState, smc.StepInfo]:
+    """The engine's step on ``frame``. A :class:`FrameInChunk` is never cut out of the chunk: the
     engine hands its observation to the re-seeding branch of a ``lax.cond``, and a frame sliced
     from the chunk would be copied whole into a buffer for it on every frame (1.2 MB at
     640 × 480); here the cond gets the chunk and the index, and each particle's likelihood
     reads its pixels from the chunk directly."""
     if isinstance(frame, FrameInChunk):
-        return smc.step(key, state, (frame.frames, frame.index), _FrameOfChunk(model))
-    return smc.step(key, state, frame, model)
+        return engine.step(key, state, (frame.frames, frame.index), _FrameOfChunk(model))
+    return engine.step(key, state, frame, model)
+
+
+@eqx.filter_jit
+def initialize_filter(key: PRNGKeyArray, model: smc.StateSpaceModel, frame: Array,
+                      num_particles: int) -> smc.FilterState:
+    """The filter's state at frame 0: ``num_particles`` from ``model.init``, weighted by it."""
+    return smc.initialize(key, model, frame, num_particles)[0]
 
 
 def first_info(state: smc.FilterState) -> smc.StepInfo:

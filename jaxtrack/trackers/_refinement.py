@@ -30,7 +30,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from jaxtrack.body import SPM_MARKERS, SPM_STATE_NAMES, SPM_STATE_SIZE, SPMTemplate, spm_forward
-from jaxtrack.likelihoods import AppearanceTemplates
+from jaxtrack.likelihoods import PartTemplates
 from jaxtrack.priors.dynamics import default_noise_floor
 from jaxtrack.trackers._gauss_newton import refine_pose
 from jaxtrack.trackers._options import ArmSearch, Refinement
@@ -70,7 +70,7 @@ def refinement_prior_std(refinement: Refinement, torso: float) -> np.ndarray:
     return refinement.prior_std * default_noise_floor(torso)
 
 
-def score_pose(pose: Float[Array, " 25"], frame: Array, appearance: AppearanceTemplates,
+def score_pose(pose: Float[Array, " 25"], frame: Array, appearance: PartTemplates,
                template: SPMTemplate, sharpness: Array,
                parts: tuple[int, ...] | None = None) -> Float[Array, ""]:
     """Log-likelihood of one SPM pose (bilinear reads), or the sum of its ``parts`` terms
@@ -84,7 +84,7 @@ def score_pose(pose: Float[Array, " 25"], frame: Array, appearance: AppearanceTe
 
 
 def search_arms(search: ArmSearch, pose: Float[Array, " 25"], frame: Array,
-                appearance: AppearanceTemplates, template: SPMTemplate, sharpness: Array,
+                appearance: PartTemplates, template: SPMTemplate, sharpness: Array,
                 predicted: Float[Array, " 25"] | None = None) -> Float[Array, " 25"]:
     """The arm search (module docstring): for each arm, the best of ``grid²`` offsets of its
     upper-arm and forearm angles if it beats offset 0 (the middle of the grid) by ``margin``
@@ -131,7 +131,7 @@ def _predicted(search: ArmSearch | None, state: RefinementState) -> Array | None
 
 
 def _refine_one(refinement: Refinement, start: Array, observed: Array | FrameInChunk,
-                predicted: Array | None, appearance: AppearanceTemplates,
+                predicted: Array | None, appearance: PartTemplates,
                 template: SPMTemplate, sharpness: Array, prior_std: Array
                 ) -> tuple[Array, Array]:
     """One candidate searched (arms) and refined, with its log-likelihood."""
@@ -151,7 +151,7 @@ def _refine_one(refinement: Refinement, start: Array, observed: Array | FrameInC
 
 
 def refine(refinement: Refinement, state: RefinementState, estimate: Float[Array, " 25"],
-           observed: Array | FrameInChunk, appearance: AppearanceTemplates,
+           observed: Array | FrameInChunk, appearance: PartTemplates,
            template: SPMTemplate, sharpness: Array, prior_std: Float[Array, " 25"]
            ) -> tuple[RefinementState, Float[Array, " 25"]]:
     """One frame of the stage (module docstring): the carried pose and the tracker's

@@ -28,7 +28,7 @@ from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward
-from jaxtrack.likelihoods import AppearanceTemplates
+from jaxtrack.likelihoods import PartTemplates
 from jaxtrack.priors.dynamics import (
     DEFAULT_RIDGE,
     AR2Dynamics,
@@ -36,7 +36,7 @@ from jaxtrack.priors.dynamics import (
     fit_ar2,
     random_walk_dynamics,
 )
-from jaxtrack.trackers._options import Likelihood, Refinement, options_record
+from jaxtrack.trackers._options import Engine, Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import (
     check_initial_pose,
     cloud_estimate,
@@ -44,6 +44,7 @@ from jaxtrack.trackers._particles import (
     first_info,
     frame0_state,
     frame0_templates,
+    initialize_filter,
 )
 from jaxtrack.trackers._refinement import RefinementState, refine, refinement_prior_std
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
@@ -68,7 +69,7 @@ class CondensationModel(smc.StateSpaceModel):
 
     dynamics: AR2Dynamics
     template: SPMTemplate
-    templates: AppearanceTemplates
+    templates: PartTemplates
     initial_state: Float[Array, " state"]
     initial_std: Float[Array, " state"]
     sharpness: Float[Array, ""]
@@ -117,7 +118,7 @@ class CondensationTracker(Tracker):
         dynamics: AR(2) (or random-walk) dynamics of the 25-d state.
         template: the SPM template the states are expressed in.
         likelihood: how frames are scored.
-        particles: static N.
+        engine: the particle filter's settings (N, resampler, ESS threshold).
         refinement: the full-state refinement of the reported pose; None: the weighted mean.
         background: ``(height, width)`` grey background of a static camera for the
             ``"limbs+edges"`` likelihood's foreground term; None: none.
@@ -127,27 +128,26 @@ class CondensationTracker(Tracker):
     dynamics: AR2Dynamics
     template: SPMTemplate
     likelihood: Likelihood
-    particles: int = eqx.field(static=True)
+    engine: Engine
     refinement: Refinement | None = None
     background: Float[Array, "height width"] | None = None
     initial_spread: float = eqx.field(static=True, default=1.0)
 
     def __check_init__(self):
-        if not isinstance(self.particles, int) or self.particles < 1:
-            raise ValueError(f"num_particles must be a positive integer, got {self.particles!r}")
         if not self.initial_spread >= 0:
             raise ValueError(f"initial_spread must be >= 0, got {self.initial_spread!r}")
 
     @property
     def num_particles(self) -> int:
-        return self.particles
+        return self.engine.num_particles
 
     @property
     def dtype(self):
         return self.dynamics.noise_std.dtype
 
     def options(self) -> dict:
-        return {"method": "condensation", "particles": self.particles,
+        return {"method": "condensation", "particles": self.num_particles,
+                "engine": options_record(self.engine),
                 "likelihood": options_record(self.likelihood),
                 "refinement": options_record(self.refinement),
                 "foreground": self.background is not None,
@@ -170,7 +170,8 @@ class CondensationTracker(Tracker):
             torso = float(np.exp(np.asarray(initial[0], np.float64)))
             refined = RefinementState(initial, initial)
             refine_std = jnp.asarray(refinement_prior_std(self.refinement, torso), dtype)
-        filtered = _initialize(key, model, jnp.asarray(first_frame, dtype), self.particles)
+        filtered = initialize_filter(key, model, jnp.asarray(first_frame, dtype),
+                                    self.num_particles)
         return CondensationState(model, filtered, refined, refine_std)
 
     def first_estimate(self, state: CondensationState) -> FrameEstimate:
@@ -179,7 +180,7 @@ class CondensationTracker(Tracker):
     def update(self, key: PRNGKeyArray, state: CondensationState, frame: Array | FrameInChunk
                ) -> tuple[CondensationState, FrameEstimate]:
         with jax.named_scope("filter"):
-            filtered, info = filter_step(key, state.filter, frame, state.model)
+            filtered, info = filter_step(self.engine, key, state.filter, frame, state.model)
         return self._report(state, filtered, info, frame)
 
     def _report(self, state: CondensationState, filtered: smc.FilterState, info: smc.StepInfo,
@@ -205,11 +206,6 @@ class CondensationTracker(Tracker):
         return cloud_estimate(filtered, info, markers, model.markers_of)
 
 
-@eqx.filter_jit
-def _initialize(key: PRNGKeyArray, model: smc.StateSpaceModel, frame: Array,
-                num_particles: int) -> smc.FilterState:
-    return smc.initialize(key, model, frame, num_particles)[0]
-
 
 def _training_states(training_states) -> np.ndarray:
     states = np.asarray(training_states, np.float64)
@@ -234,7 +230,7 @@ def condensation_tracker(
     template: SPMTemplate,
     training_states: Float[ArrayLike, "time 25"],
     *,
-    num_particles: int = 1000,
+    engine: Engine = Engine(1000),
     likelihood: Likelihood = Likelihood(),
     refinement: Refinement | None = None,
     background: Float[ArrayLike, "height width"] | None = None,
@@ -251,7 +247,8 @@ def condensation_tracker(
     Args:
         template: the SPM template the states are expressed in.
         training_states: ``(time, 25)`` SPM states to learn the dynamics from.
-        num_particles: N.
+        engine: the particle filter's settings (:class:`~jaxtrack.trackers.Engine`: N,
+            resampler, ESS threshold).
         likelihood: how frames are scored (:class:`~jaxtrack.trackers.Likelihood`).
         refinement: the full-state refinement of the reported pose; None: the weighted mean.
         background: grey background of a static camera for the foreground term; None: none.
@@ -266,7 +263,7 @@ def condensation_tracker(
     dynamics = fit_ar2(states, ridge=ridge, min_noise_std=floor, max_root=max_root)
     return CondensationTracker(
         dynamics=dynamics.astype(dtype), template=_cast(template, dtype), likelihood=likelihood,
-        particles=num_particles, refinement=refinement, background=background,
+        engine=engine, refinement=refinement, background=background,
         initial_spread=float(initial_spread))
 
 
@@ -274,7 +271,7 @@ def random_walk_tracker(
     template: SPMTemplate,
     training_states: Float[ArrayLike, "time 25"],
     *,
-    num_particles: int = 1000,
+    engine: Engine = Engine(1000),
     likelihood: Likelihood = Likelihood(),
     refinement: Refinement | None = None,
     background: Float[ArrayLike, "height width"] | None = None,
@@ -294,5 +291,5 @@ def random_walk_tracker(
     dynamics = eqx.tree_at(lambda d: d.noise_std, dynamics, step_scale * dynamics.noise_std)
     return CondensationTracker(
         dynamics=dynamics.astype(dtype), template=_cast(template, dtype), likelihood=likelihood,
-        particles=num_particles, refinement=refinement, background=background,
+        engine=engine, refinement=refinement, background=background,
         initial_spread=float(initial_spread))

@@ -36,7 +36,7 @@ from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from jaxtrack import smc
 from jaxtrack.body import SPMTemplate, spm_forward
-from jaxtrack.likelihoods import AppearanceTemplates
+from jaxtrack.likelihoods import PartTemplates
 from jaxtrack.priors.dynamics import LatentWalk
 from jaxtrack.priors.gplvm import GPLVM
 from jaxtrack.priors.poses import (
@@ -45,7 +45,7 @@ from jaxtrack.priors.poses import (
     pose_features,
     states_from_features,
 )
-from jaxtrack.trackers._options import Likelihood, Refinement, options_record
+from jaxtrack.trackers._options import Engine, Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import (
     check_initial_pose,
     cloud_estimate,
@@ -53,6 +53,7 @@ from jaxtrack.trackers._particles import (
     first_info,
     frame0_state,
     frame0_templates,
+    initialize_filter,
 )
 from jaxtrack.trackers._refinement import RefinementState, refine, refinement_prior_std
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
@@ -88,7 +89,7 @@ class LatentModel(smc.StateSpaceModel):
 
     prior: GPLVM
     template: SPMTemplate
-    templates: AppearanceTemplates
+    templates: PartTemplates
     walk: LatentWalk
     initial_latent: Float[Array, " latent"]
     initial_placement: Float[Array, " 3"]
@@ -151,7 +152,7 @@ class LatentTracker(Tracker):
         template: SPM template the prior's poses are expressed in.
         likelihood: how frames are scored.
         latent_std: ``(latent,)`` ν per frame, rescaled to the video's frame rate.
-        particles: static N.
+        engine: the particle filter's settings (N, resampler, ESS threshold).
         refinement: the full-state refinement of the reported pose; None: the paper's estimate.
         background: grey background of a static camera for the foreground term; None: none.
         placement_std: per-frame std of (log scale, x px, y px); None: (0.01, 1 % of the
@@ -165,7 +166,7 @@ class LatentTracker(Tracker):
     template: SPMTemplate
     likelihood: Likelihood
     latent_std: Float[Array, " latent"]
-    particles: int = eqx.field(static=True)
+    engine: Engine
     host_prior: _HostPrior = eqx.field(static=True)
     refinement: Refinement | None = None
     background: Float[Array, "height width"] | None = None
@@ -175,8 +176,6 @@ class LatentTracker(Tracker):
     mode_radius: float = eqx.field(static=True, default=3.0)
 
     def __check_init__(self):
-        if not isinstance(self.particles, int) or self.particles < 1:
-            raise ValueError(f"num_particles must be a positive integer, got {self.particles!r}")
         if not 0 <= self.jump_probability < 1:
             raise ValueError(f"jump_probability must be in [0, 1), got {self.jump_probability}")
         if not self.mode_radius > 0:
@@ -187,10 +186,11 @@ class LatentTracker(Tracker):
 
     @property
     def num_particles(self) -> int:
-        return self.particles
+        return self.engine.num_particles
 
     def options(self) -> dict:
-        return {"method": "latent", "particles": self.particles,
+        return {"method": "latent", "particles": self.num_particles,
+                "engine": options_record(self.engine),
                 "likelihood": options_record(self.likelihood),
                 "refinement": options_record(self.refinement),
                 "foreground": self.background is not None,
@@ -226,7 +226,8 @@ class LatentTracker(Tracker):
         if self.refinement is not None:
             refined = RefinementState(cast(state), cast(state))
             refine_std = cast(refinement_prior_std(self.refinement, torso))
-        filtered = _initialize(key, model, jnp.asarray(first_frame), self.particles)
+        filtered = initialize_filter(key, model, jnp.asarray(first_frame),
+                                    self.num_particles)
         return LatentState(model, filtered, refined, refine_std)
 
     def estimate_particle(self, model: LatentModel, particles, log_weights) -> dict:
@@ -250,7 +251,7 @@ class LatentTracker(Tracker):
     def update(self, key: PRNGKeyArray, state: LatentState, frame: Array | FrameInChunk
                ) -> tuple[LatentState, FrameEstimate]:
         with jax.named_scope("filter"):
-            filtered, info = filter_step(key, state.filter, frame, state.model)
+            filtered, info = filter_step(self.engine, key, state.filter, frame, state.model)
             estimate = self._cloud(state.model, filtered, info)
         return self._report(state, filtered, estimate, frame)
 
@@ -272,17 +273,12 @@ class LatentTracker(Tracker):
         return LatentState(model, filtered, refined, state.refine_std), estimate
 
 
-@eqx.filter_jit
-def _initialize(key: PRNGKeyArray, model: smc.StateSpaceModel, frame: Array,
-                num_particles: int) -> smc.FilterState:
-    return smc.initialize(key, model, frame, num_particles)[0]
-
 
 def latent_tracker(
     prior: GPLVM,
     template: SPMTemplate,
     *,
-    num_particles: int = 200,
+    engine: Engine = Engine(200),
     likelihood: Likelihood = Likelihood(),
     refinement: Refinement | None | str = "default",
     background: Float[ArrayLike, "height width"] | None = None,
@@ -298,7 +294,8 @@ def latent_tracker(
     Args:
         prior: a trained GPLVM with its dynamics ν (``fit_gplvm(..., sequence_ids=...)``).
         template: the SPM template its training poses were expressed in.
-        num_particles: N.
+        engine: the particle filter's settings (:class:`~jaxtrack.trackers.Engine`: N,
+            resampler, ESS threshold).
         likelihood: how frames are scored (:class:`~jaxtrack.trackers.Likelihood`).
         refinement: the full-state refinement of the reported pose; None: the paper's
             estimate; ``"default"``: :func:`default_refinement` of the likelihood.
@@ -334,7 +331,7 @@ def latent_tracker(
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     return LatentTracker(
         prior=prior.astype(dtype), template=jax.tree.map(cast, template), likelihood=likelihood,
-        latent_std=cast(std), particles=num_particles, host_prior=_HostPrior(prior),
+        latent_std=cast(std), engine=engine, host_prior=_HostPrior(prior),
         refinement=refinement, background=background, placement_std=placement_std,
         initial_spread=float(initial_spread), jump_probability=float(jump_probability),
         mode_radius=float(mode_radius))

@@ -52,7 +52,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int, PRNGKeyArray
 
 from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward
-from jaxtrack.likelihoods import AppearanceTemplates
+from jaxtrack.likelihoods import PartTemplates
 from jaxtrack.priors.dynamics import constant_velocity, default_noise_floor
 from jaxtrack.trackers._gauss_newton import refine_pose
 from jaxtrack.trackers._options import Likelihood, Refinement, options_record
@@ -128,7 +128,7 @@ class MHTModel(eqx.Module):
     """
 
     template: SPMTemplate
-    templates: AppearanceTemplates
+    templates: PartTemplates
     initial_state: Float[Array, " 25"]
     step_std: Float[Array, " 25"]
     sharpness: Float[Array, ""]

@@ -9,8 +9,8 @@ from jaxtrack.body import UPPER_BODY_12, frontal_camera, render_motion
 from jaxtrack.cli import main
 from jaxtrack.data import load_clip
 from jaxtrack.priors.gplvm import save_gplvm
+from jaxtrack.trackers import DEFAULT_ARM_GRID, DEFAULT_REFINE_STEPS
 from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise, search_poses
-from jaxtrack.trackers.latent import DEFAULT_ARM_GRID
 from jaxtrack.vision import foreground_mask, head_boxes, median_background, write_frames
 
 HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
@@ -95,8 +95,11 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
                  "--max-size", "160"]) == 0
     record = json.loads((out / "track.json").read_text())
     assert len(record["frames"]) == 10 and record["tracked_size"] == [160, 120]
-    assert record["refine_steps"] == 10  # the default with the default likelihood
-    assert record["arm_grid"] == DEFAULT_ARM_GRID
+    # the default refinement with the default likelihood, recorded as it ran
+    refinement = record["tracker"]["refinement"]
+    assert refinement["steps"] == DEFAULT_REFINE_STEPS
+    assert refinement["arm_search"]["grid"] == DEFAULT_ARM_GRID
+    assert record["tracker"]["method"] == "latent" and record["tracker"]["particles"] == 50
     markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
                         for frame in record["frames"]])
     assert np.all(np.isfinite(markers))
@@ -132,10 +135,11 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     assert code == 2 and "--refine-steps must be 0 or more" in error
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--arm-grid", "2")
-    assert code == 2 and "--arm-grid must be 0 or odd, got 2" in error
+    assert code == 2 and "--arm-grid must be an odd positive integer" in error
+    assert error.strip().endswith("got 2")
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--arm-momentum", "-0.5")
-    assert code == 2 and "--arm-momentum must be in [0, 1], got -0.5" in error
+    assert code == 2 and "--arm-momentum must be a finite number >= 0 and <= 1, got -0.5" in error
     corrupt = tmp_path / "corrupt.mp4"
     corrupt.write_bytes(b"not a video" * 100)
     code, error = run("--model", str(model_file), "--video", str(corrupt), "--out", str(out))

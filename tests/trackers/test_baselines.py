@@ -16,6 +16,7 @@ from jaxtrack.likelihoods import make_templates, ncc_log_likelihood
 from jaxtrack.priors.dynamics import AR2Dynamics, fit_ar2, random_walk_dynamics
 from jaxtrack.trackers import (
     CondensationTracker,
+    Engine,
     FrameInChunk,
     Likelihood,
     MHTTracker,
@@ -174,7 +175,7 @@ def test_ar2_predicts_the_training_frames_better_than_a_random_walk(wave):
 
 @pytest.mark.parametrize("make", [condensation_tracker, random_walk_tracker])
 def test_condensation_follows_the_first_frames(wave, make):
-    tracker = make(wave["template"], wave["states"], num_particles=200)
+    tracker = make(wave["template"], wave["states"], engine=Engine(200))
     assert isinstance(tracker, CondensationTracker)
     result = track(tracker, jr.key(0), wave["frames"][:TRACKED], wave["truth"][0],
                    chunk_size=TRACKED - 1, progress=False)
@@ -191,7 +192,7 @@ def test_condensation_follows_the_first_frames(wave, make):
 
 @pytest.mark.parametrize("nearest", [True, False])
 def test_condensation_model_jit_matches_eager(wave, nearest):
-    tracker = condensation_tracker(wave["template"], wave["states"], num_particles=4,
+    tracker = condensation_tracker(wave["template"], wave["states"], engine=Engine(4),
                                    likelihood=Likelihood(nearest=nearest))
     # the default likelihood observes the grey frame with its edge maps
     frames = edge_observations(wave["frames"][:2])
@@ -211,8 +212,9 @@ def test_condensation_model_jit_matches_eager(wave, nearest):
 
 
 def test_condensation_particles_hold_the_previous_state(wave):
-    tracker = condensation_tracker(wave["template"], wave["states"], num_particles=4)
-    model = tracker.start(jr.key(0), wave["frames"][0], wave["truth"][0]).model
+    tracker = condensation_tracker(wave["template"], wave["states"], engine=Engine(4))
+    first = edge_observations(wave["frames"][:1])[0]
+    model = tracker.start(jr.key(0), first, wave["truth"][0]).model
     particle = model.init(jr.key(0))
     np.testing.assert_array_equal(particle["current"], particle["previous"])
     child = model.propagate(jr.key(1), particle, 1)
@@ -227,7 +229,7 @@ def test_condensation_rejects_bad_training_states(wave):
     with pytest.raises(ValueError, match="training_states"):
         condensation_tracker(wave["template"], wave["states"][:, :10])
     with pytest.raises(ValueError, match="num_particles"):
-        condensation_tracker(wave["template"], wave["states"], num_particles=0)
+        condensation_tracker(wave["template"], wave["states"], engine=Engine(0))
     with pytest.raises(ValueError, match="initial_spread"):
         condensation_tracker(wave["template"], wave["states"], initial_spread=-1.0)
 

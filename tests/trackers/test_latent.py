@@ -11,6 +11,7 @@ from jaxtrack.cli import main
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.trackers import (
     ArmSearch,
+    Engine,
     Likelihood,
     Refinement,
     RefinementState,
@@ -26,7 +27,7 @@ HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 
 
 def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
-    tracker = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps)
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps)
     result = track(tracker, jr.PRNGKey(0), sequence.frames, sequence.truth[0], chunk_size=8,
                    progress=False)
     assert result.markers.shape == sequence.truth.shape
@@ -44,7 +45,7 @@ def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior
     """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
     frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before."""
 
-    tracker = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps,
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps,
                              likelihood=Likelihood("limbs+edges"))
     truth = sequence.truth[0]
     from_grey = track(tracker, jr.PRNGKey(0), sequence.frames, truth, chunk_size=8,
@@ -57,7 +58,7 @@ def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior
     assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
     with pytest.raises(ValueError, match="edge maps"):
         track(tracker, jr.PRNGKey(0), sequence.images, truth, progress=False)
-    strips = latent_tracker(prior.model, prior.template, num_particles=8,
+    strips = latent_tracker(prior.model, prior.template, engine=Engine(8),
                             likelihood=Likelihood("limbs"))
     with pytest.raises(ValueError, match="grey images, got"):
         track(strips, jr.PRNGKey(0), edge_observations(sequence.frames[:2]), truth,
@@ -81,9 +82,9 @@ def test_random_walk_in_the_full_state_does_worse(wave_prior, whole_take):
                        chunk_size=8, progress=False)
         return evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)["mean_error_torso"]
 
-    latent = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps)
+    latent = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps)
     states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth), prior.template))
-    walk = random_walk_tracker(prior.template, states, num_particles=100)
+    walk = random_walk_tracker(prior.template, states, engine=Engine(100))
     assert error(latent) < error(walk)
 
 
@@ -95,8 +96,8 @@ def test_full_state_refinement_leaves_the_latent_space_and_lowers_the_error(wave
     well as the paper's estimate on every frame and lie closer to the truth over the take (here
     12–13 % of the torso against 15–17 %, seeds 0–2)."""
     prior, sequence = wave_prior, whole_take
-    tracker = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps)
-    paper = latent_tracker(prior.model, prior.template, num_particles=100, fps=sequence.fps,
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps)
+    paper = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps,
                            refinement=None)
     refined, plain = (track(t, jr.PRNGKey(0), sequence.frames, sequence.truth[0],
                             chunk_size=8, progress=False) for t in (tracker, paper))
@@ -140,7 +141,8 @@ def _waving_frames(tracker, sequence, indices):
 
 def _stage(tracker, sequence):
     """The tracker's arm search and pose score, bound to its model started on frame 0."""
-    model = tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0]).model
+    first = edge_observations(sequence.frames[:1])[0]
+    model = tracker.start(jr.PRNGKey(0), first, sequence.truth[0]).model
     arms = tracker.refinement.arm_search
 
     @jax.jit
@@ -162,7 +164,7 @@ def test_arm_search_brings_a_displaced_arm_back(wave_prior, whole_take):
     cell scores below another), the score never drops, and the left arm, already right, stays
     within one grid step."""
     prior, sequence = wave_prior, whole_take
-    tracker = latent_tracker(prior.model, prior.template, num_particles=8, fps=sequence.fps)
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(8), fps=sequence.fps)
     search, score = _stage(tracker, sequence)
     arm_score = jax.jit(lambda pose, image: score(pose, image, (3, 4)))
     before, after = [], []
@@ -194,7 +196,7 @@ def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_p
     the score never drops either way. The prediction extrapolates the arm angles of the last
     two reported poses, wrapped across ±π, and nothing else."""
     prior, sequence = wave_prior, whole_take
-    tracker = latent_tracker(prior.model, prior.template, num_particles=8, fps=sequence.fps)
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(8), fps=sequence.fps)
     search, score = _stage(tracker, sequence)
     alone, predicted_off = [], []
     for frame, truth, off in _waving_frames(tracker, sequence, range(24, 48, 8)):
@@ -211,7 +213,8 @@ def test_arm_search_from_the_predicted_arm_reaches_an_arm_beyond_its_span(wave_p
     assert np.all(predicted_off < 0.12), predicted_off
 
     # the prediction: arm angles moved on by their change, wrapped; the rest is the pose
-    initial = tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0]).refined.pose
+    first = edge_observations(sequence.frames[:1])[0]
+    initial = tracker.start(jr.PRNGKey(0), first, sequence.truth[0]).refined.pose
     pose = initial.at[13].set(3.1).at[11].set(0.2).at[1].add(5.0)
     previous = initial.at[13].set(-3.1).at[11].set(0.3)
     state = RefinementState(pose, previous)
@@ -237,12 +240,15 @@ def test_latent_tracker_rejects_bad_input(prior, sequence):
     with pytest.raises(ValueError, match="refinement must be a Refinement"):
         latent_tracker(prior.model, prior.template, refinement="on")
     with pytest.raises(ValueError, match="num_particles"):
-        latent_tracker(prior.model, prior.template, num_particles=0)
-    tracker = latent_tracker(prior.model, prior.template, num_particles=8)
-    with pytest.raises(ValueError, match="initial_pose holds non-finite"):
-        tracker.start(jr.PRNGKey(0), sequence.frames[0], np.full((12, 2), np.nan))
+        latent_tracker(prior.model, prior.template, engine=Engine(0))
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(8))
+    first = edge_observations(sequence.frames[:1])[0]
+    with pytest.raises(ValueError, match="initial_pose must be 12 finite .* non-finite"):
+        tracker.start(jr.PRNGKey(0), first, np.full((12, 2), np.nan))
     with pytest.raises(ValueError, match="first_frame holds non-finite"):
-        tracker.start(jr.PRNGKey(0), np.full_like(sequence.frames[0], np.nan), sequence.truth[0])
+        tracker.start(jr.PRNGKey(0), np.full_like(first, np.nan), sequence.truth[0])
+    with pytest.raises(ValueError, match=r"first_frame must be .* \(3, height, width\)"):
+        tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0])
 
 
 def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
@@ -289,7 +295,8 @@ def test_jumps_redraw_a_fraction_of_particles_at_training_latents(prior, sequenc
     30 % of the particles take their step from a training latent instead of their own."""
     def propagate(jump_probability):
         tracker = latent_tracker(prior.model, prior.template, jump_probability=jump_probability)
-        model = tracker.start(jr.PRNGKey(0), sequence.frames[0], sequence.truth[0]).model
+        first = edge_observations(sequence.frames[:1])[0]
+        model = tracker.start(jr.PRNGKey(0), first, sequence.truth[0]).model
         particle = {"latent": model.initial_latent, "placement": model.initial_placement}
         keys = jr.split(jr.PRNGKey(3), 4000)
         moved = jax.jit(jax.vmap(model.propagate, in_axes=(0, None, None)))(keys, particle, 1)

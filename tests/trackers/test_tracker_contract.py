@@ -15,6 +15,7 @@ import pytest
 from jaxtrack.body import SPM_MARKERS, spm_initial_state
 from jaxtrack.trackers import (
     ArmSearch,
+    Engine,
     FrameEstimate,
     Likelihood,
     Refinement,
@@ -27,6 +28,7 @@ from jaxtrack.trackers import (
 from jaxtrack.vision import edge_observations
 
 FRAMES = 6
+HELD_OUT = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 # a light refinement keeps the compiled scans small; the stage is the one the latent tracker runs
 LIGHT = Refinement(steps=3, arm_search=ArmSearch(grid=3))
 
@@ -38,11 +40,11 @@ def _states(prior, sequence):
 def _make(name, prior, sequence, refinement="default"):
     """The tracker ``name`` with few particles; ``refinement`` None, LIGHT or the default."""
     if name == "latent":
-        return latent_tracker(prior.model, prior.template, num_particles=16, fps=sequence.fps,
+        return latent_tracker(prior.model, prior.template, engine=Engine(16), fps=sequence.fps,
                               refinement=LIGHT if refinement == "default" else refinement)
     stage = None if refinement == "default" else refinement
     if name == "condensation":
-        return condensation_tracker(prior.template, _states(prior, sequence), num_particles=32,
+        return condensation_tracker(prior.template, _states(prior, sequence), engine=Engine(32),
                                     refinement=stage)
     return mht_tracker(prior.template, _states(prior, sequence), num_modes=3, max_steps=3,
                        refinement=stage)
@@ -108,9 +110,10 @@ def test_bad_frames_and_bad_initial_poses_are_clear_errors(name, prior, sequence
     broken[0, 5, 5] = np.nan
     with pytest.raises(ValueError, match="non-finite"):
         track(tracker, jr.PRNGKey(0), broken, truth, progress=False)
-    with pytest.raises(ValueError, match=r"initial_pose must be 12 \(x, y\) image markers"):
+    with pytest.raises(ValueError, match=r"initial_pose must be 12 finite \(x, y\) pixel markers "
+                                         r"of shape \(12, 2\)"):
         track(tracker, jr.PRNGKey(0), frames, truth[:5], progress=False)
-    with pytest.raises(ValueError, match="initial_pose holds non-finite"):
+    with pytest.raises(ValueError, match="initial_pose must be 12 finite .* non-finite"):
         track(tracker, jr.PRNGKey(0), frames, np.full_like(truth, np.nan), progress=False)
     with pytest.raises(TypeError, match="must be a jaxtrack.trackers.Tracker"):
         track(object(), jr.PRNGKey(0), frames, truth, progress=False)
@@ -152,6 +155,13 @@ def test_options_are_validated_once_where_they_are_built():
             Refinement(steps=steps)
     with pytest.raises(ValueError, match="prior_std"):
         Refinement(prior_std=0.0)
+    for particles in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="num_particles"):
+            Engine(particles)
+    with pytest.raises(ValueError, match="resampler must be one of"):
+        Engine(8, resampler="bogus")
+    with pytest.raises(ValueError, match="ess_threshold"):
+        Engine(8, ess_threshold=1.5)
 
 
 TRACKER_MODULES = ("latent", "condensation", "mht")
@@ -213,3 +223,31 @@ def test_a_tracker_must_declare_the_whole_contract():
 
     with pytest.raises(TypeError, match="abstract method.*update"):
         NoUpdate()
+
+
+def test_evaluate_runs_the_baselines_with_the_latent_trackers_refinement(prior, tmp_path,
+                                                                         monkeypatch, capsys):
+    """``jaxtrack evaluate --method condensation`` takes the refinement options the latent
+    tracker takes; the stage changes the result and the JSON records the options used."""
+    import jaxtrack.priors.train
+    from jaxtrack.cli import main
+
+    # the small session prior stands in for the CLI's own training (only its template is used)
+    monkeypatch.setattr(jaxtrack.priors.train, "train_prior", lambda *args, **kwargs: prior)
+    common = ["evaluate", "--method", "condensation", "--train",
+              "animateddrawings/fair1_wave_hello", "--test", HELD_OUT, "--particles", "16",
+              "--views", "1", "--backgrounds", "photo", "--max-frames", "5"]
+    records = {}
+    for name, extra in (("plain", []), ("refined", ["--refine-steps", "3", "--arm-grid", "3"])):
+        path = tmp_path / f"{name}.json"
+        assert main([*common, "--json", str(path), *extra]) == 0, capsys.readouterr().err
+        records[name] = json.loads(path.read_text())
+    plain, refined = records["plain"], records["refined"]
+    assert plain["tracker"]["method"] == refined["tracker"]["method"] == "condensation"
+    assert plain["tracker"]["refinement"] is None
+    assert refined["tracker"]["refinement"] == {
+        "steps": 3, "prior_std": 40.0,
+        "arm_search": {"grid": 3, "span": 0.6, "margin": 2.0, "momentum": 1.0}}
+    assert plain["tracker"]["likelihood"] == {"kind": "limbs+edges", "sharpness": None,
+                                              "nearest": True}
+    assert plain["overall"]["mean_error_px"] != refined["overall"]["mean_error_px"]
