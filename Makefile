@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env install clean
+.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -23,6 +23,10 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+# the design pages and the API reference from the docstrings, into site/ (strict: warnings fail)
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict --site-dir site
 
 lint: $(STAMP)
 	$(BIN)/ruff check jaxtrack tests benchmarks

@@ -94,7 +94,8 @@ def limb_points(
 
     Args:
         markers_2d: ``(12, 2)`` pixel markers in ``SPM_MARKERS`` order.
-        along, across: static sample counts per strip.
+        along: static sample count along each strip.
+        across: static sample count across each strip.
         width: half width over spine length.
     """
     points = point_coordinates(jnp.asarray(markers_2d), along, across, width)
@@ -201,7 +202,8 @@ def make_limb_templates(
     Args:
         image: ``(height, width)`` grey reference frame.
         markers_2d: ``(12, 2)`` its markers in ``SPM_MARKERS`` order.
-        along, across: sample counts per strip (at least 2 and 3).
+        along: sample count along each strip (at least 2).
+        across: sample count across each strip (at least 3).
         width: half width over spine length.
     """
     if int(along) != along or int(across) != across or along < 2 or across < 3:

@@ -138,8 +138,8 @@ def refine_pose(
             width)`` with edge maps), or a ``FrameInChunk`` standing for ``frames[index]``.
         templates: appearance templates (limb strips or marker patches).
         template: the SPM template.
-        prior_mean, prior_std: ``(25,)`` Gaussian prior on the state (MHT: the prediction and
-            the per-frame step std).
+        prior_mean: ``(25,)`` mean of the Gaussian prior on the state (MHT: the prediction).
+        prior_std: ``(25,)`` its standard deviations (MHT: the per-frame step std).
         sharpness: λ of the NCC cost.
         max_steps: static cap on solver steps.
         tolerance: rtol = atol of the Cauchy termination test.

@@ -252,7 +252,8 @@ def condensation_tracker(
         likelihood: how frames are scored (:class:`~jaxtrack.trackers.Likelihood`).
         refinement: the full-state refinement of the reported pose; None: the weighted mean.
         background: grey background of a static camera for the foreground term; None: none.
-        ridge, max_root: see :func:`~jaxtrack.priors.dynamics.fit_ar2`.
+        ridge: see :func:`~jaxtrack.priors.dynamics.fit_ar2`.
+        max_root: see :func:`~jaxtrack.priors.dynamics.fit_ar2`.
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:
             ``default_noise_floor`` of the training torso length.
         initial_spread: initial particles spread by this many noise stds about frame 0's state.

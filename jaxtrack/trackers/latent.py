@@ -304,8 +304,10 @@ def latent_tracker(
             likelihood's foreground term; None: none.
         fps: the video's frame rate; ν (learned at ``prior.dynamics_fps``) is rescaled by
             ``sqrt(prior fps / fps)``, a random walk's step over a longer or shorter frame.
-        placement_std, initial_spread, jump_probability, mode_radius: see
-            :class:`LatentTracker`.
+        placement_std: see :class:`LatentTracker`.
+        initial_spread: see :class:`LatentTracker`.
+        jump_probability: see :class:`LatentTracker`.
+        mode_radius: see :class:`LatentTracker`.
         dtype: the filter's float type (μ⁻¹ at the start always runs in float64).
     """
     std = np.asarray(prior.dynamics_std, np.float64)

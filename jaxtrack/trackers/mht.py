@@ -380,8 +380,13 @@ def mht_tracker(
         background: grey background of a static camera for the foreground term; None: none.
         step_std: ``(25,)`` per-frame state std; default from ``training_states`` or, without
             them, ``10 × default_noise_floor(torso)``.
-        velocity_weight, prior_scale, refill_spread, merge_radius, prune_below, max_steps,
-            min_step_std: see :class:`MHTTracker`.
+        velocity_weight: see :class:`MHTTracker`.
+        prior_scale: see :class:`MHTTracker`.
+        refill_spread: see :class:`MHTTracker`.
+        merge_radius: see :class:`MHTTracker`.
+        prune_below: see :class:`MHTTracker`.
+        max_steps: see :class:`MHTTracker`.
+        min_step_std: see :class:`MHTTracker`.
         dtype: the tracker's float type.
     """
     if step_std is None and training_states is not None:

@@ -213,7 +213,8 @@ def fit_gplvm(
             or steps did not help there (errors through eq. 5's μ⁻¹).
         init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
         neighbours: k of Isomap's nearest-neighbour graph.
-        active_steps, inactive_steps: step caps for eq. 1 and for each eq. 2 solve.
+        active_steps: step cap for eq. 1.
+        inactive_steps: step cap for each eq. 2 solve.
         optimiser: eq. 1's optimistix minimiser, ``"bfgs"`` or ``"lbfgs"`` (history 10).
             Both backtrack (Armijo) from a unit step. BFGS's dense inverse Hessian starts at
             the identity and never learns the gradient's scale (thousands here), so most of
