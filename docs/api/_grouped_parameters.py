@@ -39,8 +39,9 @@ def split_grouped(text: str) -> str:
         entry_indent = len(indent)
         continuation = []
         index += 1
-        while index < len(lines) and (not lines[index].strip() or
-                                      len(lines[index]) - len(lines[index].lstrip()) > entry_indent):
+        while index < len(lines) and (
+                not lines[index].strip()
+                or len(lines[index]) - len(lines[index].lstrip()) > entry_indent):
             continuation.append(lines[index])
             index += 1
         for name in (part.strip() for part in names.split(",")):

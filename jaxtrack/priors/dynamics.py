@@ -3,9 +3,10 @@
 * :class:`AR2Dynamics` — diagonal second-order auto-regression, Tian, Li & Sclaroff's (2005, §5)
   CONDENSATION baseline ("second-order auto-regressive dynamics learned from the first 30
   frames"), learned by :func:`fit_ar2`; :func:`random_walk_dynamics` is its A₁ = I, A₂ = 0 case.
-* :class:`LatentWalk` — Tian et al.'s random walk in the GPLVM's latent space (§4, step ν) with
-  jumps to training latents (the mixture ``(1 − ε) N(x, ν²) + ε p̂(x)``, like Ong & Gong's jumps
-  between clusters), and a random walk of the SPM placement.
+* :class:`LatentWalk` — Tian et al.'s random walk in the GPLVM's latent space (§4, eq. 6:
+  ``x_{t+1} = x_t + ω``, ``ω ~ N(0, diag ν²)``) with jumps to training latents (the mixture
+  ``(1 − ε) N(x, ν²) + ε p̂(x)``, like Ong & Gong's jumps between clusters), and a random walk
+  of the SPM placement.
 * :func:`constant_velocity` — the MHT baseline's prediction ``x + v (x − x_prev)``.
 
 Reasoning and measurements: ``docs/trackers.md``.
@@ -189,7 +190,8 @@ def default_noise_floor(torso_pixels: float, relative: float = 0.002) -> np.ndar
 
 
 class LatentWalk(eqx.Module):
-    """Random walk of a latent point with jumps to training latents, and of the SPM placement.
+    """Random walk of a latent point (Tian et al. eq. 6) with jumps to training latents, and of
+    the SPM placement.
 
     Attributes:
         latent_std: ``(latent,)`` ν, the latent step per frame.
@@ -210,7 +212,7 @@ class LatentWalk(eqx.Module):
         latent_dim, placement_dim = latent.shape[0], placement.shape[0]
         noise = smc.fast_normal(key, (latent_dim + placement_dim + 2,), latent.dtype)
         step, jump_draw, pick_draw = (noise[:latent_dim + placement_dim], noise[-2], noise[-1])
-        # Tian et al. §4: random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) ... or, with
+        # Tian et al. eq. 6: random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) ... or, with
         # probability ε, from a random training latent
         pick = jnp.minimum((jsp.ndtr(pick_draw) * self.pool.shape[0]).astype(jnp.int32),
                            self.pool.shape[0] - 1)

@@ -1,9 +1,10 @@
 """Tian, Li & Sclaroff's (2005) tracker: CONDENSATION in a learned GPLVM latent space.
 
 Algorithm 2 of the paper: every particle is a 2-D latent point that random-walks with the
-learned step ν; it is decoded by the GP mean μ(x) (eq. 3) into the SPM pose and then into 12
-image markers, and weighted by the appearance likelihood at those markers (eq. 7's form). The
-estimate is μ(weighted mean latent); the initial latent point is μ⁻¹ of frame 0's pose (eq. 5).
+learned step ν (eq. 6); it is decoded by the GP mean μ(x) (eq. 3) into the SPM pose and then
+into 12 image markers, and weighted by the appearance likelihood at those markers (eq. 7's
+form). The estimate is μ(weighted mean latent); the initial latent point is μ⁻¹ of frame 0's
+pose (eq. 5).
 
 Departures from the paper, each switchable back (reasons and measurements: ``docs/trackers.md``):
 

@@ -319,7 +319,7 @@ def fit_gplvm(
 
 def estimate_dynamics(model: GPLVM, poses: Float[ArrayLike, "n dims"], sequence_ids: ArrayLike,
                       *, max_steps: int = 64) -> np.ndarray:
-    """ν of the random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) (§4 of Tian et al.).
+    """ν of the random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) (Tian et al. §4, eq. 6).
 
     The poses are projected with μ⁻¹ and ν² is the variance of the frame-to-frame latent steps
     within each sequence (rows with the same id, in order).
