@@ -1,72 +1,48 @@
 """Limb strips plus their outlines: NCC of the strips and the distance of their borders to edges
 that run along the limb.
 
-The limb strips of :mod:`jaxtrack.likelihoods.limbs` match frame-0 templates, and a limb that
-turns in depth stops looking like its template: on the held-out wave seen from a random view
-over clutter, the true pose's strip score falls from −2 to about −17 after a second, and the
-tracker loses the arms in every run. With the strips re-cut every frame at the previous frame's
-true pose (an oracle) the same tracker's error falls from 14.5 % to 10.1 % of the torso, so the
-drift of the templates is the largest single cause of its failures. A limb's outline does not
-drift: it stays an image edge whatever the limb's texture and shading. Here each strip's two
-long borders (``v = ±1``, ``along − 2`` points each, the ends left out where limbs meet) are
-scored by their distance to the nearest Canny edge of the frame, a truncated quadratic as in
-chamfer matching, and a border point whose nearest edge does not run along the limb (its
-tangent more than ``edge_tolerance`` from the strip's axis) counts as on no edge at all
-(oriented chamfer matching):
+The limb strips of :mod:`jaxtrack.likelihoods.limbs` match frame-0 templates, which drift as a
+limb turns in depth; a limb's outline does not. Here each strip's two long borders (``v = ±1``,
+``along − 2`` points each, the ends left out where limbs meet) are scored by their distance to
+the nearest Canny edge of the frame, a truncated quadratic as in chamfer matching, and a border
+point whose nearest edge does not run along the limb (its tangent more than ``edge_tolerance``
+from the strip's axis) counts as on no edge at all (oriented chamfer matching); the form of
+Tian et al.'s eq. 7 plus an edge term:
 
     log p(z | y) = −λ Σ_s (1 − NCC_s(y)) − κ Σ_s mean_i e_i(y)²,
     e_i = min(d_i / σ, 2) if |sin(φ_i − θ_s)| ≤ sin(tolerance) else 2,
 
 ``d_i`` the distance from border point i to the nearest edge pixel, ``φ_i`` that pixel's
 tangent direction, ``θ_s`` the strip's axis, σ a fixed fraction of the pose's spine (neck to
-pelvis), like the strips' width. The edge term needs no template, so it cannot drift. Measured
-on the protocol's held-out wave (4 sequences × 3 seeds, 200 particles): strips alone 14.6 % of
-the torso, 5 of 12 runs lost; with unoriented edges 12.4 %, 3 lost, all on the cluttered view,
-where a background line across a limb was as good as its outline; oriented (±45°) 9.9 %, none
-lost.
+pelvis), like the strips' width. The edge term needs no template, so it cannot drift.
 
-The borders are scored where the limb's outline is, not where the strip ends: the strips' half
-width (a tenth of the spine) suits the upper arms, but a forearm is narrower, and at the true
-pose its borders fell 5–8 px outside its outline, past the reach of σ: the edge term of the
-true forearm was −1 to −2.3 of its −4 floor and the clutter's straight edges could score better
-(on the protocol's worst run, prior seed 12, the tracker kept the waving arm down along a
-striped background, scored 2 nats above the truth). So at initialisation each strip's border
-half width is fitted to the reference frame's edges at its known pose
-(:func:`fit_border_widths`: 0.5–1.5 × the strips' half width, taken where it lowers the
-strip's mean ``e_i²`` by at least 0.5; the rendered forearms get 0.6–0.8 ×, the spine, whose
-borders lie on no outline, keeps its width); the NCC strips keep theirs, so that each still
-holds the limb's outline against its surroundings. Measured with 200 particles (README,
-"Tracking"): on the protocol's take (24 runs, prior seeds 0–2 and 10–12) 6.40 → 5.90 % of the
-torso and 93.6 → 95.6 % of frames within 15 %; on two validation splits of another subject
-(the Bandai waves, 48 runs), where most fitted widths stay at 1 ×, 7.08 → 7.09 % and 91.2 →
-91.4 %: no change.
+The borders are scored where the limb's outline is, not where the strip ends: at
+initialisation each strip's border half width is fitted to the reference frame's edges at its
+known pose (:func:`fit_border_widths`: 0.5–1.5 × the strips' half width, taken where it lowers
+the strip's mean ``e_i²`` by at least 0.5; the spine, whose borders lie on no outline, keeps
+its width); the NCC strips keep theirs, so that each still holds the limb's outline against its
+surroundings.
 
 **The foreground term** (given a ``background``, a static camera's grey background: the
-video's median, :func:`jaxtrack.vision.median_grey_background`). Both the strips and the edges
-still match a limb's frame-0 place after the limb has left it: with the arms hanging at frame 0,
-each upper arm's strip holds the arm against the torso's side, and the torso's outline goes on
-matching it. On the Bandai validation splits' worst runs (a random view, both arms raised fast)
-the estimate kept an upper arm there, scored 2–8 nats above the raised truth. A median
-background has no arm where the arm moves about, so the place it left looks like the
-background and the place it is does not:
+video's median, :func:`jaxtrack.vision.median_grey_background`). The strips and the edges still
+match a limb's frame-0 place after the limb has left it; a median background has no arm where
+the arm moves about, so the place it left looks like the background and the place it is does
+not:
 
     log p(z | y) = … − μ Σ_{s ∈ arms} b_s,
     b_s = the fraction of strip s's centre line (its middle sample across, ``along`` points)
           where |y − background| ≤ ``foreground_threshold``,
 
-on the four arm strips only (:data:`FOREGROUND_SEGMENTS`): a subject who stands still is part
-of the median, so the torso's strips would be scored against nothing. ``b_s`` is piecewise
-constant in the pose; Gauss–Newton sees it in the cost, not in the Jacobian. Without a
-background there is no term. A part of the arm that stays still for most of the clip is
-background too, which costs the truth and every wrong pose alike. Measured with 200
-particles, μ = 2, threshold 20/255: on the Bandai validation splits (48 runs) 6.11 → 4.41 % of
-the torso, 91.6 → 95.9 % of frames within 15 %, 3 → 3 runs lost; then on the protocol (84 runs)
-5.36 → 4.89 %, 95.0 → 96.9 %, 2 → 1 lost; ~0.3 ms more per frame.
+on the four arm strips only (:data:`FOREGROUND_SEGMENTS`). ``b_s`` is piecewise constant in
+the pose; Gauss–Newton sees it in the cost, not in the Jacobian. Without a background there is
+no term.
 
 Observations are ``(3, height, width)``: the grey frame, its edge distance map and the nearest
 edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
 sequence). Trackers take grey frames as with the other likelihoods:
 ``jaxtrack.trackers.track`` adds the edge maps chunk by chunk.
+
+Why, and the measurements behind each choice: see docs/likelihoods.md, "Edges".
 """
 
 from __future__ import annotations
@@ -105,19 +81,15 @@ __all__ = ["DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
-Chosen, with edges of any orientation, with the strips' λ = 4 on the held-out wave of the
-protocol's 4 sequences × 3 seeds and checked on a take the protocol does not use (Bandai
-both-hands wave, 4 sequences × 2 seeds): κ = 0.5, 1, 2 gave 19.8, 19.1, 24.8 % of the torso
-there (21.7 % without edges). Kept unchanged for the oriented term."""
+Chosen against 0.5 and 2 on held-out takes (see docs/likelihoods.md, "Edges")."""
 
 DEFAULT_EDGE_SCALE = 0.025
 """σ as a fraction of the spine (neck–pelvis) length: ~3 px for a 130-px spine."""
 
 DEFAULT_EDGE_TOLERANCE = 45.0
 """Largest angle in degrees between a strip's axis and the nearest edge's tangent for a border
-point to count as on the limb's outline (90: any edge). On the protocol's held-out wave (4
-sequences × 3 seeds): ±30° 10.9 % of the torso (1 of 12 runs lost), ±45° 9.9 % (none), 90°
-12.4 % (3)."""
+point to count as on the limb's outline (90: any edge); ±45° lost the fewest runs against ±30°
+and 90° (see docs/likelihoods.md, "Edges")."""
 
 DEFAULT_BORDER_SCALES = (0.5, 0.6, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.4, 1.5)
 """Scales of the strips' half width tried for each strip's scored borders at initialisation

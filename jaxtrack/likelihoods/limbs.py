@@ -1,11 +1,8 @@
 """Normalised cross-correlation of limb-aligned strips: the likelihood that separates poses.
 
 Tian et al.'s eq. 7 (:mod:`jaxtrack.likelihoods.ncc`) correlates small square patches cut at the
-12 markers. Measured on frames rendered from a held-out real wave gesture, those patches barely
-tell poses apart: over a 70 × 70 grid of the GPLVM's latent space, with the true placement,
-40 % of the decoded poses score better than the pose closest to the truth, and the best-scoring
-pose is 20 % of the torso away from the truth (only 19 % of frames within 15 %). A patch at a
-joint sees a few pixels of sleeve that slide and turn under it as the limb moves.
+12 markers; a patch at a joint sees a few pixels of sleeve that slide and turn under it as the
+limb moves, so those patches barely tell poses apart on rendered frames.
 
 Here the templates are strips laid along the body's segments, in the segment's own coordinates
 (as Cham & Rehg's 1999 Scaled Prismatic Model tracker and Ju, Black & Yacoob's 1996 cardboard
@@ -13,23 +10,16 @@ people warp a template per limb): ``along × across`` sample points from the seg
 its end (the forearm carried on past the wrist over the hand, the neck past the head's marker),
 ``across`` points spanning ``±half_width`` pixels either side of the axis. The strip turns,
 stretches and foreshortens with its segment, so the frame-0 template keeps matching the limb in
-any orientation, and a limb that is a few degrees off puts half its strip on background. The
-same grid scores the strips 10× better: the best-scoring grid pose is 8.8 % of the torso from
-the truth (74 % of frames within 15 %), and only 18 % of the grid scores above the pose closest
-to the truth.
+any orientation, and a limb that is a few degrees off puts half its strip on background:
 
     log p(z | y) = −λ Σ_s (1 − NCC_s(y)),
 
 the form of eq. 7 with one term per strip. The half width is a fixed fraction of the spine (neck
 to pelvis) of the pose being scored, so the strips scale with the body. One pose reads
-``segments × along × across`` pixels (9 × 12 × 7 = 756 by default, fewer than the 12 × 13² =
-2 028 of the marker patches), with gathers only; scattered single-pixel gathers cost more per
-pixel than the patches' contiguous rows, so the strips cost the more per frame
-(``python -m benchmarks.tracker_step`` times both).
+``segments × along × across`` pixels (9 × 12 × 7 = 756 by default), with gathers only.
 
-The renderer used for evaluation paints its clothes texture in screen space (it does not move
-with the body), which is part of why marker patches fail on rendered frames; the strips rely on
-the limb's outline against the background as much as on its texture.
+How much better the strips separate poses than the patches, and what they cost: see
+docs/likelihoods.md, "Limb strips".
 """
 
 from __future__ import annotations
@@ -66,16 +56,13 @@ __all__ = [
 ]
 
 DEFAULT_STRIP_WIDTH = 0.1
-"""Half width of a strip as a fraction of the spine (neck–pelvis) length. On the rendered wave
-gesture (see the module docstring) the best-scoring grid pose was 8.8 % of the torso from the
-truth at 0.1, 8.9 % at 0.07 and 15.6 % at 0.14: strips much wider than an arm are dominated by
-background."""
+"""Half width of a strip as a fraction of the spine (neck–pelvis) length: about an arm's
+width; strips much wider are dominated by background (see docs/likelihoods.md, "Limb
+strips")."""
 
 DEFAULT_LIMB_SHARPNESS = 4.0
-"""λ for the 9 strips. Each strip's NCC moves further per pixel of error than a patch's, but
-there are fewer terms than markers; in a first comparison on the held-out wave (200 particles,
-3 seeds), λ = 4 tracked better than 1 or 2 (particles spread too evenly) and than 10 (an
-effective sample size of ~5 of 200)."""
+"""λ for the 9 strips: between weights spread too evenly and too few effective particles
+(see docs/likelihoods.md, "Limb strips")."""
 
 
 def limb_points(

@@ -26,21 +26,17 @@ Two samplers, same model:
 * :func:`ncc_scores_nearest` / :func:`ncc_log_likelihood_nearest` round each marker to the
   nearest pixel and cut the patch as one contiguous block, in a single fused pass that also
   forms the patch sums. For a particle filter, which only needs likelihood values, this is
-  10–70× faster on CPU (12 markers, 13² pixels, 640 × 480, 2 cores, jit + vmap: ~0.2–0.35 ms
-  per frame against ~3–10 ms for 200 particles, ~1 ms against ~40–75 ms for 1000) and equal
-  to the bilinear scores at integer marker positions (~1e-5 in float32). The price:
+  an order of magnitude faster on CPU and equal to the bilinear scores at integer marker
+  positions (~1e-5 in float32). The price:
   ±0.5-pixel quantisation of the markers, zero gradients with respect to them, and patches
   near the border shifted inside the image instead of edge-replicated.
 
-The nearest-pixel version needs no per-frame preprocessing. Integral images of the frame and
-of its square (summed-area tables, which would give the patch sums with 4 lookups each) were
-measured and rejected: building them costs 6–13 ms per 640 × 480 frame on CPU (two cumulative
-sums each), 20–40× the whole likelihood, and in float32 the table of squares loses the
-variance of low-contrast patches to cancellation (on a rendered frame, one 13 × 13 patch in
-two had its variance off by over 1 %, one in six even with the frame's mean subtracted
-first). The sums are instead accumulated from the gathered
-patch itself, relative to its centre pixel (see :func:`ncc_scores_nearest`), which costs
-almost nothing on top of the gather and is exact for flat patches.
+The nearest-pixel version needs no per-frame preprocessing: the patch sums are accumulated
+from the gathered patch itself, relative to its centre pixel (see :func:`ncc_scores_nearest`),
+which costs almost nothing on top of the gather and is exact for flat patches (integral images
+were measured and rejected).
+
+Timings, and why not integral images: see docs/likelihoods.md, "Marker patches (NCC)".
 """
 
 from __future__ import annotations
@@ -72,16 +68,10 @@ __all__ = [
 DEFAULT_NCC_SHARPNESS = 1.0
 """λ of :func:`ncc_log_likelihood`: nats lost per unit of summed NCC dissimilarity.
 
-λ = 1 is Tian et al.'s eq. 7 as written, ``exp(−Σ (1 − NCC))``, and it is also the value that
-measurements favour. On frames rendered from the bundled wave clip (640 × 480, 13-pixel patches,
-templates from frame 0), moving each of the 12 markers 3 pixels in a random direction raises the
-summed dissimilarity by about 1.5–4, and a cloud of particles with 3-pixel marker noise spreads
-it with a standard deviation of about 1.1–1.5. With λ = 1 those particles keep log-weights
-spread by ~1.3 nats, an effective sample size of roughly a quarter of the particles (for
-log-normal weights ESS/N ≈ exp(−σ²)), while poses a few pixels off are still down-weighted by
-several-fold. λ = 4 would spread them by ~5 nats and leave a handful of particles (ESS/N ≈
-e⁻²⁵); it also over-trusts fixed templates whose dissimilarity at the true pose already drifts
-by 2–3 within half a second as the body turns. Raise λ with many particles or a tight prior.
+λ = 1 is Tian et al.'s eq. 7 as written, ``exp(−Σ (1 − NCC))``: it keeps an effective sample
+size of about a quarter of the particles under a few pixels of marker noise while still
+down-weighting poses a few pixels off. Raise λ with many particles or a tight prior. The
+measurement: see docs/likelihoods.md, "Marker patches (NCC)".
 """
 
 
