@@ -54,7 +54,8 @@ from typing import Literal
 
 import numpy as np
 
-__all__ = ["MocapFormatError", "Motion", "load_motion", "counterpart_joint"]
+__all__ = ["MissingSkeletonError", "MocapFormatError", "Motion", "counterpart_joint", "find_asf",
+           "load_motion"]
 
 RIGS = ("cmu_asf", "cmu_bvh", "animateddrawings", "bandai", "cmu_bvh_mb", "deepmimic",
         "generic_bvh")
@@ -236,16 +237,38 @@ def counterpart_joint(name: str, joint_names: tuple[str, ...]) -> str | None:
     return None
 
 
-def _default_asf(amc_path: Path) -> Path:
+class MissingSkeletonError(FileNotFoundError):
+    """An `.amc` file was given without its `.asf` skeleton and none was found beside it."""
+
+    def __init__(self, amc_path: Path, tried: list[Path]):
+        self.amc_path = Path(amc_path)
+        self.tried = tuple(tried)
+        super().__init__(f"{amc_path}: no skeleton file given and none found beside it (looked "
+                         f"for {', '.join(path.name for path in tried)} or the only .asf in "
+                         f"{self.amc_path.parent}); pass load_motion(path, asf=...)")
+
+
+def find_asf(amc_path: str | os.PathLike) -> Path:
+    """The `.asf` skeleton beside an `.amc` file: the one named by the subject prefix
+    (`07_01.amc` -> `07.asf`, the CMU convention), or by the same stem (`walk.amc` ->
+    `walk.asf`), or else the only `.asf` in the folder.
+
+    Raises:
+        MissingSkeletonError: none of these exists (or the folder holds several other `.asf`).
+    """
+    amc_path = Path(amc_path)
     subject = amc_path.stem.split("_")[0]
-    candidates = [amc_path.with_name(f"{subject}.asf"), amc_path.with_name(f"{subject}.ASF")]
-    for candidate in candidates:
+    stems = dict.fromkeys((subject, amc_path.stem))
+    tried = [amc_path.with_name(f"{stem}{suffix}") for stem in stems for suffix in (".asf", ".ASF")]
+    for candidate in tried:
         if candidate.is_file():
             return candidate
-    raise FileNotFoundError(
-        f"{amc_path}: no skeleton file given and none found at {candidates[0]}; "
-        "pass load_motion(path, asf=...)"
-    )
+    folder = amc_path.parent if str(amc_path.parent) else Path(".")
+    others = sorted(file for file in folder.iterdir()
+                    if file.suffix.lower() == ".asf" and file.is_file())
+    if len(others) == 1:
+        return others[0]
+    raise MissingSkeletonError(amc_path, [t for t in tried if t.suffix == ".asf"])
 
 
 def load_motion(path: str | os.PathLike, *, asf: str | os.PathLike | None = None) -> Motion:
@@ -253,12 +276,14 @@ def load_motion(path: str | os.PathLike, *, asf: str | os.PathLike | None = None
 
     Args:
         path: the motion file.
-        asf: the skeleton for an `.amc` file; by default the `.asf` beside it named by the subject
-            prefix (`07_01.amc` -> `07.asf`).
+        asf: the skeleton for an `.amc` file; by default the `.asf` beside it (`find_asf`: named
+            by the subject prefix, `07_01.amc` -> `07.asf`, or by the same stem, or the only
+            `.asf` in the folder).
 
     Raises:
         MocapFormatError: the file is damaged (names the file and line).
-        FileNotFoundError: the file (or the default `.asf`) does not exist.
+        FileNotFoundError: the file (or the given `.asf`) does not exist;
+            `MissingSkeletonError` when no `.asf` was given and none is beside the `.amc`.
     """
     # the readers import Motion and MocapFormatError from here, hence the late imports
     path = Path(path)
@@ -272,5 +297,7 @@ def load_motion(path: str | os.PathLike, *, asf: str | os.PathLike | None = None
     if suffix == ".amc":
         from jaxtrack.body._asf import load_asf_amc
 
-        return load_asf_amc(Path(asf) if asf is not None else _default_asf(path), path)
+        if asf is not None and not Path(asf).is_file():
+            raise FileNotFoundError(f"no ASF skeleton file at {asf}")
+        return load_asf_amc(Path(asf) if asf is not None else find_asf(path), path)
     raise ValueError(f"{path}: unknown motion format {suffix!r}; expected .bvh or .amc")

@@ -5,11 +5,47 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jaxtrack.cli._common import UserError, check_clips
+from jaxtrack.cli._common import (
+    UserError,
+    add_asf_option,
+    check_asf,
+    check_clips,
+    check_memory,
+    check_prior_file,
+    check_seed,
+    load_clip_sources,
+    output_folder,
+)
 from jaxtrack.cli._options import add_tracker_options, tracker_options
 from jaxtrack.priors.gplvm import OPTIMISERS
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "tracking_bytes"]
+
+_SAMPLES_PER_POSE = 9 * 12 * 7
+"""Pixels one pose's likelihood reads: 9 limb strips of 12 × 7 points (``likelihoods.limbs``;
+the marker patches read 12 × 13² = 2 028, the same order)."""
+_FLOATS_PER_SAMPLE = 8
+"""Live 4-byte values per sample point while a frame's particles are scored: its x and y, its
+pixel index, the pixels read from the frame and its edge maps, the centred value and the
+border distances."""
+_STATE_FLOATS = 25 * 6
+"""A particle's SPM state (25 numbers) in its copies: carried, resampled parents, propagated
+children, decoded markers and the weights, ancestors and sort keys beside them."""
+_FIXED_BYTES = 1 << 30
+"""The rest of a run: JAX and XLA, the compiled scan, a chunk of frames, the GPLVM."""
+
+
+def tracking_bytes(method: str, particles: int) -> int:
+    """Approximate peak memory of tracking one sequence with ``particles`` particles (modes
+    for ``mht``): every particle's state and its likelihood's work arrays are live at once
+    inside the compiled step, so the peak grows as particles × (state + samples read per pose
+    × values per sample). MHT's modes each hold a Gauss-Newton Jacobian, 25 columns of the
+    residuals. An estimate to refuse impossible runs, not a measurement (within a factor of
+    about two of the peak resident memory measured on CPU)."""
+    per_particle = 4 * (_STATE_FLOATS + _SAMPLES_PER_POSE * _FLOATS_PER_SAMPLE)
+    if method == "mht":
+        per_particle *= 25
+    return _FIXED_BYTES + particles * per_particle
 
 
 def add_parser(subparsers) -> None:
@@ -21,14 +57,21 @@ def add_parser(subparsers) -> None:
             "each --test clip (frontal and random views, photo and clutter backgrounds) with "
             "exact ground truth, track it with --method initialised from frame 0, and write the "
             "metrics (per sequence and overall) as JSON; with --plots, error plots and overlay "
-            "videos. Clip names: see jaxtrack.data.list_clips()."),
+            "videos. A clip is a catalogue name (see jaxtrack.data.list_clips()) or a path to a "
+            ".bvh file or an .amc file (its .asf beside it, or given with --asf)."),
     )
     parser.add_argument("--method", required=True, choices=("latent", "condensation", "mht"))
-    parser.add_argument("--train", nargs="+", required=True, metavar="CLIP")
-    parser.add_argument("--test", nargs="+", required=True, metavar="CLIP")
+    parser.add_argument("--train", nargs="+", required=True, metavar="CLIP",
+                        help="clips to train the GPLVM on: catalogue names or .bvh/.amc files")
+    parser.add_argument("--test", nargs="+", required=True, metavar="CLIP",
+                        help="held-out clips to render and track: catalogue names or "
+                             ".bvh/.amc files")
+    add_asf_option(parser)
     parser.add_argument("--particles", type=int, default=None,
                         help="particles (modes for mht); default 200 / 1000 / 10")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0,
+                        help="random seed of training, viewpoints, rendering and tracking "
+                             "(default 0)")
     parser.add_argument("--prior-optimiser", choices=OPTIMISERS, default="bfgs",
                         help="eq. 1's minimiser when training the GPLVM (default bfgs, what the "
                              "README's results used; lbfgs: see benchmarks/RESULTS.md)")
@@ -36,9 +79,14 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"))
-    parser.add_argument("--max-frames", type=int, default=None)
-    parser.add_argument("--json", required=True, type=Path, metavar="OUT.json")
-    parser.add_argument("--plots", type=Path, default=None, metavar="DIR")
+    parser.add_argument("--max-frames", type=int, default=None, metavar="N",
+                        help="track at most the first N frames of each test clip (at 30 fps; "
+                             "default: all)")
+    parser.add_argument("--json", required=True, type=Path, metavar="OUT.json",
+                        help="metrics file to write (its folder is created; the trained GPLVM "
+                             "is cached beside it as gplvm_cache.npz)")
+    parser.add_argument("--plots", type=Path, default=None, metavar="DIR",
+                        help="also write error plots and overlay videos into DIR")
     parser.set_defaults(handler=run)
 
 
@@ -55,9 +103,11 @@ def run(args: argparse.Namespace) -> int:
     from jaxtrack.priors.train import train_prior
     from jaxtrack.vision import write_overlay_video
 
-    check_clips(args.train, "--train")
-    check_clips(args.test, "--test")
-    overlap = sorted(set(args.train) & set(args.test))
+    train_sources = check_clips(args.train, "--train", args.asf)
+    test_sources = check_clips(args.test, "--test", args.asf)
+    check_asf(args.asf, train_sources + test_sources)
+    train_files = {source.file.resolve() for source in train_sources}
+    overlap = [source.spec for source in test_sources if source.file.resolve() in train_files]
     if overlap:
         raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
                         f"--train")
@@ -65,19 +115,34 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--particles must be positive, got {args.particles}")
     if args.views < 1:
         raise UserError(f"--views must be positive, got {args.views}")
+    if args.max_frames is not None and args.max_frames < 2:
+        raise UserError(f"--max-frames must be at least 2 (frame 0 starts the tracker), got "
+                        f"{args.max_frames}")
+    check_seed(args.seed)
     options = tracker_options(args)
-    if args.json.suffix != ".json" or not args.json.parent.exists():
-        raise UserError(f"--json {args.json}: must be a .json path in an existing folder")
+    if args.json.suffix != ".json":
+        raise UserError(f"--json {args.json}: must be a .json path")
+    folder = output_folder(args.json, "--json")
+    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
+        raise UserError(f"--plots {args.plots} is a file, not a folder")
+    cache = folder / "gplvm_cache.npz"
+    check_prior_file(cache, "the GPLVM cached beside --json:",
+                     "delete it (it is retrained and rewritten) or write --json elsewhere")
+    particles = args.particles or DEFAULT_PARTICLES[args.method]
+    check_memory(tracking_bytes(args.method, particles), f"tracking with {particles} "
+                 f"{'modes' if args.method == 'mht' else 'particles'}", "--particles")
+    load_clip_sources(train_sources + test_sources, "--train/--test")
+    # every argument checked: only now is anything written
+    folder.mkdir(parents=True, exist_ok=True)
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
-    particles = args.particles or DEFAULT_PARTICLES[args.method]
-    prior = train_prior(args.train, cache=args.json.parent / "gplvm_cache.npz", seed=args.seed,
-                        optimiser=args.prior_optimiser)
+    prior = train_prior(args.train, cache=cache, seed=args.seed,
+                        optimiser=args.prior_optimiser, asf=args.asf)
     per_sequence = []
     for clip in args.test:
         for sequence in render_test_sequences(clip, views=args.views,
                                               backgrounds=args.backgrounds, seed=args.seed,
-                                              max_frames=args.max_frames):
+                                              max_frames=args.max_frames, asf=args.asf):
             result = run_method(args.method, prior, sequence, particles=particles,
                                 seed=args.seed, likelihood=options.likelihood,
                                 refinement=options.refinement, background=options.foreground)

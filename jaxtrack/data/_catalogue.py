@@ -132,6 +132,12 @@ def list_clips() -> list[str]:
     return sorted({name for _, folder in data_folders() for name in clip_files(folder)})
 
 
-def load_clip(name: str) -> Motion:
-    """Load a clip by name into a Motion (metres, Y up); see `path` for where it is looked up."""
-    return load_motion(path(name))
+def load_clip(name: str | os.PathLike, *, asf: str | os.PathLike | None = None) -> Motion:
+    """Load a clip into a Motion (metres, Y up): a catalogue name (see `path` for where it is
+    looked up) or a path to a `.bvh` file or an `.amc` file (its `.asf` given as `asf` or found
+    beside it; `jaxtrack.data.resolve_clip`)."""
+    if Path(name).expanduser().is_file():
+        from jaxtrack.data._sources import resolve_clip
+
+        return resolve_clip(name, asf=asf).load()
+    return load_motion(path(os.fspath(name)))

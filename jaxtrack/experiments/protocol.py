@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -49,13 +50,19 @@ class TestSequence:
 def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[str] = ("photo",),
                           fps: float = 30.0, image_size: tuple[int, int] = (640, 480),
                           max_frames: int | None = None, seed: int = 0,
-                          progress: bool = False) -> list[TestSequence]:
-    """Render a held-out clip: view 0 is frontal, the others random in azimuth ±40° and
-    elevation 0–0.3 rad (inside the training views' range), once per background."""
-    from jaxtrack.data import load_clip
+                          progress: bool = False, asf: str | os.PathLike | None = None
+                          ) -> list[TestSequence]:
+    """Render a held-out clip (a catalogue name, or a path to a ``.bvh`` file or an ``.amc``
+    file with its ``asf`` skeleton given or beside it): view 0 is frontal, the others random in
+    azimuth ±40° and elevation 0–0.3 rad (inside the training views' range), once per
+    background. Sequences are named after the clip's own name (a file's stem)."""
+    from jaxtrack.data import resolve_clip
     from jaxtrack.vision import to_grey
 
-    motion = load_clip(clip).resample(fps)
+    if max_frames is not None and max_frames < 1:
+        raise ValueError(f"max_frames must be at least 1, got {max_frames}")
+    source = resolve_clip(clip, asf=asf)
+    motion = source.load().resample(fps)
     if max_frames is not None:
         motion = motion.select(0, min(max_frames, motion.num_frames))
     rng = np.random.default_rng(seed)
@@ -70,7 +77,7 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
                                      background=background, markers=UPPER_BODY_12,
                                      seed=render_seed, progress=progress)
             sequences.append(TestSequence(
-                name=f"{clip.split('/')[-1]}_view{view}_{background}",
+                name=f"{source.short_name}_view{view}_{background}",
                 images=rendered.images, frames=to_grey(rendered.images),
                 truth=np.asarray(rendered.markers_2d, np.float64), fps=fps))
     return sequences

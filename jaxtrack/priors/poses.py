@@ -13,6 +13,7 @@ apart. :func:`states_from_features` goes back to SPM states.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -199,8 +200,10 @@ def markers_of(states: Float[ArrayLike, "n 25"], template: SPMTemplate) -> np.nd
     return np.asarray(jax.vmap(spm_forward, in_axes=(0, None))(jnp.asarray(states), template))
 
 
-def clip_motions(names: Sequence[str]) -> dict[str, Motion]:
-    """``{name: load_clip(name)}`` for catalogue clip names."""
+def clip_motions(names: Sequence[str], *, asf: str | os.PathLike | None = None
+                 ) -> dict[str, Motion]:
+    """``{name: load_clip(name)}`` for catalogue clip names or paths to ``.bvh``/``.amc`` files
+    (``asf``: the skeleton of every ``.amc`` path; by default the one beside each)."""
     from jaxtrack.data import load_clip
 
-    return {name: load_clip(name) for name in names}
+    return {name: load_clip(name, asf=asf) for name in names}

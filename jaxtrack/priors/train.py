@@ -1,4 +1,4 @@
-"""Training the GPLVM pose prior of the latent-space tracker from catalogue clips, with a cache.
+"""Training the GPLVM pose prior of the latent-space tracker from clips (names or files), cached.
 
 Upper-body SPM poses of real clips seen from several viewpoints (``jaxtrack.priors.poses``) are
 fitted with Algorithm 1 of Tian et al. (``jaxtrack.priors.gplvm.fit_gplvm``); the result is saved
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,10 +19,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxtrack.body import SPMTemplate
-from jaxtrack.priors.gplvm import GPLVM, fit_gplvm, load_gplvm, save_gplvm
+from jaxtrack.priors.gplvm import GPLVM, GPLVMFormatError, fit_gplvm, load_gplvm, save_gplvm
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
 
-__all__ = ["TrainedPrior", "train_prior"]
+__all__ = ["TrainedPrior", "load_prior", "train_prior"]
 
 
 @dataclass(frozen=True)
@@ -35,18 +36,41 @@ class TrainedPrior:
     labels: tuple[str, ...] = ()
 
 
+_TEMPLATE_ARRAYS = ("reference_lengths", "reference_angles")
+
+
 def _settings_key(settings: dict) -> str:
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def load_prior(path: str | Path) -> TrainedPrior:
+    """A prior saved by :func:`train_prior` (its GPLVM, SPM template and clip labels).
+
+    Raises:
+        FileNotFoundError: no such file.
+        GPLVMFormatError: the file is damaged, not a GPLVM, or a GPLVM saved without the SPM
+            template a trained prior keeps.
+    """
+    saved = load_gplvm(path)
+    missing = [name for name in _TEMPLATE_ARRAYS if name not in saved.arrays]
+    if missing:
+        raise GPLVMFormatError(f"{path}: a GPLVM without the SPM template of a trained prior "
+                               f"(missing {', '.join(missing)}); not written by train_prior")
+    template = SPMTemplate(*(jnp.asarray(saved.arrays[name]) for name in _TEMPLATE_ARRAYS))
+    return TrainedPrior(saved.model, template, saved.description,
+                        labels=tuple(saved.arrays.get("labels", ())))
 
 
 def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
                 active_size: int = 200, iterations: int = 3, active_steps: int = 300,
                 optimiser: str = "bfgs", seed: int = 0, cache: str | Path | None = None,
-                progress: bool = True) -> TrainedPrior:
+                progress: bool = True, asf: str | os.PathLike | None = None) -> TrainedPrior:
     """Train (or load from ``cache`` when it was trained with the same settings) a GPLVM.
 
     Args:
-        clips: catalogue clip names (``jaxtrack.data.list_clips()``).
+        clips: catalogue clip names (``jaxtrack.data.list_clips()``) or paths to ``.bvh`` or
+            ``.amc`` files; a file is keyed in the cache by its name and the SHA-256 of its
+            bytes (``jaxtrack.data.clip_identity``), a name by itself.
         views: training viewpoints per clip, spread over ±45° in front of the subject.
         iterations, active_steps: Algorithm 1's outer iterations and eq. 1 steps per
             iteration. The protocol keeps the 3 × 300 steps and float64 non-active solves
@@ -56,10 +80,17 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         optimiser: eq. 1's minimiser in Algorithm 1 (``fit_gplvm``'s ``"bfgs"``, what every
             tracking result was measured with, or ``"lbfgs"``).
         cache: ``.npz`` path; reused when its settings match, (re)written otherwise.
+        asf: the skeleton of every ``.amc`` path among ``clips`` (default: the one beside each).
+
+    Raises:
+        jaxtrack.priors.gplvm.GPLVMFormatError: ``cache`` exists but is damaged or not a GPLVM.
     """
     if not clips:
         raise ValueError("train_prior needs at least one training clip")
-    settings = {"clips": sorted(clips), "views": views, "fps": fps, "active_size": active_size,
+    from jaxtrack.data import clip_identity
+
+    identities = sorted(clip_identity(clip, asf=asf) for clip in clips)
+    settings = {"clips": identities, "views": views, "fps": fps, "active_size": active_size,
                 "iterations": iterations, "active_steps": active_steps,
                 "inactive_dtype": "float64", "seed": seed, "features": "spm_link_vectors",
                 # 2: μ from all poses through the active set; 3: fit_gplvm's faster defaults
@@ -68,13 +99,10 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         settings["optimiser"] = optimiser
     key = _settings_key(settings)
     if cache is not None and Path(cache).is_file():
-        saved = load_gplvm(cache)
+        saved = load_prior(cache)
         if saved.description.get("settings_key") == key:
-            template = SPMTemplate(jnp.asarray(saved.arrays["reference_lengths"]),
-                                   jnp.asarray(saved.arrays["reference_angles"]))
-            return TrainedPrior(saved.model, template, saved.description,
-                                labels=tuple(saved.arrays.get("labels", ())))
-    poses = pose_set(clip_motions(clips), views=views, fps=fps)
+            return saved
+    poses = pose_set(clip_motions(clips, asf=asf), views=views, fps=fps)
     with jax.enable_x64(True):
         features = np.asarray(pose_features(poses.states, poses.template))
     fit = fit_gplvm(features, active_size=active_size, iterations=iterations,
