@@ -67,12 +67,10 @@ def _single_threaded_blas():
     """Run the block with every loaded OpenBLAS on one thread, then restore its thread count.
 
     jaxlib's CPU Cholesky and triangular solves call SciPy's OpenBLAS, which splits even a 200 × 200
-    factorisation over its threads and waits for them at every call. Eq. 1 makes hundreds of
-    such calls per BFGS run: on 2 shared cores the waits cost 5–10× the arithmetic (300 steps,
-    active set 200: 0.5–1.5 s with the default threads, 0.12 s with one; under heavy load the
-    default took up to 35 s). Isomap's eigendecomposition suffers the same (top 2 eigenpairs of
-    1 000 × 1 000 under load: 6.5 s, one thread 0.07 s). A no-op where no OpenBLAS is found
-    (threadpoolctl does the same more generally; it is not a dependency).
+    factorisation over its threads and waits for them at every call; eq. 1 makes hundreds of
+    such calls per BFGS run, and Isomap's eigendecomposition suffers the same (see
+    docs/gplvm.md, "Training"). A no-op where no OpenBLAS is found (threadpoolctl does the same
+    more generally; it is not a dependency).
     """
     import scipy.linalg.cython_lapack  # noqa: F401  (loads the OpenBLAS jaxlib's LAPACK calls)
 
@@ -201,50 +199,37 @@ def fit_gplvm(
         poses: ``(n, dims)`` training poses (e.g. SPM states); centred inside.
         latent_dim: latent dimension q (2 in the paper).
         active_size: size d of the IVM active set (capped at n). At n (or more) every pose is
-            active, the IVM is skipped and eq. 1 is optimised over all poses: the exact GPLVM.
-            Benchmark, 1 000 poses, held out through the reconstruction μ⁻¹: 4.50 px in 4.3 s
-            with ``iterations=1, optimiser="lbfgs", active_steps=100`` (steps chosen on the
-            validation split), against 5.58 px in 0.8 s with the defaults (GPy's exact GPLVM
-            in the same run: 4.84 px in 22 s). μ and eq. 5's μ⁻¹ then cost 4–15× more per
-            point, since every pose is a kernel centre.
-        iterations: outer iterations T. 2 and ``active_steps`` 150 (were 4 and 300): on a
-            validation split of the training clips (two clips left out, three 1 000-pose
-            subsets) median error 3.39 px against 3.44 px, in half the time; more iterations
-            or steps did not help there (errors through eq. 5's μ⁻¹).
+            active, the IVM is skipped and eq. 1 is optimised over all poses: the exact GPLVM
+            (best with ``iterations=1, optimiser="lbfgs", active_steps=100``); μ and eq. 5's
+            μ⁻¹ then cost more per point, since every pose is a kernel centre.
+        iterations: outer iterations T (2 with ``active_steps`` 150: more did not help on a
+            validation split).
         init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
         neighbours: k of Isomap's nearest-neighbour graph.
         active_steps: step cap for eq. 1.
         inactive_steps: step cap for each eq. 2 solve.
         optimiser: eq. 1's optimistix minimiser, ``"bfgs"`` or ``"lbfgs"`` (history 10).
-            Both backtrack (Armijo) from a unit step. BFGS's dense inverse Hessian starts at
-            the identity and never learns the gradient's scale (thousands here), so most of
-            its steps are halvings: 300 steps accept ~20 and reach eq. 1 ≈ −53 000, where
-            L-BFGS reaches ≈ −72 000 in 100 (exact model, 1 000 poses, validation split).
-            L-BFGS minimises eq. 1 / max|∇L(start)|, so that its first trial step (−∇L) is
-            not halved ~15 times first; BFGS keeps the unscaled arithmetic that the trackers'
-            priors were validated with. The numbers in the rest of this paragraph predate
-            that scaling.
-            The better-fitted L-BFGS model is the better manifold through the reconstruction
-            μ⁻¹ (held-out 7.2–7.6 px against 7.7–8.1 px) and the worse through eq. 5 (9.4–11.1
-            against 7.8–8.3 px): see :meth:`GPLVM.inverse`. Algorithm 1 with an active set
-            of 200 gains nothing from it (8.4 against 8.3 px).
+            Both backtrack (Armijo) from a unit step. L-BFGS minimises eq. 1 / max|∇L(start)|,
+            so that its first trial step (−∇L) is not halved many times first, and fits the
+            exact model far better; BFGS keeps the unscaled arithmetic that the trackers'
+            priors were validated with.
         inactive_dtype: float type of the eq. 2 solves (float32; eq. 1 and the model stay
-            float64). Validation error unchanged against float64 (3.59, 3.29, 3.39 px against
-            3.60, 3.26, 3.39 px on three subsets), that stage 20–35 % faster; more of the
-            points stop at ``inactive_steps`` (``unconverged_points`` in the trace).
+            float64): the same validation error, that stage faster; more of the points stop
+            at ``inactive_steps`` (``unconverged_points`` in the trace).
         all_poses: μ and σ² (for the non-active points' L′ and in the returned model) from all
             n poses through the active set, the projected process of
             :meth:`GPLVM.from_active_set`; ``False``: from the active poses alone (eqs. 3–4 as
-            in the paper). Same cost per evaluation; held-out error on the benchmark's 1 000
-            poses 6.25 → 5.65 px (three 1 000-pose subsets, mean: 7.18 → 5.99 px).
+            in the paper). Same cost per evaluation, lower held-out error.
         final_rounds: extra non-active stages in the last iteration, each with the model
-            rebuilt from the points the previous one moved (three subsets, mean held-out error
-            5.99 → 5.84 px with one; more rounds change little).
+            rebuilt from the points the previous one moved (one lowers the held-out error;
+            more change little).
         sequence_ids: ``(n,)`` which sequence each pose belongs to (consecutive rows of one id
             are consecutive frames); with it the random-walk ν is estimated
             (:func:`estimate_dynamics`).
         fps: frame rate of those sequences, stored with ν.
         progress: show a bar with the objective and active-set size per outer iteration.
+
+    The measurements behind these defaults: see docs/gplvm.md, "Training".
     """
     poses = np.asarray(poses, np.float64)
     active_size = min(int(active_size), poses.shape[0])

@@ -79,8 +79,8 @@ def squared_distances(x1: Float[Array, "... latent"], x2: Float[Array, "... late
 
     Written out coordinate by coordinate (the latent space has 2 or 3 of them): one fused
     elementwise pass, where ``sum((x1 − x2)², axis=-1)`` builds a ``(..., latent)`` array and
-    reduces an axis of length 2, which XLA on CPU does ~5× slower (μ of 200 particles: 0.6 →
-    0.2 ms). Same value, same rounding, any dtype, differentiable.
+    reduces an axis of length 2, which XLA on CPU does several times slower (docs/gplvm.md,
+    "Speed of the kernel"). Same value, same rounding, any dtype, differentiable.
     """
     if x1.shape[-1] != x2.shape[-1]:
         raise ValueError(f"latent points of different dimensions: {x1.shape} and {x2.shape}")
@@ -142,8 +142,8 @@ def _inverse_upper(factor: Float[Array, "n n"]) -> Array:
     """A matrix whose upper triangle (diagonal included) is K⁻¹, from K's lower factor L.
 
     On CPU by LAPACK's potri through a host callback: 2n³/3 flops, where ``cho_solve(L, I)``
-    (two triangular solves with n right-hand sides, what XLA offers) costs 2n³. Cholesky and
-    K⁻¹ at n = 1 000, float64, one thread: 46 ms against 71 ms. The strict lower triangle is
+    (two triangular solves with n right-hand sides, what XLA offers) costs 2n³ (timings:
+    docs/gplvm.md, "Speed of the kernel"). The strict lower triangle is
     then left over from L. Elsewhere (GPU) the whole K⁻¹ by ``cho_solve``.
 
     The factor goes to LAPACK as Lᵀ (XLA's Cholesky leaves L column-major, so Lᵀ row-major is
@@ -207,8 +207,8 @@ def exact_objective(kernel: KernelParameters, latents: Float[Array, "n latent"],
         ∂L/∂ln γ    = −γ/2 Σ_ij W_ij |x_i − x_j|²
     which reads K⁻¹ in one triangle, straight from LAPACK's potri (:func:`_inverse_upper`), in
     one fused pass and two (n × 3) products: no symmetrised K⁻¹ and no K cotangent are built,
-    where :func:`gaussian_process_term`'s VJP into :func:`kernel_matrix` builds both (value +
-    gradient at n = 1 000: 54 → 47–50 ms). Agrees with autodiff through the Cholesky to ~1e-12.
+    where :func:`gaussian_process_term`'s VJP into :func:`kernel_matrix` builds both (timings:
+    docs/gplvm.md, "Speed of the kernel"). Agrees with autodiff through the Cholesky to ~1e-12.
     """
     value, _ = _exact_forward(kernel, latents, poses)
     return value

@@ -196,8 +196,8 @@ class GPLVM(eqx.Module):
         starts decides which minimum it finds. μ and σ² at the candidates do not depend on the
         pose, so L′ of every (pose, candidate) pair is one matrix product,
         L′ = (|y|² − 2 y·μ_c + |μ_c|²) / 2σ²_c + D/2 ln σ²_c + ½|x_c|², taken ``batch_size`` poses
-        at a time. (The 8 training poses nearest in pose space, the former candidates, left
-        held-out μ⁻¹ 0.3–0.6 px worse: their latents are not where L′ is lowest.) With
+        at a time (the training poses nearest in pose space were worse candidates: see
+        docs/gplvm.md, "Inverse"). With
         ``objective="reconstruction"`` the candidates are scored by ½|y − μ_c|² instead.
         """
         self.objective(objective)  # validates the name
@@ -234,10 +234,9 @@ class GPLVM(eqx.Module):
 
         ``objective="reconstruction"`` minimises ½|y − μ(x)|² instead. Eq. 5's D/2 ln σ²(x)
         pulls a pose towards training latents (σ² is smallest there), and the more tightly a
-        model fits (small noise β⁻¹) the harder: on the benchmark's validation split an exact
-        GPLVM optimised to eq. 1 ≈ −79 000 reconstructs held-out poses to 10.5 px through
-        eq. 5 and to 7.2 px through this objective. ``InverseResult.objective`` is the
-        chosen objective at the solution.
+        model fits (small noise β⁻¹) the harder, so a tightly fitted model reconstructs
+        held-out poses better through the reconstruction objective (see docs/gplvm.md,
+        "Inverse"). ``InverseResult.objective`` is the chosen objective at the solution.
 
         The solve runs with ``throw=False`` and at most ``max_steps`` steps (a vmapped solve
         lasts as long as its slowest member); ``result`` says which poses did not converge.
@@ -283,10 +282,10 @@ def _solver_objective(latent: Array, model: GPLVM, pose: Array, objective: str) 
     optimistix linearises the objective and transposes the linear map inside a ``lax.cond``
     (accepted step or not). Under ``vmap`` that cond becomes a select over all its operands, so
     the model's constants in the linear map (K_II⁻¹, K_II⁻¹ Y_I) were broadcast to one copy per
-    pose every step: (poses, 200, 200) and (poses, 200, D) arrays, 8× the cost of the objective
-    itself. Here the linear map in x is only ``∇ₓL′ · ẋ``, whose residual is the (poses, latent)
-    gradient. Tangents of the model and pose (implicit-function gradients of μ⁻¹) still go
-    through the ordinary JVP of L′.
+    pose every step: (poses, 200, 200) and (poses, 200, D) arrays, several times the cost of
+    the objective itself (docs/gplvm.md, "Inverse"). Here the linear map in x is only
+    ``∇ₓL′ · ẋ``, whose residual is the (poses, latent) gradient. Tangents of the model and
+    pose (implicit-function gradients of μ⁻¹) still go through the ordinary JVP of L′.
     """
     return model.objective(objective)(latent, pose)
 
