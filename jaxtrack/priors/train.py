@@ -72,11 +72,10 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
             ``.amc`` files; a file is keyed in the cache by its name and the SHA-256 of its
             bytes (``jaxtrack.data.clip_identity``), a name by itself.
         views: training viewpoints per clip, spread over ±45° in front of the subject.
-        iterations, active_steps: Algorithm 1's outer iterations and eq. 1 steps per
-            iteration. The protocol keeps the 3 × 300 steps and float64 non-active solves
-            that its tracking results were measured with; ``fit_gplvm``'s faster defaults
-            (2 × 150, float32) tracked the demo's held-out wave equally (16.0 % of the torso
-            against 16.2 %, 3 seeds).
+        iterations: Algorithm 1's outer iterations.
+        active_steps: eq. 1 steps per iteration. The protocol keeps the 3 × 300 steps and
+            float64 non-active solves that its tracking results were measured with
+            (``fit_gplvm``'s faster defaults track as well: see docs/gplvm.md, "Training").
         optimiser: eq. 1's minimiser in Algorithm 1 (``fit_gplvm``'s ``"bfgs"``, what every
             tracking result was measured with, or ``"lbfgs"``).
         cache: ``.npz`` path; reused when its settings match, (re)written otherwise.
