@@ -15,6 +15,7 @@ from jaxtrack.body.markers import (
     UPPER_BODY_12,
     MarkerMapError,
     marker_edges,
+    marker_joint_indices,
     marker_positions,
 )
 from jaxtrack.body.motion import RIGS, Motion, load_motion
@@ -153,3 +154,93 @@ def test_unmappable_rig_names_what_is_missing():
     with pytest.raises(MarkerMapError, match="not a marker known"):
         marker_positions(load(LOCAL["cmu_bvh/131_01"]), ("nose",))
     assert isinstance(caught.value, KeyError)
+
+
+def test_recognition_by_name_agrees_with_every_known_rig():
+    """Joint names alone find what each rig's own map names (on the real files): the only
+    difference is the MotionBuilder-friendly CMU neck, whose `Neck` is the lower neck."""
+    from jaxtrack.body.markers import recognise_markers
+
+    names = tuple(dict.fromkeys(HUMANEVA_15 + UPPER_BODY_12))
+    rigs = {}
+    for file in {**LOCAL, **SHARED}.values():
+        rigs.setdefault(load(file).rig, load(file))
+    assert {"cmu_asf", "cmu_bvh", "animateddrawings", "bandai"} <= set(rigs)
+    for rig, motion in rigs.items():
+        found, _ = recognise_markers(motion.joint_names, motion.parents)
+        expected = dict(zip(names, marker_joint_indices(motion, names), strict=True))
+        differ = {marker for marker in names if found.get(marker) != expected[marker]}
+        assert differ == ({"neck"} if rig == "cmu_bvh_mb" else set()), rig
+
+
+def test_a_renamed_real_rig_is_read_as_generic_and_mapped(tmp_path):
+    """A real BVH whose joints carry an exporter's namespace (`mixamorig:`) is no known rig;
+    its markers are found by name, on the same joints as the original's."""
+    original = load(LOCAL["animateddrawings/fair1_wave_hello"])
+    text = LOCAL["animateddrawings/fair1_wave_hello"].read_text()
+    for name in original.joint_names:
+        text = text.replace(f"JOINT {name}\n", f"JOINT mixamorig:{name}\n")
+        text = text.replace(f"ROOT {name}\n", f"ROOT mixamorig:{name}\n")
+    renamed_file = tmp_path / "exported.bvh"
+    renamed_file.write_text(text)
+    renamed = load_motion(renamed_file)
+    assert renamed.rig == "generic_bvh"
+    assert renamed.joint_names == tuple(f"mixamorig:{name}" for name in original.joint_names)
+    np.testing.assert_array_equal(marker_joint_indices(renamed, HUMANEVA_15),
+                                  marker_joint_indices(original, HUMANEVA_15))
+    np.testing.assert_array_equal(marker_joint_indices(renamed, UPPER_BODY_12),
+                                  marker_joint_indices(original, UPPER_BODY_12))
+
+
+def _tree(parents_by_name: dict[str, str | None]) -> Motion:
+    names = tuple(parents_by_name)
+    parents = tuple(-1 if parent is None else names.index(parent)
+                    for parent in parents_by_name.values())
+    return Motion(np.zeros((1, len(names), 3)), names, parents, 30.0, "made-up", "generic_bvh")
+
+
+def test_other_exporters_names_are_recognised():
+    # SMPL: `L_Shoulder` is the shoulder (`L_Collar` the clavicle), `L_Wrist` before `L_Hand`,
+    # and the thorax is Spine3, the joint both collars hang from
+    smpl = _tree({"Pelvis": None, "L_Hip": "Pelvis", "R_Hip": "Pelvis", "Spine1": "Pelvis",
+                  "L_Knee": "L_Hip", "R_Knee": "R_Hip", "Spine2": "Spine1",
+                  "L_Ankle": "L_Knee", "R_Ankle": "R_Knee", "Spine3": "Spine2",
+                  "L_Foot": "L_Ankle", "R_Foot": "R_Ankle", "Neck": "Spine3",
+                  "L_Collar": "Spine3", "R_Collar": "Spine3", "Head": "Neck",
+                  "L_Shoulder": "L_Collar", "R_Shoulder": "R_Collar", "L_Elbow": "L_Shoulder",
+                  "R_Elbow": "R_Shoulder", "L_Wrist": "L_Elbow", "R_Wrist": "R_Elbow",
+                  "L_Hand": "L_Wrist", "R_Hand": "R_Wrist"})
+    chosen = dict(zip(UPPER_BODY_12, (smpl.joint_names[i] for i in
+                                      marker_joint_indices(smpl, UPPER_BODY_12)), strict=True))
+    assert chosen == {"head": "Head", "neck": "Neck", "thorax": "Spine3", "pelvis": "Pelvis",
+                      "right_shoulder": "R_Shoulder", "right_elbow": "R_Elbow",
+                      "right_wrist": "R_Wrist", "right_hip": "R_Hip",
+                      "left_shoulder": "L_Shoulder", "left_elbow": "L_Elbow",
+                      "left_wrist": "L_Wrist", "left_hip": "L_Hip"}
+    # Blender (rigify-style): sides as `.L`, `shoulder.L` a clavicle below `upper_arm.L`
+    blender = _tree({"hips": None, "spine": "hips", "chest": "spine", "neck": "chest",
+                     "head": "neck", **{name: parent for side in "LR" for name, parent in (
+                         (f"shoulder.{side}", "chest"),
+                         (f"upper_arm.{side}", f"shoulder.{side}"),
+                         (f"forearm.{side}", f"upper_arm.{side}"),
+                         (f"hand.{side}", f"forearm.{side}"), (f"thigh.{side}", "hips"),
+                         (f"shin.{side}", f"thigh.{side}"), (f"foot.{side}", f"shin.{side}"))}})
+    chosen = [blender.joint_names[i] for i in marker_joint_indices(blender, HUMANEVA_15)]
+    assert chosen == ["head", "neck", "upper_arm.R", "forearm.R", "hand.R", "upper_arm.L",
+                      "forearm.L", "hand.L", "hips", "thigh.R", "shin.R", "foot.R", "thigh.L",
+                      "shin.L", "foot.L"]
+
+
+def test_an_unrecognised_rig_names_markers_and_joints_in_one_line():
+    motion = _tree({"Root": None, "Torso": "Root", "Skull": "Torso", "BicepL": "Torso",
+                    "LeftForeArm": "BicepL"})
+    with pytest.raises(MarkerMapError) as caught:
+        marker_positions(motion, UPPER_BODY_12)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert "head (looked for a joint named Head)" in message
+    assert ("left_shoulder (looked for a joint named LeftUpperArm or LeftUpArm or LeftArm or "
+            "LeftHumerus or LeftShoulder (or its side written L_, _L, .L))") in message
+    assert "thorax (looked for the joint both shoulders hang from, or a joint named" in message
+    assert "left_elbow" not in message and "pelvis" not in message  # found
+    assert message.endswith("joints not recognised: Torso, Skull, BicepL")
