@@ -74,7 +74,7 @@ def add_parser(subparsers) -> None:
                              "(default 0)")
     parser.add_argument("--prior-optimiser", choices=OPTIMISERS, default="bfgs",
                         help="eq. 1's minimiser when training the GPLVM (default bfgs, what the "
-                             "README's results used; lbfgs: see benchmarks/RESULTS.md)")
+                             "tracking results in docs/tracking.md used; lbfgs: see docs/gplvm.md)")
     add_tracker_options(parser)
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
