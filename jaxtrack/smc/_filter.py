@@ -8,7 +8,9 @@ least ``ess_threshold × N`` (adaptive resampling; ``ess_threshold = 1`` always 
 A frame where every weight is zero (all log-likelihoods −∞ or NaN) is *degenerate*: the info
 reports it, the particles are re-drawn from ``model.init`` and re-weighted by the same frame,
 and the filter goes on instead of producing NaN. Its log-evidence increment is −∞, which is the
-estimate (the frame is impossible under every particle), not a numerical failure.
+estimate (the frame is impossible under every particle), not a numerical failure, and its ESS
+is reported as 0 (no particle carried any weight into the frame), not the ESS of the re-seeded
+set, which would read as a healthy N.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import jax.numpy as jnp
 from jax import lax
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
-from jaxtrack.smc._model import StateSpaceModel
+from jaxtrack.smc._model import StateSpaceModel, check_observation_shape
 from jaxtrack.smc._random import split
 from jaxtrack.smc._resampling import Resampler, Systematic, effective_sample_size
 
@@ -40,7 +42,7 @@ class StepInfo(eqx.Module):
     """What one frame reports."""
 
     log_evidence_increment: Float[Array, ""]  # log p(y_t | y_0..y_{t-1})
-    ess: Float[Array, ""]  # effective sample size after measuring
+    ess: Float[Array, ""]  # effective sample size after measuring; 0 on a degenerate frame
     resampled: Bool[Array, ""]  # any cycle of the frame resampled
     degenerate: Bool[Array, ""]  # every weight was zero; particles re-seeded from init
     num_invalid: Int[Array, ""]  # particles whose log-likelihood was NaN (treated as −∞)
@@ -130,6 +132,13 @@ def _measure(key, model, particles, prior_log_weights, observation, axis_name):
     return particles, log_weights, increment, degenerate, num_invalid
 
 
+def _reported_ess(log_weights: Float[Array, " particles"], degenerate: Bool[Array, ""]
+                  ) -> Float[Array, ""]:
+    """The frame's ESS, 0 where the frame was degenerate (its particles were re-seeded)."""
+    ess = effective_sample_size(log_weights)
+    return jnp.where(degenerate, jnp.zeros_like(ess), ess)
+
+
 def initialize(
     key: PRNGKeyArray,
     model: StateSpaceModel,
@@ -141,6 +150,7 @@ def initialize(
     """Draw ``num_particles`` from ``model.init`` and weight them by the first observation."""
     if not isinstance(num_particles, int) or num_particles < 1:
         raise ValueError(f"num_particles must be a positive int, got {num_particles!r}")
+    check_observation_shape(model, observation, time_axis=False)
     key_init, key_reseed = split(key)
     particles = _init_particles(key_init, model, num_particles)
     uniform = jnp.full((num_particles,), -math.log(num_particles))
@@ -149,7 +159,7 @@ def initialize(
     )
     state = FilterState(particles, log_weights, jnp.asarray(0, jnp.int32), increment)
     info = StepInfo(
-        increment, effective_sample_size(log_weights), jnp.asarray(False), degenerate,
+        increment, _reported_ess(log_weights, degenerate), jnp.asarray(False), degenerate,
         num_invalid, jnp.arange(num_particles, dtype=jnp.int32),
     )
     return state, info
@@ -190,6 +200,7 @@ def step(
     _check_threshold(ess_threshold)
     if iterations_per_frame < 1:
         raise ValueError(f"iterations_per_frame must be >= 1, got {iterations_per_frame}")
+    check_observation_shape(model, observation, time_axis=False)
     num = state.log_weights.shape[0]
     time = state.time + 1
     identity = jnp.arange(num, dtype=jnp.int32)
@@ -229,8 +240,9 @@ def step(
     particles, log_weights, ancestors, resampled = carry
     increments, degenerate, num_invalid = outputs
     increment = increments[0]
+    degenerate = jnp.any(degenerate)
     info = StepInfo(
-        increment, effective_sample_size(log_weights), resampled, jnp.any(degenerate),
+        increment, _reported_ess(log_weights, degenerate), resampled, degenerate,
         jnp.sum(num_invalid), ancestors,
     )
     new_state = FilterState(particles, log_weights, time, state.log_evidence + increment)
@@ -267,6 +279,7 @@ def filter_sequence(
 ) -> FilterResult:
     """``run`` without ``jit``: the traceable body, for use inside a caller's own transformation."""
     num_frames = _num_frames(observations)
+    check_observation_shape(model, observations, time_axis=True)
     key_init, key_frames = split(key)
     first = jax.tree.map(lambda leaf: leaf[0], observations)
     rest = jax.tree.map(lambda leaf: leaf[1:], observations)
@@ -343,4 +356,6 @@ def run(
 
         return run_batch(key, model, observations, num_particles, mesh=mesh, **options)
     _check_threshold(ess_threshold)
+    _num_frames(observations)
+    check_observation_shape(model, observations, time_axis=True)
     return _run_jit(key, model, observations, num_particles, **options)

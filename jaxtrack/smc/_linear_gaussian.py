@@ -16,7 +16,7 @@ import jax.scipy.linalg as jsl
 from jax import lax
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from jaxtrack.smc._model import StateSpaceModel
+from jaxtrack.smc._model import StateSpaceModel, check_observation_shape
 from jaxtrack.smc._random import fast_normal
 
 
@@ -68,6 +68,11 @@ class LinearGaussian(StateSpaceModel):
     @property
     def state_dim(self) -> int:
         return self.transition_matrix.shape[0]
+
+    @property
+    def observation_shape(self) -> tuple[int]:
+        """One frame's observation is a vector of this shape (checked by the engine)."""
+        return (self.observation_matrix.shape[0],)
 
     def init(self, key):
         noise = fast_normal(key, (self.state_dim,), self.initial_mean.dtype)
@@ -123,7 +128,15 @@ def _symmetric(matrix):
 
 
 def kalman_filter(model: LinearGaussian, observations: Float[Array, "time observation"]):
-    """Exact filtering distributions and log evidence of a ``LinearGaussian`` model."""
+    """Exact filtering distributions and log evidence of a ``LinearGaussian`` model.
+
+    Raises:
+        ValueError: ``observations`` is not of shape ``(time, observation)`` for the model's
+            observation dimension, or has no frames.
+    """
+    check_observation_shape(model, observations, time_axis=True)
+    if jnp.shape(observations)[0] < 1:
+        raise ValueError("observations have zero frames")
     F, Q = model.transition_matrix, model.transition_covariance
     H, R = model.observation_matrix, model.observation_covariance
 

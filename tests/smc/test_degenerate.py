@@ -34,10 +34,24 @@ def test_all_zero_weights_reported_and_reseeded(model, impossible_frame):
     np.testing.assert_array_equal(result.degenerate, expected)
     assert np.all(np.isfinite(result.mean)) and np.all(np.isfinite(result.log_weights))
     assert result.log_evidence_increments[impossible_frame] == -np.inf
+    # the degenerate frame's ESS says so (it used to read as the re-seeded set's healthy ESS)
+    assert result.ess[impossible_frame] == 0.0
     assert np.all(np.isfinite(np.delete(np.asarray(result.log_evidence_increments),
                                         impossible_frame)))
     # The filter goes on: later frames have a healthy particle set.
     assert np.all(result.ess[impossible_frame + 1:] > 1.0)
+
+
+def test_online_step_reports_zero_ess_on_a_degenerate_frame(model):
+    _, observations = model.sample(jr.key(8), 3)
+    state, info = smc.initialize(jr.key(9), model, observations[0], 50)
+    assert not info.degenerate and info.ess > 1.0
+    for iterations in (1, 3):
+        _, info = smc.step(jr.key(10), state, observations[1].at[0].set(1e3), model,
+                           iterations_per_frame=iterations)
+        assert info.degenerate and info.ess == 0.0
+    _, info = smc.initialize(jr.key(9), model, observations[0].at[0].set(1e3), 50)
+    assert info.degenerate and info.ess == 0.0
 
 
 def test_nan_likelihoods_are_counted_and_dropped(model):
@@ -61,6 +75,7 @@ def test_degenerate_batch_under_vmap(model):
     result = smc.run_batch(jr.split(jr.key(6), 2), model, jnp.stack([observations, bad]), 100)
     assert not np.any(result.degenerate[0])
     np.testing.assert_array_equal(result.degenerate[1], [False, False, True, False, False, False])
+    np.testing.assert_array_equal(result.ess[1] == 0.0, result.degenerate[1])
     assert np.all(np.isfinite(result.mean))
 
 
