@@ -1,14 +1,79 @@
-"""Atomic file writing shared by every layer that saves results (sequences, priors, metrics)."""
+"""Atomic file writing shared by every layer that saves results (sequences, priors, metrics), and
+the checks the commands make before they allocate or write something large: the memory the
+machine has available, and a warning before an output of more than about 1 GB."""
 
 from __future__ import annotations
 
 import json
 import os
+import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["write_atomically", "write_json_atomically"]
+__all__ = ["LARGE_OUTPUT_BYTES", "NotEnoughMemoryError", "available_memory", "check_memory",
+           "format_bytes", "warn_large_output", "write_atomically", "write_json_atomically"]
+
+LARGE_OUTPUT_BYTES = 1_000_000_000  # warn before writing a file larger than this
+
+
+class NotEnoughMemoryError(RuntimeError):
+    """A run would need more memory than the machine has available; says how much of each.
+
+    Attributes:
+        needed: the estimated bytes.
+        available: the bytes available.
+    """
+
+    def __init__(self, message: str, needed: float, available: int):
+        super().__init__(message)
+        self.needed = needed
+        self.available = available
+
+
+def format_bytes(size: float) -> str:
+    """``size`` bytes in decimal units: ``2.1 GB``, ``340 MB``, ``12 kB``."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if size >= scale:
+            value = size / scale
+            return f"{value:.1f} {unit}" if value < 10 else f"{value:.0f} {unit}"
+    return f"{int(size)} bytes"
+
+
+def available_memory() -> int | None:
+    """Bytes a new allocation can get without swapping: ``MemAvailable`` of ``/proc/meminfo``,
+    else free physical pages (``os.sysconf``); None when the system says neither."""
+    try:
+        with open("/proc/meminfo") as file:
+            for line in file:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def check_memory(needed: float, what: str) -> None:
+    """Raise :class:`NotEnoughMemoryError` when ``needed`` bytes (an estimate) exceed the memory
+    available; ``what`` names the run in the message (e.g. ``"rendering 7000 frames of
+    640x480"``). Does nothing when the available memory is unknown."""
+    available = available_memory()
+    if available is not None and needed > available:
+        raise NotEnoughMemoryError(f"{what} needs about {format_bytes(needed)} of memory, but "
+                                   f"this machine has {format_bytes(available)} available",
+                                   needed, available)
+
+
+def warn_large_output(path: str | os.PathLike, size: float, what: str = "") -> None:
+    """Print a one-line warning to stderr before writing ``path`` of about ``size`` bytes, when
+    that is more than :data:`LARGE_OUTPUT_BYTES`."""
+    if size > LARGE_OUTPUT_BYTES:
+        detail = f" ({what})" if what else ""
+        print(f"warning: {path} will be about {format_bytes(size)}{detail}", file=sys.stderr,
+              flush=True)
 
 
 def write_atomically(path: str | os.PathLike, write: Callable[[Path], None],

@@ -6,7 +6,7 @@ import pytest
 
 from jaxtrack.cli import build_parser, main
 
-COMMANDS = ("demo", "render", "evaluate", "train", "track")
+COMMANDS = ("demo", "render", "evaluate", "train", "track", "clips")
 
 
 def test_each_command_is_served_by_its_own_module():
@@ -34,3 +34,79 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, arguments, message):
     assert code == 2
     assert message in error and error.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def _subparsers():
+    return next(action for action in build_parser()._actions
+                if isinstance(action, argparse._SubParsersAction)).choices
+
+
+# options of commands whose modules are edited elsewhere, missing a description today
+_UNDESCRIBED = {"evaluate": ("--method", "--backgrounds")}
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_option_of_every_command_has_a_description(command):
+    parser = _subparsers()[command]
+    missing = [action.option_strings[0] if action.option_strings else action.dest
+               for action in parser._actions
+               if not isinstance(action, argparse._HelpAction)
+               and (not (action.help or "").strip() or action.help == argparse.SUPPRESS)]
+    if missing and command in _UNDESCRIBED and set(missing) <= set(_UNDESCRIBED[command]):
+        pytest.xfail(f"{command} {missing} lack help (jaxtrack/cli/{command}.py)")
+    assert missing == [], f"jaxtrack {command}: options without help: {missing}"
+
+
+@pytest.mark.parametrize("command", ("demo", "render", "track", "clips"))
+def test_commands_say_what_they_do_and_write(command):
+    parser = _subparsers()[command]
+    assert len(parser.description or "") > 80
+    if command == "demo":
+        text = parser.format_help()
+        for output in ("gplvm_waves.npz", "tracking.mp4", "metrics.json", "jaxtrack-demo"):
+            assert output in text
+
+
+def test_clips_lists_the_catalogue_with_origins(capsys):
+    from jaxtrack.data import list_clips
+
+    assert main(["clips"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = [line.split()[0] for line in lines[:-1]]
+    assert names == list_clips()
+    rows = dict(line.split()[:2] for line in lines[:-1])
+    assert rows["animateddrawings/fair1_wave_hello"] == "bundled"
+    assert set(rows.values()) <= {"bundled", "data", "shared", "test-only"}
+    assert lines[-1].startswith(f"{len(names)} clip(s)")
+    assert main(["clips", "WAVE_hello", "--origin", "bundled", "--paths"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split()[:2] == ["animateddrawings/fair1_wave_hello", "bundled"]
+    assert lines[0].split()[2].endswith("fair1_wave_hello.bvh")
+    assert all("wave_hello" in line.split()[0] for line in lines[:-1])
+
+
+def _demo(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    code = main(["demo"])
+    return code, capsys.readouterr().err
+
+
+def test_demo_refuses_a_file_where_its_folder_goes(tmp_path, monkeypatch, capsys):
+    (tmp_path / "jaxtrack-demo").write_text("mine")
+    code, error = _demo(tmp_path, monkeypatch, capsys)
+    assert code == 2 and error.count("\n") == 1
+    assert "./jaxtrack-demo exists and is not a folder" in error
+    assert (tmp_path / "jaxtrack-demo").read_text() == "mine"
+
+
+@pytest.mark.parametrize("content", [b"not a model\n", b"PK\x03\x04damaged zip"])
+def test_demo_names_a_damaged_cached_prior_and_says_to_delete_it(tmp_path, monkeypatch, capsys,
+                                                                  content):
+    cache = tmp_path / "jaxtrack-demo" / "gplvm_waves.npz"
+    cache.parent.mkdir()
+    cache.write_bytes(content)
+    code, error = _demo(tmp_path, monkeypatch, capsys)
+    assert code == 2 and error.count("\n") == 1, error
+    assert "jaxtrack-demo/gplvm_waves.npz" in error and "delete it" in error
+    assert "allow_pickle" not in error
+    assert cache.read_bytes() == content

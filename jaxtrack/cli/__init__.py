@@ -1,4 +1,4 @@
-"""Command line: ``jaxtrack demo | render | evaluate | train | track``.
+"""Command line: ``jaxtrack demo | render | evaluate | train | track | clips``.
 
 One module per command, each with ``add_parser(subparsers)`` that registers its parser and
 handler; the handlers import their heavy dependencies lazily so ``jaxtrack --help`` stays fast
@@ -11,12 +11,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from jaxtrack.cli import demo, evaluate, render, track, train
+from jaxtrack.cli import clips, demo, evaluate, render, track, train
 from jaxtrack.cli._common import UserError
 
 __all__ = ["UserError", "build_parser", "main"]
 
-_COMMANDS = (demo, render, evaluate, train, track)
+_COMMANDS = (demo, render, evaluate, train, track, clips)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -8,6 +8,9 @@ from jaxtrack.cli._common import UserError
 
 __all__ = ["add_parser"]
 
+# the mp4 writer (OpenCV's FFmpeg mpeg4) refuses rates below about 0.01 and above 65535
+_MIN_FPS, _MAX_FPS = 0.1, 10000.0
+
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -38,7 +41,9 @@ def add_parser(subparsers) -> None:
                         help="plain colour, a real lab photo, or random clutter (default plain)")
     parser.add_argument("--frames", metavar="START:STOP",
                         help="frame range of the clip, at its own rate (default: all)")
-    parser.add_argument("--fps", metavar="F", help="resample to F frames per second")
+    parser.add_argument("--fps", metavar="F",
+                        help=f"resample to F frames per second ({_MIN_FPS:g} to {_MAX_FPS:g}; "
+                        "default: the clip's own rate)")
     parser.add_argument("--seed", default="0", metavar="S", help="random seed (default 0)")
     parser.add_argument("--size", metavar="WxH",
                         help="image size (default 640x480; qca: the camera's own size)")
@@ -78,6 +83,36 @@ def _render_output(text: str, option: str):
     if not os.access(folder, os.W_OK):
         raise UserError(f"cannot write {option} {text}: folder {folder} is not writable")
     return path
+
+
+def _resampled_frames(motion, fps: float) -> int:
+    """How many frames ``motion.resample(fps)`` will have (the same arithmetic, no arrays)."""
+    import math
+
+    ratio = motion.fps / fps
+    return int(math.floor((motion.num_frames - 1) / ratio + 1e-9)) + 1
+
+
+def _render_memory(num_frames: int, image_size: tuple[int, int] | None, noise: bool) -> float:
+    """Peak bytes of resampling and rendering ``num_frames`` of ``image_size`` and saving them,
+    an upper estimate measured with tracemalloc: per frame the RGB image, the silhouette and
+    its packed copy for saving, and about 6 kB of geometry; per pixel about 32 bytes of
+    background, texture and drawing buffers (about 200 more with pixel noise)."""
+    pixels = image_size[0] * image_size[1] if image_size else 0
+    per_pixel = 32 + (200 if noise else 0)
+    return num_frames * (4.125 * pixels + 6000) + per_pixel * pixels + 16e6
+
+
+def _check_render_memory(num_frames: int, image_size, noise: bool) -> None:
+    from jaxtrack._files import NotEnoughMemoryError, check_memory
+
+    what = f"rendering {num_frames} frames" + (
+        f" of {image_size[0]}x{image_size[1]}" if image_size else "")
+    try:
+        check_memory(_render_memory(num_frames, image_size, noise), what)
+    except NotEnoughMemoryError as error:
+        raise UserError(f"{error}; render fewer frames (--frames, a lower --fps) or smaller "
+                        "images (--size)") from None
 
 
 def _render_camera(spec: str, motion, size, seed: int):
@@ -161,7 +196,13 @@ def run(args: argparse.Namespace) -> int:
             start, _, stop = args.frames.partition(":")
             motion = motion.select(int(start or 0), int(stop) if stop else None)
         if args.fps:
-            motion = motion.resample(_render_number(args.fps, "--fps", float, 1e-6))
+            fps = _render_number(args.fps, "--fps", float)
+            if not _MIN_FPS <= fps <= _MAX_FPS:
+                raise UserError(f"--fps must be between {_MIN_FPS:g} and {_MAX_FPS:g} frames "
+                                f"per second, got {args.fps}")
+            known_size = size or ((640, 480) if args.camera in ("frontal", "random") else None)
+            _check_render_memory(_resampled_frames(motion, fps), known_size, noise > 0)
+            motion = motion.resample(fps)
     except ValueError as error:
         raise UserError(f"--frames/--fps: {error}") from None
     markers = HUMANEVA_15 if args.markers == "humaneva15" else UPPER_BODY_12
@@ -170,15 +211,20 @@ def run(args: argparse.Namespace) -> int:
     except (MarkerMapError, ValueError) as error:  # a rig without hips/shoulders, say
         raise UserError(" ".join(str(error).split())) from None
 
+    from jaxtrack._files import warn_large_output
     from jaxtrack.body.render import render_motion
     from jaxtrack.body.sequence import save_sequence
     from jaxtrack.vision import write_video
 
+    _check_render_memory(motion.num_frames, camera.image_size, noise > 0)
     try:
         sequence = render_motion(motion, camera, background=args.background, markers=markers,
                                  seed=seed, noise_std=noise, blur=blur, occluders=occluders)
     except (MarkerMapError, ValueError) as error:
         raise UserError(" ".join(str(error).split())) from None
+    width, height = sequence.image_size
+    warn_large_output(out, sequence.num_frames * height * (3 * width + (width + 7) // 8),
+                      f"{sequence.num_frames} uncompressed frames of {width}x{height}")
     try:
         save_sequence(out, sequence)
     except OSError as error:

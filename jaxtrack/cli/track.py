@@ -24,6 +24,12 @@ from jaxtrack.cli._options import add_tracker_options, tracker_options
 
 __all__ = ["add_parser"]
 
+# peak memory of `track` grows by 10-14 kB per particle (measured with --max-size 160 and 1 000,
+# 20 000 and 60 000 particles) over about 1.1 GB; the estimate rounds both up
+_BYTES_PER_PARTICLE = 16_000
+_BASE_BYTES = 1.5e9
+_MIN_TORSO_PX = 4.0  # a shorter neck-pelvis distance is no body the tracker can follow
+
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -45,12 +51,18 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("--model", required=True, type=Path, metavar="MODEL.npz",
                         help="a prior from jaxtrack train (or jaxtrack-demo/gplvm_waves.npz)")
-    parser.add_argument("--video", required=True, type=Path, metavar="FILE")
+    parser.add_argument("--video", required=True, type=Path, metavar="FILE",
+                        help="the video to track (anything OpenCV's FFmpeg reads: mp4, avi, mov)")
     parser.add_argument("--init", default="face", metavar="face|manual:x,y,...",
-                        help="initialisation (default face)")
-    parser.add_argument("--out", required=True, type=Path, metavar="DIR")
-    parser.add_argument("--particles", type=int, default=200, help="particles (default 200)")
-    parser.add_argument("--seed", type=int, default=0)
+                        help="first-frame pose: found automatically (face, the default) or the "
+                        "12 markers given by hand (see below)")
+    parser.add_argument("--out", required=True, type=Path, metavar="DIR",
+                        help="folder to write overlay.mp4 and track.json into (created)")
+    parser.add_argument("--particles", type=int, default=200,
+                        help="particles of the latent-space filter (default 200; memory grows "
+                        f"by about {_BYTES_PER_PARTICLE // 1000} kB per particle)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="random seed of the particle filter (default 0)")
     add_tracker_options(parser)
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
@@ -81,6 +93,17 @@ def _load_prior(path: Path):
     return saved.model, template
 
 
+def _check_particle_memory(particles: int) -> None:
+    from jaxtrack._files import NotEnoughMemoryError, check_memory
+
+    try:
+        check_memory(_BASE_BYTES + _BYTES_PER_PARTICLE * particles,
+                     f"tracking with {particles} particles")
+    except NotEnoughMemoryError as error:
+        most = max(0, int((error.available - _BASE_BYTES) // _BYTES_PER_PARTICLE))
+        raise UserError(f"--particles: {error}; at most about {most} particles fit") from None
+
+
 def _frame_range(text: str | None) -> tuple[int, int | None]:
     if not text:
         return 0, None
@@ -95,16 +118,35 @@ def _frame_range(text: str | None) -> tuple[int, int | None]:
     return first, last
 
 
-def _manual_markers(text: str, scale: float, size: tuple[int, int]) -> np.ndarray:
+def _manual_markers(text: str) -> np.ndarray:
+    """The 12 markers ``(12, 2)`` of ``--init manual:...`` in video pixels, checked before
+    anything is loaded: 24 finite numbers and a torso of a few pixels at least."""
+    from jaxtrack.body import UPPER_BODY_12
+
     try:
         values = np.array([float(value) for value in text.split(",")])
     except ValueError:
         raise UserError(f"--init manual: expects 24 comma-separated numbers, got "
                         f"{text!r}") from None
-    if values.size != 24 or not np.all(np.isfinite(values)):
-        raise UserError(f"--init manual: expects 24 finite numbers (12 markers x, y), got "
+    if values.size != 24:
+        raise UserError(f"--init manual: expects 24 numbers (12 markers x, y), got "
                         f"{values.size}")
+    if not np.all(np.isfinite(values)):
+        bad = [f"{UPPER_BODY_12[i // 2]} {'xy'[i % 2]} ({text.split(',')[i].strip()})"
+               for i in np.flatnonzero(~np.isfinite(values))]
+        raise UserError(f"--init manual: expects finite numbers; not finite: {', '.join(bad)}")
     markers = values.reshape(12, 2)
+    neck, pelvis = UPPER_BODY_12.index("neck"), UPPER_BODY_12.index("pelvis")
+    torso = float(np.linalg.norm(markers[pelvis] - markers[neck]))
+    if torso < _MIN_TORSO_PX:
+        raise UserError(f"--init manual: the torso (neck to pelvis) is {torso:.1f} px long, "
+                        f"less than {_MIN_TORSO_PX:g} px: not a body pose; the numbers are x, y "
+                        f"of {', '.join(UPPER_BODY_12)} in video pixels")
+    return markers
+
+
+def _inside(markers: np.ndarray, scale: float, size: tuple[int, int]) -> np.ndarray:
+    """``markers`` (video pixels) in tracking pixels, if they lie inside the video."""
     width, height = size
     if np.any(markers < 0) or np.any(markers[:, 0] > width) or np.any(markers[:, 1] > height):
         raise UserError(f"--init manual: markers must lie inside the {width}x{height} video")
@@ -119,7 +161,7 @@ def _initialise(args, model, template, frames, scale) -> tuple[np.ndarray, dict]
     height, width = frames.shape[1:3]
     original = (round(width / scale), round(height / scale))
     if args.init.startswith("manual:"):
-        markers = _manual_markers(args.init[len("manual:"):], scale, original)
+        markers = _inside(_manual_markers(args.init[len("manual:"):]), scale, original)
         return markers, {"method": "manual"}
     if args.init != "face":
         raise UserError(f"--init must be face or manual:x,y,... (24 numbers), got "
@@ -159,6 +201,12 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     if args.particles < 1:
         raise UserError(f"--particles must be positive, got {args.particles}")
+    _check_particle_memory(args.particles)
+    if args.init.startswith("manual:"):
+        _manual_markers(args.init[len("manual:"):])  # refused before anything is loaded
+    elif args.init != "face":
+        raise UserError(f"--init must be face or manual:x,y,... (24 numbers), got "
+                        f"{args.init!r}")
     if args.max_size < 32:
         raise UserError(f"--max-size must be at least 32, got {args.max_size}")
     options = tracker_options(args)

@@ -19,6 +19,7 @@ OpenCV is imported inside the functions, so importing this module needs no cv2.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from collections.abc import Iterable, Iterator
@@ -88,6 +89,31 @@ def _check_options(start: int, max_frames: int | None, stride: int, scale: float
         raise ValueError(f"scale must be a positive resize factor, got {scale}")
 
 
+@contextlib.contextmanager
+def _quiet_opencv():
+    """Keep FFmpeg's and OpenCV's own log lines (``moov atom not found``, ``Could not open
+    codec``) off stderr while a video is opened or written: every failure there becomes a
+    ``VideoError``/``OSError`` that names the file, so the lines only repeat it, before it.
+
+    FFmpeg reads ``OPENCV_FFMPEG_LOGLEVEL`` once, when the process opens its first video, so
+    it is set (to quiet) if the user has not set it; OpenCV's log level is lowered for the
+    duration only, unless the user set ``OPENCV_LOG_LEVEL``.
+    """
+    import cv2
+
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    if "OPENCV_LOG_LEVEL" in os.environ:
+        yield
+        return
+    logging = cv2.utils.logging
+    previous = logging.getLogLevel()
+    logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+    try:
+        yield
+    finally:
+        logging.setLogLevel(previous)
+
+
 def _open(path: Path):
     """An opened ``cv2.VideoCapture`` and the file's frame rate; VideoError if it cannot be."""
     import cv2
@@ -96,7 +122,8 @@ def _open(path: Path):
         raise VideoError(f"{path}: no such video file")
     if not path.is_file():
         raise VideoError(f"{path}: not a file (a video file is needed)")
-    capture = cv2.VideoCapture(str(path))
+    with _quiet_opencv():
+        capture = cv2.VideoCapture(str(path))
     if not capture.isOpened():
         capture.release()
         raise VideoError(f"{path}: OpenCV cannot open it as a video (not a video file, damaged, "
@@ -277,8 +304,9 @@ def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike, fps: flo
     path = Path(path)
 
     def write(temporary: Path) -> None:
-        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), float(fps),
-                                 tuple(image_size))
+        with _quiet_opencv():
+            writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"),
+                                     float(fps), tuple(image_size))
         if not writer.isOpened():
             raise OSError(f"{path}: OpenCV cannot write an mp4v video here")
         try:

@@ -130,3 +130,35 @@ def test_real_pose2sim_video():
     assert 40 < video.frames.mean() < 220 and video.frames.std() > 20  # a real scene
     chunks = list(iter_video_chunks(POSE2SIM, 40, scale=0.125))
     assert [chunk.num_frames for chunk in chunks] == [40, 40, 20]  # all 100 frames
+
+
+def test_opencv_and_ffmpeg_log_lines_are_kept_off_stderr(tmp_path):
+    """A damaged video and a refused writer raise errors that name the file; FFmpeg's ``moov atom
+    not found`` and OpenCV's ``[ERROR:0@...]`` lines used to be printed before them. FFmpeg
+    reads its log level once per process, so this runs in a fresh one."""
+    import subprocess
+    import sys
+
+    corrupt = tmp_path / "corrupt.mp4"
+    corrupt.write_bytes(b"not a video" * 100)
+    script = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from jaxtrack.vision import VideoError, read_video, write_frames\n"
+        "try:\n"
+        f"    read_video({str(corrupt)!r})\n"
+        "except VideoError as error:\n"
+        "    print('read:', error)\n"
+        "try:\n"
+        f"    write_frames([np.zeros((32, 32, 3), np.uint8)], {str(tmp_path / 'out.mp4')!r},"
+        " 0.001, (32, 32))\n"
+        "except OSError as error:\n"
+        "    print('write:', error)\n")
+    environment = {key: value for key, value in __import__("os").environ.items()
+                   if not key.startswith(("OPENCV_LOG_LEVEL", "OPENCV_FFMPEG_LOGLEVEL"))}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=environment, timeout=120)
+    assert "read: " in done.stdout and "corrupt.mp4" in done.stdout
+    assert "write: " in done.stdout and "out.mp4" in done.stdout
+    assert done.stderr == "", done.stderr
+    assert not (tmp_path / "out.mp4").exists()

@@ -101,6 +101,9 @@ def load_gplvm(path: str | os.PathLike) -> SavedGPLVM:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such GPLVM file")
+    if not zipfile.is_zipfile(path):  # np.load would read it as text and advise allow_pickle
+        raise _fail(path, "not a jaxtrack GPLVM file (not a .npz archive; a GPLVM is the .npz "
+                          "that jaxtrack train writes)")
     try:
         with np.load(path, allow_pickle=False) as archive:
             if "metadata" not in archive.files:
