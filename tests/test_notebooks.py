@@ -1,0 +1,123 @@
+"""Every notebook in ``notebooks/`` runs end to end, as a user without the shared data would run it.
+
+Each jupytext ``.py`` notebook is converted to a notebook (jupytext), executed cell by cell in a
+fresh Python kernel (nbclient) in an empty folder, with ``JAXTRACK_SMOKE=1`` so that it picks
+its small sizes (a few frames, a few particles, a small prior, one variant of each comparison:
+compile time dominates), and with XLA's cheap compile mode. A cell that raises fails the test
+with the cell's traceback.
+
+The project's full data collection (``shared/data``, found by ``jaxtrack.data`` in any folder
+above the package or the working directory, or named by ``$JAXTRACK_DATA``) is hidden from the
+kernel: ``$JAXTRACK_DATA`` is unset, a first cell (not part of the notebook) stops the catalogue
+from looking above the package, and a Python audit hook refuses to open any file inside the
+collection, so a notebook that needs more than the files bundled with jaxtrack fails here as it
+would on a user's machine.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+jupytext = pytest.importorskip("jupytext")
+nbclient = pytest.importorskip("nbclient")
+nbformat = pytest.importorskip("nbformat")
+pytest.importorskip("ipykernel")
+
+NOTEBOOKS = sorted((Path(__file__).parents[1] / "notebooks").glob("*.py"))
+CELL_TIMEOUT = 900  # seconds; a hung cell fails instead of stalling the suite
+
+
+def _hide_shared_data(shared: Path | None) -> str:
+    """Code for the kernel's first cell: only the bundled files are found, ``shared`` unreadable."""
+    return f"""
+import sys
+from pathlib import Path
+
+import jaxtrack.data._catalogue as _catalogue
+
+_catalogue._ancestors = lambda start: []  # no shared/data (nor tests/data) above any folder
+_SHARED = {str(shared.resolve()) if shared else None!r}
+
+
+def _refuse_shared(event, arguments, shared=_SHARED, Path=Path):  # bound: globals go at exit
+    if shared and event == "open" and isinstance(arguments[0], (str, bytes, Path)):
+        opened = Path(arguments[0].decode() if isinstance(arguments[0], bytes) else arguments[0])
+        if str(opened.resolve()).startswith(shared):
+            raise FileNotFoundError(f"the notebook opened {{opened}}, inside the shared data "
+                                    "folder a user does not have")
+
+
+sys.addaudithook(_refuse_shared)
+assert _catalogue.shared_folder() is None
+"""
+
+
+def _execute(text: str, folder: Path, monkeypatch) -> tuple[str | None, str]:
+    """Run a py:percent notebook in smoke mode without the shared data, in ``folder``.
+
+    Returns the error of the first failing cell (None if every cell ran) and the text every
+    cell printed."""
+    from jaxtrack.data import shared_folder
+
+    monkeypatch.delenv("JAXTRACK_DATA", raising=False)
+    shared = shared_folder()
+    monkeypatch.setenv("JAXTRACK_SMOKE", "1")
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    # compile time dominates at smoke sizes; XLA's cheap mode about halves it (measured on the
+    # latent-tracker notebook: 349 s against 560 s of wall time on 2 busy cores)
+    monkeypatch.setenv("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
+    document = jupytext.reads(text, fmt="py:percent")
+    document.cells.insert(0, nbformat.v4.new_code_cell(_hide_shared_data(shared)))
+    client = nbclient.NotebookClient(document, timeout=CELL_TIMEOUT, kernel_name="python3",
+                                     resources={"metadata": {"path": str(folder)}})
+    try:
+        client.execute()
+        error = None
+    except nbclient.exceptions.CellExecutionError as raised:
+        error = str(raised)
+    printed = "".join(output.get("text", "") for cell in document.cells
+                      if cell.cell_type == "code" for output in cell.get("outputs", [])
+                      if output.get("output_type") == "stream")
+    return error, printed
+
+
+def test_there_are_notebooks_to_run():
+    assert [path.name for path in NOTEBOOKS][:2] == ["01_engine_tour.py", "02_latent_tracker.py"]
+
+
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda path: path.stem)
+def test_notebook_runs_in_smoke_mode_without_shared_data(notebook, tmp_path, monkeypatch):
+    text = notebook.read_text()
+    assert "shared/data" not in text and "../shared" not in text, (
+        f"{notebook.name} names the shared data folder; read bundled files with "
+        "jaxtrack.data.path(...) instead")
+    assert 'os.environ.get("JAXTRACK_SMOKE")' in text, f"{notebook.name} has no smoke mode"
+    start = time.perf_counter()
+    error, printed = _execute(text, tmp_path, monkeypatch)
+    if error is not None:
+        pytest.fail(f"{notebook.name} failed in smoke mode:\n{error}", pytrace=False)
+    print(f"{notebook.name}: {time.perf_counter() - start:.0f} s in smoke mode")
+    if notebook.name == "01_engine_tour.py":
+        # the particle filter's log evidence against the Kalman filter's, 50 frames
+        pairs = re.findall(r"PF\s+(\S+)\s+Kalman\s+(\S+)", printed)
+        assert len(pairs) >= 2
+        assert all(abs(float(pf) - float(kalman)) < 3.0 for pf, kalman in pairs), printed
+
+
+def test_the_smoke_runs_cannot_read_the_shared_data(tmp_path, monkeypatch):
+    """The hiding itself: a notebook that reads the shared collection fails here."""
+    from jaxtrack.data import shared_folder
+
+    monkeypatch.delenv("JAXTRACK_DATA", raising=False)
+    shared = shared_folder()
+    if shared is None:
+        pytest.skip("no shared data folder on this machine: nothing to hide")
+    readme = next(path for path in sorted(shared.rglob("*")) if path.is_file())
+    for cell in (f"open({str(readme)!r}).read()",
+                 "import jaxtrack.data\njaxtrack.data.path('pose2sim/videos/cam03.mp4')"):
+        error, _ = _execute(f"# %%\n{cell}\n", tmp_path, monkeypatch)
+        assert error is not None and "FileNotFoundError" in error, cell
