@@ -205,9 +205,14 @@ def rts_smoother(model: LinearGaussian, observations: Float[Array, "time observa
 
 
 def random_linear_gaussian(
-    key: PRNGKeyArray, state_dim: int, observation_dim: int, dtype=jnp.float64
+    key: PRNGKeyArray, state_dim: int, observation_dim: int, dtype=None
 ) -> LinearGaussian:
-    """A random stable linear-Gaussian model (spectral radius < 1), for tests and benchmarks."""
+    """A random stable linear-Gaussian model (spectral radius < 1), for tests and benchmarks.
+
+    ``dtype`` None: JAX's default float (float64 when ``jax_enable_x64`` is on, else float32,
+    without the warning an explicit float64 request gives then)."""
+    if dtype is None:
+        dtype = jnp.result_type(float)
     keys = jr.split(key, 4)
     raw = jr.normal(keys[0], (state_dim, state_dim), dtype)
     transition = 0.9 * raw / jnp.max(jnp.abs(jnp.linalg.eigvals(raw)))
