@@ -45,9 +45,9 @@ def add_parser(subparsers) -> None:
             "and a person who moves), then the prior's training poses are searched for the one "
             "that best covers the foreground. --init manual:x,y,...: the 24 numbers are the "
             "first frame's 12 markers in video pixels, in the order head, neck, thorax, pelvis, "
-            "right shoulder, elbow, wrist, hip, left shoulder, elbow, wrist, hip. example: "
-            "jaxtrack track --model jaxtrack-demo/gplvm_waves.npz --video "
-            "../shared/data/pose2sim_demo_singleperson/videos/cam03.mp4 --out p2s"),
+            "right shoulder, elbow, wrist, hip, left shoulder, elbow, wrist, hip. example, on "
+            "the bundled Pose2Sim clip (jaxtrack.data.path('pose2sim/videos/cam03_half.mp4')): "
+            "jaxtrack track --model jaxtrack-demo/gplvm_waves.npz --video CLIP.mp4 --out p2s"),
     )
     parser.add_argument("--model", required=True, type=Path, metavar="MODEL.npz",
                         help="a prior from jaxtrack train (or jaxtrack-demo/gplvm_waves.npz)")
