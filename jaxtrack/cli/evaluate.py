@@ -60,7 +60,9 @@ def add_parser(subparsers) -> None:
             "videos. A clip is a catalogue name (see jaxtrack.data.list_clips()) or a path to a "
             ".bvh file or an .amc file (its .asf beside it, or given with --asf)."),
     )
-    parser.add_argument("--method", required=True, choices=("latent", "condensation", "mht"))
+    parser.add_argument("--method", required=True, choices=("latent", "condensation", "mht"),
+                        help="the tracker: Tian et al.'s latent-space tracker, CONDENSATION in "
+                        "the 25-d state with AR(2) dynamics, or multiple-hypothesis tracking")
     parser.add_argument("--train", nargs="+", required=True, metavar="CLIP",
                         help="clips to train the GPLVM on: catalogue names or .bvh/.amc files")
     parser.add_argument("--test", nargs="+", required=True, metavar="CLIP",
@@ -78,7 +80,9 @@ def add_parser(subparsers) -> None:
     add_tracker_options(parser)
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
-                        choices=("plain", "photo", "clutter"))
+                        choices=("plain", "photo", "clutter"),
+                        help="what each test clip is rendered over: a plain grey, a real photo, "
+                        "or synthetic clutter (default photo clutter)")
     parser.add_argument("--max-frames", type=int, default=None, metavar="N",
                         help="track at most the first N frames of each test clip (at 30 fps; "
                              "default: all)")
