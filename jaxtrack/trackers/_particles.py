@@ -87,10 +87,13 @@ def initialize_filter(key: PRNGKeyArray, model: smc.StateSpaceModel, frame: Arra
 
 
 def first_info(state: smc.FilterState) -> smc.StepInfo:
-    """Frame 0's ``StepInfo`` of a filter that was initialised on it."""
+    """Frame 0's ``StepInfo`` of a filter that was initialised on it: degenerate when no
+    initial particle had a finite likelihood there (the engine then re-seeded and reports its
+    log evidence as −inf), with an ESS of 0 then, as the engine reports a degenerate frame."""
     num = state.log_weights.shape[0]
-    ess = smc.effective_sample_size(state.log_weights)
-    return smc.StepInfo(state.log_evidence, ess, jnp.asarray(False), jnp.asarray(False),
+    degenerate = ~jnp.isfinite(state.log_evidence)
+    ess = jnp.where(degenerate, 0, smc.effective_sample_size(state.log_weights))
+    return smc.StepInfo(state.log_evidence, ess, jnp.asarray(False), degenerate,
                         jnp.asarray(0), jnp.arange(num))
 
 

@@ -251,3 +251,16 @@ def test_evaluate_runs_the_baselines_with_the_latent_trackers_refinement(prior, 
     assert plain["tracker"]["likelihood"] == {"kind": "limbs+edges", "sharpness": None,
                                               "nearest": True}
     assert plain["overall"]["mean_error_px"] != refined["overall"]["mean_error_px"]
+
+
+def test_a_degenerate_first_frame_is_reported_as_one():
+    """Frame 0's report says when no initial particle had a finite likelihood (ESS 0), as the
+    engine's later frames do."""
+    from jaxtrack import smc
+    from jaxtrack.trackers._particles import first_info
+
+    weights = jnp.full(4, -jnp.log(4.0))
+    healthy = smc.FilterState(jnp.zeros((4, 2)), weights, jnp.asarray(0), jnp.asarray(-3.0))
+    lost = smc.FilterState(jnp.zeros((4, 2)), weights, jnp.asarray(0), jnp.asarray(-jnp.inf))
+    assert not bool(first_info(healthy).degenerate) and float(first_info(healthy).ess) == 4.0
+    assert bool(first_info(lost).degenerate) and float(first_info(lost).ess) == 0.0
