@@ -79,9 +79,10 @@ def make_appearance_templates(
     return make_templates(image, markers_2d)
 
 
-def check_observations(templates: AppearanceTemplates, shape: tuple[int, ...]) -> bool:
-    """Check that a sequence of observations of ``shape`` suits ``templates``; say whether
-    edge distance maps must still be added to it.
+def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, ...]) -> bool:
+    """Check that a sequence of observations of ``shape`` suits ``templates`` (or the
+    likelihood named so, one of :data:`LIKELIHOODS`); say whether edge distance maps must still
+    be added to it.
 
     Grey frames ``(time, height, width)`` suit every likelihood; the edge-limb templates also
     take ``(time, 3, height, width)`` grey frames with their edge maps
@@ -91,7 +92,8 @@ def check_observations(templates: AppearanceTemplates, shape: tuple[int, ...]) -
         True when ``templates`` need edge maps and the frames are grey.
     """
     shape = tuple(shape)
-    edges = isinstance(templates, EdgeLimbTemplates)
+    edges = (needs_edges(templates) if isinstance(templates, str)
+             else isinstance(templates, EdgeLimbTemplates))
     if len(shape) == 3:
         return edges
     if edges and len(shape) == 4 and shape[1] == 3:

@@ -36,7 +36,8 @@ from jaxtrack.trackers._gauss_newton import refine_pose
 from jaxtrack.trackers._options import ArmSearch, Refinement
 from jaxtrack.trackers._tracker import FrameInChunk, frame_at
 
-__all__ = ["RefinementState", "refine", "refinement_prior_std", "score_pose", "search_arms"]
+__all__ = ["RefinementState", "refine", "refinement_prior_std", "score_pose", "search_arms",
+           "start_refinement"]
 
 # (upper arm, forearm) angle entries of the SPM state, right arm then left
 _ARM_ANGLES = tuple(
@@ -68,6 +69,17 @@ def refinement_prior_std(refinement: Refinement, torso: float) -> np.ndarray:
     """``(25,)`` σ of the Gaussian prior about each start, for a subject whose torso is
     ``torso`` pixels long (float64; :class:`~jaxtrack.trackers.Refinement`)."""
     return refinement.prior_std * default_noise_floor(torso)
+
+
+def start_refinement(refinement: Refinement | None, initial: Float[Array, " 25"]
+                     ) -> tuple[RefinementState | None, Float[Array, " 25"] | None]:
+    """The stage's state at frame 0 (``initial``, the frame-0 SPM state, carried) and its
+    prior σ for the subject's torso length there; ``(None, None)`` without a refinement."""
+    if refinement is None:
+        return None, None
+    torso = float(np.exp(np.asarray(initial[0], np.float64)))
+    prior_std = jnp.asarray(refinement_prior_std(refinement, torso), initial.dtype)
+    return RefinementState(initial, initial), prior_std
 
 
 def score_pose(pose: Float[Array, " 25"], frame: Array, appearance: PartTemplates,

@@ -20,6 +20,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 from tqdm.auto import tqdm
 
+from jaxtrack.likelihoods import check_observations
 from jaxtrack.trackers._tracker import FrameInChunk, Tracker
 
 __all__ = ["TrackResult", "track"]
@@ -47,21 +48,6 @@ class TrackResult:
     compile_seconds: float
     num_particles: int
     options: dict
-
-
-def _needs_edge_maps(tracker: Tracker, shape: tuple[int, ...]) -> bool:
-    """Check that observations of ``shape`` suit the tracker's likelihood; say whether edge
-    maps must still be added to them (grey frames suit every likelihood; ``"limbs+edges"``
-    also takes ``(time, 3, height, width)`` frames with their edge maps)."""
-    edges = tracker.likelihood.needs_edges
-    if len(shape) == 3:
-        return edges
-    if edges and len(shape) == 4 and shape[1] == 3:
-        return False
-    expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
-                "with their edge maps (jaxtrack.vision.edge_observations)" if edges
-                else "(time, height, width) grey images")
-    raise ValueError(f"frames must be {expected}, got shape {tuple(shape)}")
 
 
 def _aligned_empty(shape: tuple[int, ...], dtype, alignment: int = 64) -> np.ndarray:
@@ -130,7 +116,7 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
         raise TypeError(f"tracker must be a jaxtrack.trackers.Tracker, got "
                         f"{type(tracker).__name__}")
     frames = np.asarray(frames)
-    add_edges = _needs_edge_maps(tracker, frames.shape)
+    add_edges = check_observations(tracker.likelihood.kind, frames.shape)
     if frames.shape[0] < 1:
         raise ValueError("frames hold no frame")
     if not np.all(np.isfinite(frames[:1])):

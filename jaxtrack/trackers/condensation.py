@@ -46,7 +46,7 @@ from jaxtrack.trackers._particles import (
     frame0_templates,
     initialize_filter,
 )
-from jaxtrack.trackers._refinement import RefinementState, refine, refinement_prior_std
+from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
 __all__ = ["CondensationModel", "CondensationState", "CondensationTracker",
@@ -165,11 +165,7 @@ class CondensationTracker(Tracker):
             initial_std=jnp.asarray(self.initial_spread, dtype) * self.dynamics.noise_std,
             sharpness=jnp.asarray(self.likelihood.lam, dtype),
             nearest=self.likelihood.nearest)
-        refined = refine_std = None
-        if self.refinement is not None:
-            torso = float(np.exp(np.asarray(initial[0], np.float64)))
-            refined = RefinementState(initial, initial)
-            refine_std = jnp.asarray(refinement_prior_std(self.refinement, torso), dtype)
+        refined, refine_std = start_refinement(self.refinement, initial)
         filtered = initialize_filter(key, model, jnp.asarray(first_frame, dtype),
                                     self.num_particles)
         return CondensationState(model, filtered, refined, refine_std)

@@ -56,7 +56,7 @@ from jaxtrack.trackers._particles import (
     frame0_templates,
     initialize_filter,
 )
-from jaxtrack.trackers._refinement import RefinementState, refine, refinement_prior_std
+from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
 __all__ = ["DEFAULT_JUMP_PROBABILITY", "LatentModel", "LatentState", "LatentTracker",
@@ -223,10 +223,7 @@ class LatentTracker(Tracker):
             initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
             initial_spread=cast(self.initial_spread), sharpness=cast(self.likelihood.lam),
             nearest=self.likelihood.nearest)
-        refined = refine_std = None
-        if self.refinement is not None:
-            refined = RefinementState(cast(state), cast(state))
-            refine_std = cast(refinement_prior_std(self.refinement, torso))
+        refined, refine_std = start_refinement(self.refinement, cast(state))
         filtered = initialize_filter(key, model, jnp.asarray(first_frame),
                                     self.num_particles)
         return LatentState(model, filtered, refined, refine_std)

@@ -57,7 +57,7 @@ from jaxtrack.priors.dynamics import constant_velocity, default_noise_floor
 from jaxtrack.trackers._gauss_newton import refine_pose
 from jaxtrack.trackers._options import Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import check_initial_pose, frame0_state, frame0_templates
-from jaxtrack.trackers._refinement import RefinementState, refine, refinement_prior_std
+from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, frame_at
 
 __all__ = ["MHTModel", "MHTState", "MHTTracker", "ModePool", "mht_tracker"]
@@ -324,10 +324,7 @@ class MHTTracker(Tracker):
             velocity_weight=cast(self.velocity_weight), prior_scale=cast(self.prior_scale),
             refill_spread=cast(self.refill_spread), merge_radius=cast(merge_radius),
             prune_below=cast(self.prune_below), modes=self.modes, max_steps=self.max_steps)
-        refined = refine_std = None
-        if self.refinement is not None:
-            refined = RefinementState(initial, initial)
-            refine_std = cast(refinement_prior_std(self.refinement, torso))
+        refined, refine_std = start_refinement(self.refinement, initial)
         return MHTState(model, model.seed(), refined, refine_std)
 
     def first_estimate(self, state: MHTState) -> FrameEstimate:
