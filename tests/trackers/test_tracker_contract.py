@@ -232,7 +232,7 @@ def test_evaluate_runs_the_baselines_with_the_latent_trackers_refinement(prior, 
     import jaxtrack.priors.train
     from jaxtrack.cli import main
 
-    # the small session prior stands in for the CLI's own training (only its template is used)
+    # the small test prior stands in for the CLI's own training (only its template is used)
     monkeypatch.setattr(jaxtrack.priors.train, "train_prior", lambda *args, **kwargs: prior)
     common = ["evaluate", "--method", "condensation", "--train",
               "animateddrawings/fair1_wave_hello", "--test", HELD_OUT, "--particles", "16",
