@@ -271,15 +271,15 @@ def compare_methods(results: Mapping[str, Mapping]) -> str:
 
     Args:
         results: method name -> overall result of :func:`summarise` (a single sequence's
-            :func:`evaluate_track` result also works; its failure rate is 0 or 1).
+            :func:`evaluate_track` result also works; it is lost or not).
 
     Returns:
         The table: method, mean error (px), mean error (% torso), frames within 15 % of the
-        torso, failure rate, ms/frame.
+        torso, lost (the fraction of sequences lost, ``failure_rate``), ms/frame.
     """
     if not results:
         raise ValueError("compare_methods needs at least one method")
-    header = ("method", "error px", "error %torso", "within 15%", "failure rate", "ms/frame")
+    header = ("method", "error px", "error %torso", "within 15%", "lost", "ms/frame")
     rows = []
     for method, result in results.items():
         failure_rate = result.get("failure_rate")
