@@ -102,6 +102,10 @@ def load_gplvm(path: str | os.PathLike) -> SavedGPLVM:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such GPLVM file")
     if not zipfile.is_zipfile(path):  # np.load would read it as text and advise allow_pickle
+        with open(path, "rb") as file:
+            if file.read(4) == b"PK\x03\x04":  # a zip archive's start: cut short, or damaged
+                raise _fail(path, "damaged or truncated GPLVM file (a .npz archive without its "
+                                  "end; copy or train it again)")
         raise _fail(path, "not a jaxtrack GPLVM file (not a .npz archive; a GPLVM is the .npz "
                           "that jaxtrack train writes)")
     try:
