@@ -24,9 +24,10 @@ def add_parser(subparsers) -> None:
         epilog=(
             f"writes into ./{OUTPUT}/ (created): gplvm_waves.npz (the trained prior, reused by "
             "later runs; delete it to retrain), tracking.mp4 (both trackers' markers over the "
-            "video, the truth underneath), errors.png (error per frame), latent_space.png (the "
-            "prior's latent space) and metrics.json (every number printed). The prior can be "
-            f"given to jaxtrack track --model {OUTPUT}/gplvm_waves.npz."))
+            "video, the truth thin and white on top), errors.png (error per frame), "
+            "latent_space.png (the prior's latent space) and metrics.json (every number "
+            "printed). The prior can be given to jaxtrack track --model "
+            f"{OUTPUT}/gplvm_waves.npz."))
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of training, rendering and the first tracker run "
                         "(default 0)")

@@ -1,12 +1,12 @@
 """Markers and stick figures drawn over frames, and the videos made of them.
 
 :func:`draw_tracks` is the one drawer: each method's stick figure in its own colour, the ground
-truth (when given) thin and white underneath, with markers that are not visible drawn hollow,
-a legend naming the colours and an optional frame counter. It serves both videos:
-:func:`write_overlay_video` (several trackers' estimates, for looking at what the numbers say)
-and :func:`write_video` (a rendered sequence, optionally with its ground truth). Videos are
-written by :func:`jaxtrack.vision.video.write_frames`: OpenCV `mp4v`, atomically (a failed write
-leaves no file). cv2 is imported inside the functions.
+truth (when given) thin and white on top, so an estimate lying on it never hides it, its markers
+that are not visible drawn hollow; a legend naming the colours and an optional frame counter.
+It serves both videos: :func:`write_overlay_video` (several trackers' estimates, for looking
+at what the numbers say) and :func:`write_video` (a rendered sequence, optionally with its
+ground truth). Videos are written by :func:`jaxtrack.vision.video.write_frames`: OpenCV
+`mp4v`, atomically (a failed write leaves no file). cv2 is imported inside the functions.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ def draw_tracks(image: np.ndarray, tracks: Mapping[str, np.ndarray], marker_name
         tracks: method -> `(markers, 2)` pixels (may be empty: truth alone); non-finite points
             are not drawn.
         marker_names: `(markers,)` names (the skeleton is `jaxtrack.body.marker_edges`).
-        truth: optional `(markers, 2)` true markers, drawn thin and white under the methods.
+        truth: optional `(markers, 2)` true markers, drawn thin and white over the methods.
         label: text for the bottom-left corner (the frame counter).
         colours: method -> RGB; defaults to :data:`METHOD_COLOURS` in the order of `tracks`.
         visible: optional `(markers,)` bool for `truth`: markers that are not visible (hidden
@@ -112,11 +112,15 @@ def draw_tracks(image: np.ndarray, tracks: Mapping[str, np.ndarray], marker_name
             raise ValueError("visible marks the truth's markers, but no truth was given")
         if visible.shape != expected[:1]:
             raise ValueError(f"visible has shape {visible.shape}, expected ({len(marker_names)},)")
-    if truth is not None:
-        _draw_figure(cv2, image, checked("truth", truth), edges, TRUTH_COLOUR, 1, thickness,
-                     visible)
+    # the truth goes last, thinner than the estimates: where an estimate lies on it, the
+    # estimate's colour shows on both sides of the white line instead of covering it
+    truth_thickness = max(1, round(height / 480))
     for method, markers in figures.items():
-        _draw_figure(cv2, image, markers, edges, colours[method], thickness, thickness + 2)
+        _draw_figure(cv2, image, markers, edges, colours[method],
+                     max(thickness, truth_thickness + 2), thickness + 2)
+    if truth is not None:
+        _draw_figure(cv2, image, checked("truth", truth), edges, TRUTH_COLOUR, truth_thickness,
+                     thickness, visible)
     legend = [(str(method), colours[method]) for method in tracks]
     if truth is not None:
         legend.append(("truth", TRUTH_COLOUR))
@@ -139,7 +143,7 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
         path: the video file, written atomically.
         fps: frames per second of the video.
         marker_names: `(markers,)` names.
-        truth: optional `(time, markers, 2)` true markers, drawn thin and white.
+        truth: optional `(time, markers, 2)` true markers, drawn thin and white on top.
         colours: method -> RGB; defaults to :data:`METHOD_COLOURS`.
 
     Returns:

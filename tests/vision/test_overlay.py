@@ -139,3 +139,16 @@ def test_sequence_video_has_every_frame_and_fails_cleanly(tmp_path):
     with pytest.raises(OSError):
         write_video(sequence(), tmp_path / "missing" / "walk.mp4")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.mp4"]
+
+
+def test_truth_stays_visible_where_an_estimate_lies_on_it():
+    image = np.zeros((480, 640, 3), np.uint8)
+    # a pose in the lower right, away from the legend (top left) and the frame counter
+    truth = np.linspace((300.0, 250.0), (600.0, 450.0), len(UPPER_BODY_12))
+    frame = draw_tracks(image, {"latent": truth, "condensation": truth + (0.5, 0.0)},
+                        UPPER_BODY_12, truth=truth)
+    skeleton = frame[200:, 250:].astype(int)
+    white = (np.abs(skeleton - TRUTH_COLOUR).max(axis=-1) <= 10).sum()
+    method = (np.abs(skeleton - METHOD_COLOURS[1]).max(axis=-1) <= 10).sum()
+    assert white > 300  # the truth's limbs show along their length (about 400 px of limbs)
+    assert method > 300  # ... and the estimate still shows beside them
