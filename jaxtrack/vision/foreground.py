@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["foreground_mask", "head_boxes", "median_background", "median_grey_background"]
+__all__ = ["foreground_mask", "head_boxes", "largest_component", "median_background",
+           "median_grey_background"]
 
 
 def _check_rgb(images: np.ndarray, name: str, ndim: int) -> np.ndarray:
@@ -147,3 +148,29 @@ def head_boxes(mask: np.ndarray, *, max_people: int = 3, min_area: float = 0.005
         centre_x, centre_y = columns.mean(), top + 0.6 * size
         boxes.append((int(round(centre_x - size / 2)), int(round(centre_y - size / 2)), size, size))
     return np.asarray(boxes, np.int64).reshape(-1, 4)
+
+
+def largest_component(mask: np.ndarray, *, min_area: int = 50) -> np.ndarray:
+    """The largest 8-connected blob of a mask (Ong & Gong's silhouette: background subtraction,
+    then connected components).
+
+    Args:
+        mask: ``(height, width)`` bool foreground (:func:`foreground_mask`).
+        min_area: pixels the blob must cover; a smaller (or no) blob gives an empty mask, which
+            callers report as a frame without a silhouette.
+
+    Returns:
+        ``(height, width)`` bool, True on the largest blob only (all False when there is none).
+    """
+    import cv2
+
+    mask = np.asarray(mask)
+    if mask.ndim != 2:
+        raise ValueError(f"mask must be (height, width), got shape {mask.shape}")
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), 8)
+    if count < 2:
+        return np.zeros(mask.shape, bool)
+    label = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    if stats[label, cv2.CC_STAT_AREA] < min_area:
+        return np.zeros(mask.shape, bool)
+    return labels == label

@@ -1,0 +1,410 @@
+"""Ong & Gong's linear-combination tracker on real motion: training data, training, evaluation,
+tracking (the entry points of ``jaxtrack train|evaluate|track --method linear-combination``).
+
+Training and test hybrid vectors come from real mocap rendered through the real Pose2Sim
+calibration (``pose2sim/Calib.qca.txt``, four cameras, :func:`pose2sim_cameras`): each camera is
+scaled by :data:`CAMERA_SCALE` and its image cropped to :data:`CROP_SIZE` around the subject,
+so the figure is large enough for a 100-point contour. Per frame:
+
+* contour: the rendered silhouette's outer contour, ``num_contour`` points from its top-most
+  pixel, clockwise (``jaxtrack.vision.contours.silhouette_contour``);
+* head and hands: the three skin blobs (``jaxtrack.vision.skin``, with the figure's skin tone as
+  the skin sample), inside the silhouette;
+* skeleton: the 12 upper-body vertices (``UPPER_BODY_12``) in the camera's frame, metres,
+  relative to the neck, so that one silhouette from one view maps to one skeleton.
+
+When tracking, a frame is observed as the tracker sees real video: the silhouette by background
+subtraction and connected components, skin blobs inside it, and the gradient-magnitude map
+(:func:`observe`). The 3-D error of a frame is the mean distance between estimated and true
+skeleton vertices (neck-relative, camera frame), in metres.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+
+from jaxtrack.body import UPPER_BODY_12, Camera, read_qca, render_motion, stage_for_cameras
+from jaxtrack.body.hybrid import HybridLayout, make_hybrid, split_hybrid
+from jaxtrack.likelihoods.contour_normals import ContourObservation, FitnessSettings
+from jaxtrack.priors.linear_combinations import (
+    LinearCombinationModel,
+    fit_linear_combinations,
+    load_linear_combinations,
+    save_linear_combinations,
+)
+from jaxtrack.trackers._options import Engine
+
+__all__ = ["CAMERA_SCALE", "CROP_SIZE", "METHODS", "HybridSequence", "TrainedLinearCombinations",
+           "evaluate", "observe", "pose2sim_cameras", "render_hybrid_sequences",
+           "skeleton_error", "track", "train"]
+
+CAMERA_SCALE = 1 / 3
+"""The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
+
+CROP_SIZE = (160, 240)
+"""``(width, height)`` of the window cut around the subject from each scaled camera image."""
+
+METHODS = ("linear-combination", "global-pca", "nearest-neighbour")
+"""The tracker and its two baselines (``docs/linear-combination.md``)."""
+
+_NECK = UPPER_BODY_12.index("neck")
+
+
+def pose2sim_cameras(motion, *, scale: float = CAMERA_SCALE, crop: tuple[int, int] = CROP_SIZE
+                     ) -> tuple[object, list[Camera]]:
+    """The motion staged in the Pose2Sim lab and its four cameras, each scaled by ``scale`` and
+    cropped to ``crop`` (width, height) centred on the subject's mean projected position.
+
+    Returns:
+        ``(staged motion, cameras)``.
+    """
+    from jaxtrack.body._staging import project_numpy, scale_camera
+    from jaxtrack.body.markers import marker_positions
+    from jaxtrack.data import path
+
+    cameras = read_qca(path("pose2sim/Calib.qca.txt"), world_up="y")
+    staged = stage_for_cameras(motion, cameras)
+    joints = marker_positions(staged, UPPER_BODY_12)
+    cropped = []
+    for camera in cameras:
+        camera = scale_camera(camera, scale)
+        pixels, _ = project_numpy(camera, joints.reshape(-1, 3))
+        centre = 0.5 * (pixels.min(axis=0) + pixels.max(axis=0))
+        shift = np.array([crop[0] / 2, crop[1] / 2]) - centre
+        cropped.append(Camera(camera.focal_length,
+                              jnp.asarray(camera.principal_point) + jnp.asarray(shift),
+                              camera.rotation, camera.translation, camera.distortion,
+                              tuple(int(v) for v in crop), name=camera.name))
+    return staged, cropped
+
+
+@dataclass(frozen=True)
+class HybridSequence:
+    """One clip seen by one camera.
+
+    Attributes:
+        name: ``<clip>_<camera>``.
+        clip: the clip's name.
+        vectors: ``(time, vector)`` hybrid vectors from the exact silhouette (NaN rows where
+            the frame had no three skin blobs).
+        valid: ``(time,)`` rows of ``vectors`` that are usable.
+        skeleton: ``(time, 12, 3)`` the true skeleton (camera frame, neck-relative, metres).
+        observations: the frames as the tracker observes them (numpy leaves), or None.
+        status: per frame, empty when observed, else why not.
+    """
+
+    name: str
+    clip: str
+    vectors: np.ndarray
+    valid: np.ndarray
+    skeleton: np.ndarray
+    observations: ContourObservation | None = None
+    status: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _background_of(sequence, size) -> np.ndarray:
+    """The exact empty scene behind a rendered sequence (the renderer's own background)."""
+    from jaxtrack.body import _backgrounds
+
+    name = sequence.settings["background"]
+    rng = np.random.default_rng([int(sequence.seed), 1])  # the renderer's background stream
+    return _backgrounds.make_background(name, size, rng)[0]
+
+
+def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
+            threshold: int = 30, sigma: float = 1.0) -> tuple[ContourObservation, list[str]]:
+    """Frames as the linear-combination tracker observes them (Ong & Gong §5.2).
+
+    Per frame: background subtraction and the largest connected component (the silhouette),
+    skin blobs inside it (head = top), and the gradient-magnitude map.
+
+    Args:
+        images: ``(time, height, width, 3)`` uint8 RGB.
+        background: ``(height, width, 3)`` uint8 RGB empty scene.
+        skin_reference: an RGB sample of the person's skin (None: the fixed chroma box).
+        threshold: grey levels of the background subtraction.
+        sigma: smoothing of the gradient map.
+
+    Returns:
+        ``(observations, status)``: a :class:`ContourObservation` of numpy arrays with a
+        leading time axis, and per frame an empty string or why it was not observed (no
+        silhouette, too little skin); such frames have ``found`` False.
+    """
+    from jaxtrack.vision.foreground import foreground_mask, largest_component
+    from jaxtrack.vision.normals import gradient_magnitude
+    from jaxtrack.vision.skin import skin_blobs, skin_mask
+
+    images = np.asarray(images)
+    if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
+        raise ValueError(f"images must be (time, height, width, 3) uint8 RGB, got shape "
+                         f"{images.shape} dtype {images.dtype}")
+    count, height, width = images.shape[:3]
+    gradient = np.empty((count, height, width), np.float32)
+    head = np.zeros((count, 2))
+    hands = np.zeros((count, 2, 2))
+    found = np.zeros(count, bool)
+    status = []
+    for t, image in enumerate(images):
+        gradient[t] = gradient_magnitude(image, sigma=sigma)
+        silhouette = largest_component(foreground_mask(image, background, threshold=threshold))
+        if not silhouette.any():
+            status.append("no silhouette (nothing differs from the background)")
+            continue
+        blobs = skin_blobs(skin_mask(image, silhouette, reference=skin_reference))
+        if not blobs.found:
+            status.append(f"no skin blobs: {blobs.reason}")
+            continue
+        head[t], hands[t], found[t] = blobs.head, blobs.hands, True
+        status.append("")
+    return ContourObservation(gradient, head, hands, found), status
+
+
+def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
+                            num_contour: int = 100, fps: float = 30.0,
+                            max_frames: int | None = None, background: str = "photo",
+                            seed: int = 0, keep_observations: bool = False
+                            ) -> list[HybridSequence]:
+    """Hybrid vectors of one real clip through the Pose2Sim cameras ``views`` (module
+    docstring); with ``keep_observations`` also the frames as the tracker observes them."""
+    from jaxtrack.body.camera import to_camera_frame
+    from jaxtrack.data import resolve_clip
+    from jaxtrack.vision.contours import silhouette_contour
+    from jaxtrack.vision.skin import skin_blobs, skin_mask
+
+    source = resolve_clip(clip)
+    motion = source.load().resample(fps)
+    if max_frames is not None:
+        motion = motion.select(0, min(int(max_frames), motion.num_frames))
+    staged, cameras = pose2sim_cameras(motion)
+    sequences = []
+    for view in views:
+        if not 0 <= view < len(cameras):
+            raise ValueError(f"views must be camera indices 0..{len(cameras) - 1}, got {view}")
+        camera = cameras[view]
+        rendered = render_motion(staged, camera, background=background, markers=UPPER_BODY_12,
+                                 seed=seed + 101 * view, progress=False)
+        reference = rendered.settings["appearance"]["skin"]
+        joints = np.asarray(to_camera_frame(camera, rendered.joints_3d))
+        skeleton = joints - joints[:, _NECK:_NECK + 1]
+        layout = HybridLayout(num_contour=num_contour, num_skeleton=len(UPPER_BODY_12))
+        vectors = np.full((motion.num_frames, layout.size), np.nan)
+        for t in range(motion.num_frames):
+            silhouette = rendered.silhouettes[t]
+            if not silhouette.any():
+                continue
+            blobs = skin_blobs(skin_mask(rendered.images[t], silhouette, reference=reference))
+            if not blobs.found:
+                continue
+            contour = silhouette_contour(silhouette, num_contour)
+            vectors[t] = np.asarray(make_hybrid(contour, blobs.hands, blobs.head, skeleton[t]))
+        observations, status = None, ()
+        if keep_observations:
+            scene = _background_of(rendered, camera.image_size)
+            observations, status = observe(rendered.images, scene, skin_reference=reference)
+            status = tuple(status)
+        sequences.append(HybridSequence(
+            name=f"{source.short_name}_{camera.name}", clip=source.short_name,
+            vectors=vectors, valid=np.all(np.isfinite(vectors), axis=1), skeleton=skeleton,
+            observations=observations, status=status))
+    return sequences
+
+
+@dataclass(frozen=True)
+class TrainedLinearCombinations:
+    """A trained model with its training vectors (the nearest-neighbour baseline's table).
+
+    Attributes:
+        model: the :class:`LinearCombinationModel`.
+        vectors: ``(examples, vector)`` the training hybrid vectors, in the model's order.
+        description: what it was trained on and how.
+    """
+
+    model: LinearCombinationModel
+    vectors: np.ndarray
+    description: dict
+
+
+def _training_set(sequences: list[HybridSequence]) -> tuple[np.ndarray, np.ndarray]:
+    vectors, ids = [], []
+    for index, sequence in enumerate(sequences):
+        # a frame without blobs breaks the sequence: the frames after it start a new one, so
+        # no transition is counted across the gap
+        runs = np.cumsum(~sequence.valid)
+        vectors.append(sequence.vectors[sequence.valid])
+        ids.append(index * 100_000 + runs[sequence.valid])
+    if not vectors or sum(len(v) for v in vectors) < 2:
+        raise ValueError("the training clips gave fewer than 2 usable frames (no skin blobs "
+                         "found): nothing to train on")
+    return np.concatenate(vectors), np.concatenate(ids)
+
+
+def train(clips: list[str], *, views: tuple[int, ...] = (0, 1, 2, 3), num_contour: int = 100,
+          num_clusters: int = 20, variance_fraction: float = 0.8, fps: float = 30.0,
+          max_frames: int | None = None, background: str = "photo", seed: int = 0,
+          output: str | os.PathLike | None = None) -> TrainedLinearCombinations:
+    """Train the model on real clips rendered through the Pose2Sim cameras ``views``.
+
+    Args:
+        clips: catalogue names or paths of training clips (training subjects only).
+        views: Pose2Sim camera indices to render each clip through.
+        num_contour: N_C (Ong & Gong: 100).
+        num_clusters: k-means clusters (Ong & Gong: 10–100).
+        variance_fraction: global PCA variance kept (Ong & Gong: about 80 %).
+        fps: frame rate the clips are resampled to (transitions are counted at it).
+        max_frames: frames per clip (None: all).
+        background: the renderer's background.
+        seed: rendering and k-means seed.
+        output: where to save the model (``.npz``); None: not saved.
+    """
+    if not clips:
+        raise ValueError("clips is empty: give at least one training clip")
+    sequences = [sequence for clip in clips for sequence in render_hybrid_sequences(
+        clip, views=views, num_contour=num_contour, fps=fps, max_frames=max_frames,
+        background=background, seed=seed)]
+    vectors, ids = _training_set(sequences)
+    layout = HybridLayout(num_contour=num_contour, num_skeleton=len(UPPER_BODY_12))
+    fit = fit_linear_combinations(vectors, ids, layout, variance_fraction=variance_fraction,
+                                  num_clusters=num_clusters, seed=seed)
+    description = {"clips": list(clips), "views": list(views), "fps": fps,
+                   "max_frames": max_frames, "background": background, "seed": seed,
+                   "num_clusters": num_clusters, "variance_fraction": variance_fraction,
+                   "explained_variance": fit.explained_variance,
+                   "unseen_rows": list(fit.unseen_rows), "frames": int(len(vectors)),
+                   "skeleton": list(UPPER_BODY_12)}
+    if output is not None:
+        save_linear_combinations(output, fit.model, description=description,
+                                 arrays={"training_vectors": vectors})
+    return TrainedLinearCombinations(fit.model, vectors, description)
+
+
+def load(path: str | os.PathLike) -> TrainedLinearCombinations:
+    """A model saved by :func:`train` (with its training vectors)."""
+    saved = load_linear_combinations(path)
+    if "training_vectors" not in saved.arrays:
+        raise ValueError(f"{path}: the model file lacks its training vectors (save it with "
+                         "jaxtrack.experiments.linear_combination.train)")
+    return TrainedLinearCombinations(saved.model, saved.arrays["training_vectors"],
+                                     saved.description)
+
+
+def skeleton_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """``(time,)`` mean distance (metres) between estimated and true skeleton vertices."""
+    estimate, truth = np.asarray(estimate, np.float64), np.asarray(truth, np.float64)
+    if estimate.shape != truth.shape or estimate.shape[-1] != 3:
+        raise ValueError(f"estimate {estimate.shape} and truth {truth.shape} must be equal "
+                         "(time, joints, 3) skeletons")
+    return np.linalg.norm(estimate - truth, axis=-1).mean(axis=-1)
+
+
+def run_method(method: str, trained: TrainedLinearCombinations, observations: ContourObservation,
+               *, particles: int = 300, iterations: int = 5, seed: int = 0,
+               fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+               jump_spread: float = 0.3, brownian_step: float = 0.1) -> dict:
+    """One method on one observed sequence: ``{"skeleton": (time, 12, 3), "found": (time,),
+    "seconds_per_frame", "compile_seconds", "options"}``."""
+    from jaxtrack.trackers.linear_combination import (
+        linear_combination_tracker,
+        nearest_neighbour,
+        track_observations,
+    )
+
+    model = trained.model
+    if method == "nearest-neighbour":
+        tick = time.perf_counter()
+        picks = np.asarray(nearest_neighbour(jnp.asarray(trained.vectors, jnp.float32),
+                                             model.layout, observations, fitness))
+        seconds = time.perf_counter() - tick
+        skeleton = np.asarray(split_hybrid(trained.vectors[picks], model.layout).skeleton_3d)
+        return {"skeleton": skeleton, "found": np.asarray(observations.found),
+                "seconds_per_frame": seconds / len(picks), "compile_seconds": float("nan"),
+                "options": {"method": method}}
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    constrained = method == "linear-combination"
+    tracker = linear_combination_tracker(
+        model, engine=Engine(particles), fitness=fitness, iterations=iterations,
+        step=step if constrained else brownian_step, jump_spread=jump_spread,
+        constrained=constrained)
+    result = track_observations(tracker, jr.PRNGKey(seed), observations)
+    estimates = result.estimates
+    return {"skeleton": np.asarray(estimates.best_skeleton_3d),
+            "mean_skeleton": np.asarray(estimates.skeleton_3d),
+            "found": np.asarray(estimates.found), "ess": np.asarray(estimates.ess),
+            "seconds_per_frame": result.seconds_per_frame,
+            "compile_seconds": result.compile_seconds, "options": result.options}
+
+
+def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
+             methods: tuple[str, ...] = METHODS, views: tuple[int, ...] = (0, 1, 2, 3),
+             particles: int = 300, iterations: int = 5, max_frames: int | None = None,
+             background: str = "photo", seed: int = 0,
+             fitness: FitnessSettings = FitnessSettings(), output: str | os.PathLike | None = None
+             ) -> dict:
+    """3-D skeleton error of each method on held-out clips rendered through ``views``.
+
+    Returns a JSON-able dict: per sequence and method the mean 3-D error (metres; of the
+    best-fitness particle, the paper's estimate, and of the weighted mean where there is one),
+    frames observed, run time per frame; and per method the mean over sequences. Written to
+    ``output`` (JSON, atomically) when given.
+    """
+    from jaxtrack._files import write_json_atomically
+
+    fps = float(trained.description.get("fps", 30.0))
+    layout = trained.model.layout
+    results = {"trained_on": trained.description, "methods": list(methods), "particles": particles,
+               "iterations": iterations, "fitness": {k: getattr(fitness, k) for k in (
+                   "contour_weight", "hands_weight", "contour_tolerance", "hands_tolerance",
+                   "search_range", "edge_threshold")},
+               "sequences": {}}
+    for clip in clips:
+        for sequence in render_hybrid_sequences(clip, views=views, num_contour=layout.num_contour,
+                                                fps=fps, max_frames=max_frames,
+                                                background=background, seed=seed + 7,
+                                                keep_observations=True):
+            entry = {"frames": int(len(sequence.skeleton)),
+                     "observed": int(np.sum(sequence.observations.found))}
+            for method in methods:
+                run = run_method(method, trained, sequence.observations, particles=particles,
+                                 iterations=iterations, seed=seed, fitness=fitness)
+                errors = skeleton_error(run["skeleton"], sequence.skeleton)
+                entry[method] = {"error_m": float(errors.mean()),
+                                 "seconds_per_frame": float(run["seconds_per_frame"])}
+                if "mean_skeleton" in run:
+                    entry[method]["mean_error_m"] = float(
+                        skeleton_error(run["mean_skeleton"], sequence.skeleton).mean())
+            results["sequences"][sequence.name] = entry
+    results["mean_error_m"] = {method: float(np.mean([entry[method]["error_m"] for entry in
+                                                      results["sequences"].values()]))
+                               for method in methods}
+    if output is not None:
+        write_json_atomically(Path(output), results)
+    return results
+
+
+def track(trained: TrainedLinearCombinations, images: np.ndarray, background: np.ndarray, *,
+          skin_reference=None, particles: int = 300, iterations: int = 5, seed: int = 0,
+          fitness: FitnessSettings = FitnessSettings()) -> dict:
+    """Track one view of a video: ``images`` ``(time, height, width, 3)`` uint8 RGB of a static
+    camera whose empty scene is ``background``. Returns :func:`run_method`'s dict plus the
+    per-frame ``status`` (why a frame was not observed) and the tracker's image estimates
+    (``head_hands``: ``(time, 3, 2)``, ``contour``)."""
+    from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
+
+    observations, status = observe(images, background, skin_reference=skin_reference)
+    tracker = linear_combination_tracker(trained.model, engine=Engine(particles),
+                                         fitness=fitness, iterations=iterations)
+    result = track_observations(tracker, jr.PRNGKey(seed), observations)
+    estimates = result.estimates
+    return {"skeleton": np.asarray(estimates.best_skeleton_3d),
+            "mean_skeleton": np.asarray(estimates.skeleton_3d),
+            "head_hands": np.asarray(estimates.best_markers),
+            "contour": np.asarray(estimates.contour), "found": np.asarray(estimates.found),
+            "status": status, "seconds_per_frame": result.seconds_per_frame,
+            "compile_seconds": result.compile_seconds, "options": result.options}

@@ -1,0 +1,377 @@
+"""Ong & Gong's (2002) linear-combination tracker: CONDENSATION over cluster-constrained
+coefficients of a hybrid vector, with cluster jumps.
+
+A particle is ``{"cluster": int32, "coefficients": (components,)}``: the cluster a it lies in and
+its global coefficients s (eq. 2). Each CONDENSATION cycle propagates it (eq. 4–6):
+
+    b ~ U[a, :]                                    the next cluster, row a of the transition matrix
+    s′ = s + P_b Λ_b Ω       if b = a              a step inside the cluster
+    s′ = μ_b + P_b Λ_b Ω     if b ≠ a              a jump to the new cluster's mean
+    r = clip(P_bᵀ(s′ − μ_b)/Λ_b, −1, 1);  s′ = μ_b + P_b Λ_b r     (eq. 5, 6)
+
+with Ω ~ N(0, ω² I) (ω: ``step`` inside a cluster, ``jump_spread`` after a jump, fractions of
+the cluster's ±1 box), and weights it by the fitness of its reconstruction (eq. 7) to the frame
+(eq. 8–9, :mod:`jaxtrack.likelihoods.contour_normals`). ``iterations`` cycles run on every frame
+(Ong & Gong: 5). The estimate is the best-fitness particle (the paper's) and the weighted mean;
+the 3-D skeleton of each is read off its reconstruction.
+
+``constrained=False`` gives the first baseline of ``docs/linear-combination.md``: the same filter
+in the global coefficient space without clusters, a Brownian step of ``step`` training standard
+deviations per coefficient and no clamp. The tracker follows the contract of
+:mod:`jaxtrack.trackers._tracker`; its frames are :class:`ContourObservation` pytrees, run by
+:func:`track_observations` (one compiled scan).
+"""
+
+from __future__ import annotations
+
+import time as _time
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
+
+from jaxtrack import smc
+from jaxtrack.body.hybrid import split_hybrid
+from jaxtrack.likelihoods.contour_normals import ContourObservation, FitnessSettings, log_fitness
+from jaxtrack.priors.linear_combinations import LinearCombinationModel
+from jaxtrack.trackers._options import RESAMPLERS, Engine, options_record
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
+
+__all__ = ["LinearCombinationEstimate", "LinearCombinationSSM", "LinearCombinationState",
+           "LinearCombinationTrack", "LinearCombinationTracker", "linear_combination_tracker",
+           "nearest_neighbour", "propagate_particle",
+           "track_observations"]
+
+
+def propagate_particle(model: LinearCombinationModel, key: PRNGKeyArray,
+                       cluster: Int[Array, ""], coefficients: Float[Array, " components"],
+                       step: Float[Array, ""], jump_spread: Float[Array, ""]
+                       ) -> tuple[Int[Array, ""], Float[Array, " components"]]:
+    """One particle through Ong & Gong eq. 4–6 (module docstring); pure, vmap it.
+
+    Returns:
+        The new cluster b and the new coefficients, inside cluster b's ±1 box.
+    """
+    key_cluster, key_noise = jr.split(key)
+    # Ong & Gong eq. (4): the next cluster from row a of U
+    new_cluster = jr.categorical(key_cluster, jnp.log(model.transition[cluster]))
+    omega = jr.normal(key_noise, model.local_extents.shape[1:], coefficients.dtype)
+    same = new_cluster == cluster
+    spread = jnp.where(same, step, jump_spread)
+    offset = model.local_bases[new_cluster] @ (model.local_extents[new_cluster] * spread * omega)
+    start = jnp.where(same, coefficients, model.cluster_means[new_cluster])
+    # Ong & Gong eq. (5)-(6): clamp in cluster b's eigen-coordinates and reconstruct
+    return new_cluster.astype(jnp.int32), model.constrain(start + offset, new_cluster)
+
+
+class LinearCombinationSSM(smc.StateSpaceModel):
+    """The state-space model the engine runs (one particle: ``{"cluster", "coefficients"}``).
+
+    Attributes:
+        model: the trained model in the tracker's float type.
+        fitness: eq. 9's settings.
+        step: ω inside a cluster (constrained) or in training standard deviations (global).
+        jump_spread: ω after a cluster jump.
+        constrained: clusters, jumps and clamps (the paper); False: the global-PCA baseline.
+    """
+
+    model: LinearCombinationModel
+    fitness: FitnessSettings
+    step: Float[Array, ""]
+    jump_spread: Float[Array, ""]
+    constrained: bool = eqx.field(static=True, default=True)
+
+    def init(self, key: PRNGKeyArray) -> dict:
+        key_cluster, key_box, key_example = jr.split(key, 3)
+        model = self.model
+        if not self.constrained:  # a random training vector's coefficients
+            example = jr.randint(key_example, (), 0, model.training_coefficients.shape[0])
+            return {"cluster": jnp.asarray(0, jnp.int32),
+                    "coefficients": model.training_coefficients[example]}
+        cluster = jr.categorical(key_cluster, jnp.log(model.cluster_prior)).astype(jnp.int32)
+        box = jr.uniform(key_box, model.local_extents.shape[1:], model.mean.dtype, -1.0, 1.0)
+        coefficients = model.cluster_means[cluster] + model.local_bases[cluster] @ (
+            model.local_extents[cluster] * box)
+        return {"cluster": cluster, "coefficients": coefficients}
+
+    def propagate(self, key: PRNGKeyArray, particle: dict, time) -> dict:
+        if not self.constrained:  # Brownian motion in units of each coefficient's training std
+            model = self.model
+            scale = jax.lax.rsqrt(model.eigenvalues)  # std of a_j over the training set
+            noise = jr.normal(key, particle["coefficients"].shape, particle["coefficients"].dtype)
+            return {"cluster": particle["cluster"],
+                    "coefficients": particle["coefficients"] + self.step * scale * noise}
+        cluster, coefficients = propagate_particle(self.model, key, particle["cluster"],
+                                                   particle["coefficients"], self.step,
+                                                   self.jump_spread)
+        return {"cluster": cluster, "coefficients": coefficients}
+
+    def log_likelihood(self, particle: dict, observation: ContourObservation
+                       ) -> Float[Array, ""]:
+        # Ong & Gong eq. (7): the hybrid vector of the particle, then its fitness (eq. 8-9)
+        parts = split_hybrid(self.model.reconstruct(particle["coefficients"]), self.model.layout)
+        return log_fitness(parts.contour, parts.hands, observation, self.fitness)
+
+
+class LinearCombinationEstimate(FrameEstimate):
+    """:class:`FrameEstimate` with what this tracker recovers.
+
+    ``markers`` / ``best_markers`` are the head and the two hands in the image, ``(3, 2)``.
+
+    Attributes:
+        skeleton_3d, best_skeleton_3d: ``(joints, 3)`` the skeleton of the weighted mean and of
+            the best-fitness particle (the paper's estimate).
+        contour: ``(contour, 2)`` the best particle's contour in the image.
+        cluster: the best particle's cluster.
+        found: the frame had a silhouette and three skin blobs (else it was scored flat and the
+            filter only predicted).
+    """
+
+    skeleton_3d: Float[Array, "joints 3"]
+    best_skeleton_3d: Float[Array, "joints 3"]
+    contour: Float[Array, "contour 2"]
+    cluster: Int[Array, ""]
+    found: Bool[Array, ""]
+
+
+class LinearCombinationState(eqx.Module):
+    """What the tracker carries: the filter's state, and the last frame's head and status
+    (which place its estimate in the image)."""
+
+    filter: smc.FilterState
+    info: smc.StepInfo
+    head: Float[Array, " 2"]
+    found: Bool[Array, ""]
+
+
+def _observation_at(frame) -> ContourObservation:
+    if isinstance(frame, FrameInChunk):
+        return jax.tree.map(lambda leaf: leaf[frame.index], frame.frames)
+    return frame
+
+
+class LinearCombinationTracker(Tracker):
+    """Ong & Gong's tracker (module docstring).
+
+    Attributes:
+        model: the trained :class:`LinearCombinationModel` (in the tracker's float type).
+        likelihood: eq. 9's :class:`FitnessSettings`.
+        engine: N, resampler and ESS threshold (Ong & Gong: resample every cycle).
+        iterations: CONDENSATION cycles per frame (Ong & Gong: 5).
+        step, jump_spread: ω inside a cluster and after a jump.
+        constrained: the paper's clusters; False: the global-PCA Brownian baseline.
+    """
+
+    model: LinearCombinationModel
+    likelihood: FitnessSettings
+    engine: Engine
+    step: Float[Array, ""]
+    jump_spread: Float[Array, ""]
+    iterations: int = eqx.field(static=True, default=5)
+    constrained: bool = eqx.field(static=True, default=True)
+
+    def __check_init__(self):
+        if not isinstance(self.iterations, int) or self.iterations < 1:
+            raise ValueError(f"iterations must be a positive integer, got {self.iterations!r}")
+
+    @property
+    def num_particles(self) -> int:
+        return self.engine.num_particles
+
+    def options(self) -> dict:
+        return {"method": "linear-combination" if self.constrained else "global-pca",
+                "particles": self.num_particles, "engine": options_record(self.engine),
+                "likelihood": options_record(self.likelihood), "iterations": self.iterations,
+                "step": float(self.step), "jump_spread": float(self.jump_spread),
+                "clusters": self.model.num_clusters, "components": self.model.num_components}
+
+    def _ssm(self) -> LinearCombinationSSM:
+        return LinearCombinationSSM(self.model, self.likelihood, self.step, self.jump_spread,
+                                    self.constrained)
+
+    def _cycles(self, key, filtered, observation, iterations):
+        return smc.step(key, filtered, observation, self._ssm(),
+                        resampler=RESAMPLERS[self.engine.resampler](),
+                        ess_threshold=self.engine.ess_threshold,
+                        iterations_per_frame=iterations)
+
+    def start(self, key: PRNGKeyArray, first_frame: ContourObservation, initial_pose=None
+              ) -> LinearCombinationState:
+        """Particles drawn from the clusters (Ong & Gong start from the model, not from a
+        given pose: ``initial_pose`` is not used), then ``iterations`` cycles on frame 0."""
+        if not isinstance(first_frame, ContourObservation):
+            raise TypeError(f"first_frame must be a ContourObservation (jaxtrack.experiments."
+                            f"linear_combination.observe), got {type(first_frame).__name__}")
+        return _start(self, key, first_frame)
+
+    def _estimate(self, state: LinearCombinationState) -> LinearCombinationEstimate:
+        model, filtered, info = self.model, state.filter, state.info
+        particles, log_weights = filtered.particles, filtered.log_weights
+        best = smc.best_particle(particles, log_weights)
+        mean = smc.weighted_mean(particles, log_weights)
+        # no head seen: the skeleton is still reported, its image positions are not known
+        head = jnp.where(state.found, state.head.astype(log_weights.dtype), jnp.nan)
+        best_parts = split_hybrid(model.reconstruct(best["coefficients"]), model.layout, head)
+        mean_parts = split_hybrid(model.reconstruct(mean["coefficients"]), model.layout, head)
+        return LinearCombinationEstimate(
+            markers=jnp.concatenate([head[None], mean_parts.hands]),
+            best_markers=jnp.concatenate([head[None], best_parts.hands]),
+            ess=info.ess, log_likelihood=info.log_evidence_increment,
+            degenerate=info.degenerate, skeleton_3d=mean_parts.skeleton_3d,
+            best_skeleton_3d=best_parts.skeleton_3d, contour=best_parts.contour,
+            cluster=best["cluster"], found=state.found)
+
+    def first_estimate(self, state: LinearCombinationState) -> LinearCombinationEstimate:
+        return self._estimate(state)
+
+    def update(self, key: PRNGKeyArray, state: LinearCombinationState, frame
+               ) -> tuple[LinearCombinationState, LinearCombinationEstimate]:
+        observation = _observation_at(frame)
+        filtered, info = self._cycles(key, state.filter, observation, self.iterations)
+        state = LinearCombinationState(filtered, info, observation.head, observation.found)
+        return state, self._estimate(state)
+
+
+@eqx.filter_jit
+def _start(tracker: LinearCombinationTracker, key: PRNGKeyArray,
+           observation: ContourObservation) -> LinearCombinationState:
+    key_init, key_cycles = jr.split(key)
+    filtered, info = smc.initialize(key_init, tracker._ssm(), observation,
+                                    tracker.num_particles)
+    if tracker.iterations > 1:
+        filtered, info = tracker._cycles(key_cycles, filtered, observation,
+                                         tracker.iterations - 1)
+        filtered = eqx.tree_at(lambda f: f.time, filtered, jnp.zeros_like(filtered.time))
+    return LinearCombinationState(filtered, info, observation.head, observation.found)
+
+
+@eqx.filter_jit
+def _scan(tracker: LinearCombinationTracker, state: LinearCombinationState, keys,
+          observations: ContourObservation):
+    def body(state, inputs):
+        key, index = inputs
+        return tracker.update(key, state, FrameInChunk(observations, index))
+
+    return jax.lax.scan(body, state, (keys, jnp.arange(keys.shape[0])))
+
+
+class LinearCombinationTrack(eqx.Module):
+    """A tracked sequence: every field of :class:`LinearCombinationEstimate` with a leading
+    ``time`` axis (``estimates``), and timings.
+
+    Attributes:
+        estimates: per-frame estimates, frame 0 included.
+        seconds_per_frame: run time per frame after frame 0, compilation excluded.
+        compile_seconds: time to compile the scan.
+        options: the tracker's ``options()``.
+    """
+
+    estimates: LinearCombinationEstimate
+    seconds_per_frame: float = eqx.field(static=True)
+    compile_seconds: float = eqx.field(static=True)
+    options: dict = eqx.field(static=True)
+
+
+def track_observations(tracker: LinearCombinationTracker, key: PRNGKeyArray,
+                       observations: ContourObservation) -> LinearCombinationTrack:
+    """Track a sequence of observations (every leaf with a leading ``time`` axis): start on
+    frame 0, then one compiled ``lax.scan`` of ``update`` over the others."""
+    if not isinstance(observations, ContourObservation):
+        raise TypeError(f"observations must be a ContourObservation with a time axis, got "
+                        f"{type(observations).__name__}")
+    num_frames = observations.found.shape[0] if observations.found.ndim == 1 else 0
+    if num_frames < 1:
+        raise ValueError("observations hold no frame (found must have a leading time axis)")
+    dtype = tracker.model.mean.dtype
+    observations = ContourObservation(
+        jnp.asarray(observations.gradient, dtype), jnp.asarray(observations.head, dtype),
+        jnp.asarray(observations.hands, dtype), jnp.asarray(observations.found, bool))
+    key_start, key_frames = jr.split(key)
+    first = jax.tree.map(lambda leaf: leaf[0], observations)
+    state = tracker.start(key_start, first)
+    outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None],
+                            _first(tracker, state))]
+    compile_seconds, run_seconds = 0.0, 0.0
+    if num_frames > 1:
+        rest = jax.tree.map(lambda leaf: leaf[1:], observations)
+        keys = jr.split(key_frames, num_frames - 1)
+        tick = _time.perf_counter()
+        compiled = _scan.lower(tracker, state, keys, rest).compile()
+        compile_seconds = _time.perf_counter() - tick
+        tick = _time.perf_counter()
+        _, estimates = compiled(tracker, state, keys, rest)
+        estimates = jax.block_until_ready(estimates)
+        run_seconds = _time.perf_counter() - tick
+        outputs.append(jax.tree.map(np.asarray, estimates))
+    merged = jax.tree.map(lambda *leaves: np.concatenate(leaves), *outputs)
+    return LinearCombinationTrack(merged, run_seconds / max(num_frames - 1, 1), compile_seconds,
+                                  tracker.options())
+
+
+@eqx.filter_jit
+def _first(tracker, state):
+    return tracker.first_estimate(state)
+
+
+def linear_combination_tracker(
+    model: LinearCombinationModel,
+    *,
+    engine: Engine = Engine(300),
+    fitness: FitnessSettings = FitnessSettings(),
+    iterations: int = 5,
+    step: float = 0.1,
+    jump_spread: float = 0.3,
+    constrained: bool = True,
+    dtype=jnp.float32,
+) -> LinearCombinationTracker:
+    """Ong & Gong's tracker with a trained model (module docstring).
+
+    Args:
+        model: a trained :class:`LinearCombinationModel`.
+        engine: N, resampler, ESS threshold (Ong & Gong: up to 300 samples).
+        fitness: eq. 9's weights and tolerances.
+        iterations: CONDENSATION cycles per frame (Ong & Gong: 5).
+        step: ω inside a cluster, a fraction of its ±1 box (with ``constrained=False``: the
+            Brownian step in training standard deviations).
+        jump_spread: ω after a jump to a new cluster's mean.
+        constrained: False for the global-PCA Brownian baseline.
+        dtype: the filter's float type.
+    """
+    for name, value in (("step", step), ("jump_spread", jump_spread)):
+        if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return LinearCombinationTracker(
+        model=model.astype(dtype), likelihood=fitness, engine=engine,
+        step=jnp.asarray(step, dtype), jump_spread=jnp.asarray(jump_spread, dtype),
+        iterations=iterations, constrained=constrained)
+
+
+@eqx.filter_jit
+def _nearest(vectors, layout, observations, fitness):
+    parts = split_hybrid(vectors, layout)
+
+    def frame(observation):
+        scores = jax.vmap(log_fitness, in_axes=(0, 0, None, None))(
+            parts.contour, parts.hands, observation, fitness)
+        return jnp.argmax(scores)
+
+    return jax.lax.map(frame, observations)
+
+
+def nearest_neighbour(vectors: Float[Array, "examples vector"], layout,
+                      observations: ContourObservation, fitness: FitnessSettings = FitnessSettings()
+                      ) -> Int[Array, " time"]:
+    """The second baseline: per frame, the training hybrid vector of greatest fitness (eq. 9),
+    with no dynamics. Returns the index of the chosen vector per frame (its skeleton is the
+    estimate; on a frame without observations every vector scores alike and the first wins)."""
+    vectors = jnp.asarray(vectors)
+    if vectors.ndim != 2 or vectors.shape[1] != layout.size:
+        raise ValueError(f"vectors must be (examples, {layout.size}), got {vectors.shape}")
+    observations = ContourObservation(
+        jnp.asarray(observations.gradient, vectors.dtype),
+        jnp.asarray(observations.head, vectors.dtype),
+        jnp.asarray(observations.hands, vectors.dtype), jnp.asarray(observations.found, bool))
+    return _nearest(vectors, layout, observations, fitness)
