@@ -1,0 +1,424 @@
+"""Mixed-state temporal integration of silhouette body-part hypotheses (Kwatra, Bobick & Johnson
+2002, §3.2–3.3): a particle filter over (posture, part positions, part velocities), smoothed
+over the whole sequence by ancestry tracing.
+
+A particle is ``{"posture": int, "parts": (5, 2), "velocities": (5, 2)}`` (head, two hands, two
+feet, pixels). Per frame t, with the posture likelihoods p(h_t | q) of
+:class:`jaxtrack.priors.postures.PostureModel` and the hypotheses Z_t of
+:mod:`jaxtrack.vision.parts`:
+
+1. (t = 1, §3.2 step 1) q ~ π(q) p(h_1 | q) normalised; parts ~ N(z_1^q, σ_init² I) about
+   that posture's hypotheses; velocities ~ N(0, σ_v,init² I).
+2. Resample (systematic) by the weights.
+3. Posture, sampled directly from the prediction matrix (eq. 8–9):
+
+       F_ij = p(h_t | q = j) T_ij / Σ_j' p(h_t | q = j') T_ij'
+
+   The row normaliser Σ_j p(h_t | j) T_ij of the parent's posture i enters the weight (step 6):
+   it is the exact importance weight of this proposal for the target p(q_1:t, x_1:t | h, Z),
+   so the filter and the smoother estimate that posterior and not a heuristic of it (the
+   paper's weighting omits it; with it the smoother's posture matches brute-force enumeration,
+   tests/mixed_state/test_smoothing.py).
+4. Parts, constant velocity plus white noise: v' = v + σ_v ε, x' = x + v' + σ_x ε'.
+5. Any predicted part outside the silhouette is moved to the nearest silhouette pixel: one
+   gather from the frame's nearest-point map
+   (:func:`jaxtrack.vision.parts.nearest_silhouette_points`); the velocity becomes the
+   displacement actually made.
+6. Weight: log w = log p(Z_t | x, q) (eq. 4–7,
+   :class:`jaxtrack.likelihoods.part_distances.PartDistances`) + log Σ_j p(h_t | j) T_{q_parent j}.
+
+A frame whose silhouette is empty or fills the image (status ≠ ok) carries no evidence: postures
+follow T alone, parts are not projected, weights are unchanged, and the frame's status is
+reported. Nothing there can produce NaN.
+
+Estimates: the posture of largest total weight, and the weighted mean of the parts over the
+particles in that posture (hand and foot slots follow each posture's own convention, so a mean
+across postures would blur two conventions). The smoother (:func:`smooth`) traces every final
+particle's ancestry (:func:`jaxtrack.smc.trace_ancestry`, §3.3) and reports, per frame, the MAP
+posture of the paths' posture marginals under the final weights and the expected parts over the
+paths in that posture. :func:`smooth_fixed_lag` gives the same for video streamed in chunks.
+See ``docs/mixed-state.md``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+from jax import lax
+from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
+
+from jaxtrack import smc
+from jaxtrack.likelihoods.part_distances import PartDistances
+from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
+from jaxtrack.smc._resampling import systematic_ancestors
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
+
+__all__ = ["MixedStateFrame", "MixedStateModel", "MixedStateResult", "MixedStateTracker",
+           "SmoothedPostures", "filter_sequence", "instantaneous_estimates",
+           "observations_from_silhouettes", "smooth", "smooth_fixed_lag"]
+
+FRAME_OK = 0  # jaxtrack.vision.histograms.FRAME_OK (imported lazily: vision needs OpenCV)
+
+
+class MixedStateFrame(eqx.Module):
+    """One frame's observation (or, with a leading ``time`` axis, a sequence's).
+
+    Attributes:
+        features: ``(features,)`` silhouette projection-histogram features h_t.
+        hypotheses: ``(postures, parts, 2)`` every posture's part hypotheses Z_t (pixels).
+        nearest: ``(height, width, 2)`` int16 nearest silhouette pixel (x, y) of every pixel.
+        status: ``FRAME_OK`` (0), or why the frame holds no silhouette evidence.
+    """
+
+    features: Float[Array, "*time features"]
+    hypotheses: Float[Array, "*time postures parts 2"]
+    nearest: Int[Array, "*time height width 2"]
+    status: Int[Array, "*time"]
+
+
+class MixedStateModel(eqx.Module):
+    """The posture model, the part likelihood and the dynamics' noise (module docstring).
+
+    Attributes:
+        postures: p(h | q), T and π.
+        part_likelihood: eq. 4–7.
+        position_std: σ_x, pixels per frame.
+        velocity_std: σ_v, pixels per frame per frame.
+        initial_std: σ_init, the spread of the first parts about z_1^q (pixels).
+        initial_velocity_std: σ_v,init.
+    """
+
+    postures: PostureModel
+    part_likelihood: PartDistances
+    position_std: Float[Array, ""]
+    velocity_std: Float[Array, ""]
+    initial_std: Float[Array, ""]
+    initial_velocity_std: Float[Array, ""]
+
+    def __init__(self, postures: PostureModel, part_likelihood: PartDistances | None = None, *,
+                 position_std: float = 3.0, velocity_std: float = 2.0,
+                 initial_std: float = 20.0, initial_velocity_std: float = 2.0):
+        values = dict(position_std=position_std, velocity_std=velocity_std,
+                      initial_std=initial_std, initial_velocity_std=initial_velocity_std)
+        for name, value in values.items():
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a non-negative finite number of pixels, got "
+                                 f"{value}")
+        self.postures = postures
+        self.part_likelihood = PartDistances() if part_likelihood is None else part_likelihood
+        for name, value in values.items():
+            setattr(self, name, jnp.asarray(float(value)))
+
+    def log_posture_likelihoods(self, frame: MixedStateFrame) -> Float[Array, " postures"]:
+        """log p(h_t | q), zero (no evidence) on a frame whose status is not ok."""
+        values = self.postures.log_likelihoods(frame.features)
+        return jnp.where(frame.status == FRAME_OK, values, 0.0)
+
+
+class MixedStateResult(eqx.Module):
+    """The filter's outputs for a sequence (leading ``time`` axis on per-frame fields).
+
+    ``postures``/``parts``/``log_weights``/``ancestors`` are the particle history the smoother
+    traces; ``filtered_posture``/``filtered_parts`` the causal estimates.
+    """
+
+    postures: Int[Array, "time particles"]
+    parts: Float[Array, "time particles parts 2"]
+    log_weights: Float[Array, "time particles"]
+    ancestors: Int[Array, "time particles"]
+    log_evidence_increments: Float[Array, " time"]
+    ess: Float[Array, " time"]
+    status: Int[Array, " time"]
+    filtered_posture: Int[Array, " time"]
+    filtered_posture_probabilities: Float[Array, "time postures"]
+    filtered_parts: Float[Array, "time parts 2"]
+
+
+class SmoothedPostures(eqx.Module):
+    """The smoothed estimate at every frame given the whole sequence (§3.3)."""
+
+    posture: Int[Array, " time"]
+    posture_probabilities: Float[Array, "time postures"]
+    parts: Float[Array, "time parts 2"]
+
+
+def _project(parts: Float[Array, "parts 2"], nearest: Int[Array, "height width 2"]
+             ) -> Float[Array, "parts 2"]:
+    """Each part moved to the nearest silhouette pixel (itself when inside): one gather."""
+    height, width = nearest.shape[:2]
+    columns = jnp.clip(jnp.round(parts[:, 0]), 0, width - 1).astype(jnp.int32)
+    rows = jnp.clip(jnp.round(parts[:, 1]), 0, height - 1).astype(jnp.int32)
+    target = nearest[rows, columns].astype(parts.dtype)
+    inside = jnp.all(target == jnp.stack([columns, rows], axis=-1).astype(parts.dtype), axis=-1)
+    return jnp.where(inside[:, None], parts, target)
+
+
+def _estimate(postures, parts, log_weights):
+    """Posture of largest total weight; weighted mean of the parts of the particles in it."""
+    weights = jax.nn.softmax(log_weights)
+    probabilities = jnp.zeros(NUM_POSTURES, weights.dtype).at[postures].add(weights)
+    best = jnp.argmax(probabilities)
+    chosen = jnp.where(postures == best, weights, 0.0)
+    chosen = chosen / jnp.sum(chosen)
+    return best, probabilities, jnp.tensordot(chosen, parts, axes=1)
+
+
+def _initial(key, model: MixedStateModel, frame: MixedStateFrame, num_particles: int, dtype):
+    key_posture, key_parts, key_velocities = jr.split(key, 3)
+    logits = model.postures.log_initial + model.log_posture_likelihoods(frame)
+    postures = jr.categorical(key_posture, logits.astype(dtype), shape=(num_particles,))
+    centres = frame.hypotheses.astype(dtype)[postures]
+    parts = centres + model.initial_std.astype(dtype) * jr.normal(key_parts, centres.shape, dtype)
+    velocities = model.initial_velocity_std.astype(dtype) * jr.normal(
+        key_velocities, centres.shape, dtype)
+    ok = frame.status == FRAME_OK
+    projected = jax.vmap(_project, in_axes=(0, None))(parts, frame.nearest)
+    parts = jnp.where(ok, projected, parts)
+    log_likelihoods = jax.vmap(model.part_likelihood.log_likelihood, in_axes=(0, 0, None))(
+        postures, parts, frame.hypotheses.astype(dtype))
+    # the posture evidence Σ_q π(q) p(h_1 | q) is one constant here (all share it)
+    log_weights = jnp.where(ok, log_likelihoods, 0.0)
+    return postures, parts, velocities, log_weights
+
+
+def _step(key, model: MixedStateModel, postures, parts, velocities, log_weights,
+          frame: MixedStateFrame):
+    """One frame: resample, sample posture from F (eq. 8–9), predict, project, weigh."""
+    key_resample, key_posture, key_velocity, key_position = jr.split(key, 4)
+    dtype = parts.dtype
+    num = postures.shape[0]
+    ancestors = systematic_ancestors(key_resample, log_weights)
+    postures, parts, velocities = postures[ancestors], parts[ancestors], velocities[ancestors]
+    ok = frame.status == FRAME_OK
+    # eq. 8–9: F_ij ∝ p(h_t | q = j) T_ij, rows normalised; the normaliser weighs the parent
+    log_f = model.postures.log_transition + model.log_posture_likelihoods(frame)[None, :]
+    log_rows = jax.nn.logsumexp(log_f, axis=1)
+    log_f = (log_f - log_rows[:, None]).astype(dtype)
+    children = jr.categorical(key_posture, log_f[postures])
+    velocities = velocities + model.velocity_std.astype(dtype) * jr.normal(
+        key_velocity, velocities.shape, dtype)
+    predicted = parts + velocities + model.position_std.astype(dtype) * jr.normal(
+        key_position, parts.shape, dtype)
+    projected = jax.vmap(_project, in_axes=(0, None))(predicted, frame.nearest)
+    predicted = jnp.where(ok, projected, predicted)
+    velocities = predicted - parts
+    log_likelihoods = jax.vmap(model.part_likelihood.log_likelihood, in_axes=(0, 0, None))(
+        children, predicted, frame.hypotheses.astype(dtype))
+    unnormalised = jnp.where(ok, log_likelihoods + log_rows[postures].astype(dtype), 0.0)
+    increment = jax.nn.logsumexp(unnormalised) - math.log(num)
+    finite = jnp.isfinite(increment)
+    new_log_weights = jnp.where(finite, unnormalised - jax.nn.logsumexp(unnormalised),
+                                -math.log(num))
+    return children, predicted, velocities, new_log_weights.astype(dtype), ancestors, increment
+
+
+def _ess(log_weights):
+    return 1.0 / jnp.sum(jax.nn.softmax(log_weights) ** 2)
+
+
+@eqx.filter_jit
+def filter_sequence(key: PRNGKeyArray, model: MixedStateModel, observations: MixedStateFrame,
+                    num_particles: int) -> MixedStateResult:
+    """Filter a whole sequence in one ``lax.scan`` and keep the particle history.
+
+    Args:
+        key: PRNG key.
+        model: the mixed-state model.
+        observations: a :class:`MixedStateFrame` whose leaves have a leading ``time`` axis
+            (:func:`observations_from_silhouettes`).
+        num_particles: N.
+
+    Returns:
+        :class:`MixedStateResult`.
+    """
+    if num_particles < 1:
+        raise ValueError(f"num_particles must be at least 1, got {num_particles}")
+    dtype = jnp.result_type(float)
+    key_init, key_steps = jr.split(key)
+    first = jax.tree.map(lambda leaf: leaf[0], observations)
+    postures, parts, velocities, log_weights = _initial(key_init, model, first, num_particles,
+                                                        dtype)
+    first_increment = jax.nn.logsumexp(log_weights) - math.log(num_particles)
+    log_weights = log_weights - jax.nn.logsumexp(log_weights)
+
+    def body(carry, inputs):
+        postures, parts, velocities, log_weights = carry
+        key, frame = inputs
+        postures, parts, velocities, log_weights, ancestors, increment = _step(
+            key, model, postures, parts, velocities, log_weights, frame)
+        return (postures, parts, velocities, log_weights), (postures, parts, log_weights,
+                                                            ancestors, increment)
+
+    rest = jax.tree.map(lambda leaf: leaf[1:], observations)
+    num_frames = observations.status.shape[0]
+    _, (all_postures, all_parts, all_log_weights, ancestors, increments) = lax.scan(
+        body, (postures, parts, velocities, log_weights),
+        (jr.split(key_steps, num_frames - 1), rest))
+    cat = lambda head, tail: jnp.concatenate([head[None], tail])  # noqa: E731
+    all_postures = cat(postures, all_postures)
+    all_parts = cat(parts, all_parts)
+    all_log_weights = cat(log_weights, all_log_weights)
+    ancestors = cat(jnp.arange(num_particles, dtype=ancestors.dtype), ancestors)
+    increments = cat(first_increment.astype(increments.dtype), increments)
+    best, probabilities, mean_parts = jax.vmap(_estimate)(all_postures, all_parts,
+                                                          all_log_weights)
+    return MixedStateResult(all_postures, all_parts, all_log_weights, ancestors, increments,
+                            jax.vmap(_ess)(all_log_weights), observations.status, best,
+                            probabilities, mean_parts)
+
+
+def _as_filter_result(result: MixedStateResult) -> smc.FilterResult:
+    """The history in the engine's form, for its ancestry-tracing smoother."""
+    num_frames = result.status.shape[0]
+    flags = jnp.zeros(num_frames, bool)
+    particles = {"posture": result.postures, "parts": result.parts}
+    return smc.FilterResult(
+        log_evidence=jnp.sum(result.log_evidence_increments),
+        log_evidence_increments=result.log_evidence_increments, ess=result.ess,
+        resampled=~flags, degenerate=flags, num_invalid=jnp.zeros(num_frames, jnp.int32),
+        mean=None, best=None, particles=particles, log_weights=result.log_weights,
+        ancestors=result.ancestors)
+
+
+@eqx.filter_jit
+def smooth(result: MixedStateResult) -> SmoothedPostures:
+    """Kwatra et al.'s sequence smoother (§3.3): trace every final particle's ancestry
+    (:func:`jaxtrack.smc.trace_ancestry`); per frame the MAP posture of the traced paths under
+    the final weights, and the weighted mean parts of the paths in that posture."""
+    paths = smc.trace_ancestry(_as_filter_result(result))
+    posture_paths, part_paths = paths.paths["posture"], paths.paths["parts"]
+    best, probabilities, parts = jax.vmap(_estimate, in_axes=(0, 0, None))(
+        posture_paths, part_paths, paths.log_weights)
+    return SmoothedPostures(best, probabilities, parts)
+
+
+def smooth_fixed_lag(result: MixedStateResult, lag: int) -> SmoothedPostures:
+    """The fixed-lag smoother: frame t's estimate from the ancestry of frame ``t + lag``'s
+    particles under that frame's weights (the last ``lag`` frames from the final ones). What a
+    stream filtered chunk by chunk can report once ``lag`` more frames have arrived; ``lag = 0``
+    is the filter, ``lag ≥ time − 1`` the whole-sequence smoother."""
+    if lag < 0:
+        raise ValueError(f"lag must be non-negative, got {lag}")
+    return _fixed_lag(result, int(lag))
+
+
+@eqx.filter_jit
+def _fixed_lag(result: MixedStateResult, lag: int) -> SmoothedPostures:
+    num_frames, num = result.postures.shape
+    lag = min(lag, num_frames - 1)
+
+    def at(time):
+        """Indices at ``time`` of the paths of frame min(time + lag, T−1)'s particles."""
+        end = jnp.minimum(time + lag, num_frames - 1)
+
+        def back(k, indices):
+            t = end - k
+            return jnp.where(t > time, result.ancestors[t][indices], indices)
+
+        indices = lax.fori_loop(0, lag, back, jnp.arange(num))
+        posture = result.postures[time][indices]
+        parts = result.parts[time][indices]
+        return _estimate(posture, parts, result.log_weights[end])
+
+    best, probabilities, parts = jax.vmap(at)(jnp.arange(num_frames))
+    return SmoothedPostures(best, probabilities, parts)
+
+
+def instantaneous_estimates(model: MixedStateModel, observations: MixedStateFrame
+                            ) -> tuple[Int[Array, " time"], Float[Array, "time parts 2"]]:
+    """The extended Ghost baseline: per frame argmax_q p(h_t | q) and that posture's z_t^q."""
+    log_h = jax.vmap(model.postures.log_likelihoods)(observations.features)
+    posture = jnp.argmax(log_h, axis=-1)
+    parts = jnp.take_along_axis(observations.hypotheses, posture[:, None, None, None],
+                                axis=1)[:, 0]
+    return posture, parts
+
+
+def observations_from_silhouettes(masks: np.ndarray, *, num_bins: int = 16) -> MixedStateFrame:
+    """A sequence's observations from its ``(time, height, width)`` bool silhouettes: features
+    and status (:func:`jaxtrack.vision.histograms.silhouette_features`), every posture's
+    hypotheses (:func:`jaxtrack.vision.parts.part_hypotheses`) and the nearest-point maps."""
+    from jaxtrack.vision.histograms import silhouette_features
+    from jaxtrack.vision.parts import nearest_silhouette_points, part_hypotheses
+
+    masks = np.asarray(masks)
+    features, status = silhouette_features(masks, num_bins)
+    hypotheses = part_hypotheses(masks, status)
+    nearest = np.stack([nearest_silhouette_points(mask) for mask in masks])
+    return MixedStateFrame(jnp.asarray(features), jnp.asarray(hypotheses), jnp.asarray(nearest),
+                           jnp.asarray(status, jnp.int32))
+
+
+class MixedStateState(eqx.Module):
+    """What :class:`MixedStateTracker` carries from frame to frame."""
+
+    postures: Int[Array, " particles"]
+    parts: Float[Array, "particles parts 2"]
+    velocities: Float[Array, "particles parts 2"]
+    log_weights: Float[Array, " particles"]
+    degenerate: Bool[Array, ""]
+
+
+class MixedStateTracker(Tracker):
+    """The mixed-state filter under the tracker contract (frame by frame, causal).
+
+    Its frames are :class:`MixedStateFrame` observations; it reports the five parts (head,
+    hand, hand, foot, foot) as its markers. It starts from the first frame's silhouette
+    (§3.2 step 1), so ``start``'s ``initial_pose`` is not used.
+    """
+
+    model: MixedStateModel
+    particles: int = eqx.field(static=True)
+
+    @property
+    def likelihood(self) -> PartDistances:
+        return self.model.part_likelihood
+
+    def __check_init__(self):
+        if self.particles < 1:
+            raise ValueError(f"particles must be at least 1, got {self.particles}")
+
+    @property
+    def num_particles(self) -> int:
+        return self.particles
+
+    def options(self) -> dict:
+        model = self.model
+        return {"method": "mixed-state", "particles": self.particles,
+                "position_std": float(model.position_std),
+                "velocity_std": float(model.velocity_std),
+                "initial_std": float(model.initial_std),
+                "initial_velocity_std": float(model.initial_velocity_std),
+                "part_cutoff": float(model.part_likelihood.cutoff),
+                "posture_cutoff": float(model.postures.cutoff)}
+
+    def start(self, key, first_frame: MixedStateFrame, initial_pose=None) -> MixedStateState:
+        dtype = jnp.result_type(float)
+        postures, parts, velocities, log_weights = _initial(key, self.model, first_frame,
+                                                            self.particles, dtype)
+        log_weights = log_weights - jax.nn.logsumexp(log_weights)
+        return MixedStateState(postures, parts, velocities, log_weights, jnp.asarray(False))
+
+    def _report(self, state: MixedStateState, increment) -> FrameEstimate:
+        _, _, parts = _estimate(state.postures, state.parts, state.log_weights)
+        best = state.parts[jnp.argmax(state.log_weights)]
+        return FrameEstimate(parts, best, _ess(state.log_weights), increment, state.degenerate)
+
+    def first_estimate(self, state: MixedStateState) -> FrameEstimate:
+        return self._report(state, jnp.asarray(0.0, state.log_weights.dtype))
+
+    def update(self, key, state: MixedStateState, frame: MixedStateFrame | FrameInChunk
+               ) -> tuple[MixedStateState, FrameEstimate]:
+        if isinstance(frame, FrameInChunk):  # a pytree frame: index every leaf in place
+            frame = jax.tree.map(lambda leaf: leaf[frame.index], frame.frames)
+        postures, parts, velocities, log_weights, _, increment = _step(
+            key, self.model, state.postures, state.parts, state.velocities, state.log_weights,
+            frame)
+        state = MixedStateState(postures, parts, velocities, log_weights,
+                                ~jnp.isfinite(increment))
+        return state, self._report(state, increment)

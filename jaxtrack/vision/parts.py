@@ -1,0 +1,189 @@
+"""Per-posture body-part hypotheses on a silhouette, and the nearest-silhouette-point map.
+
+Kwatra, Bobick & Johnson (2002, §2) take Ghost's (Haritaoglu et al.) idea: once the posture is
+known, the head, hands and feet sit at predictable extremes of the silhouette. They compute the
+hypotheses of *every* posture in every frame, Z_t = {z_t^q : q ∈ Q}, and let the tracker decide
+which posture to believe. The heuristics here, per posture, on the silhouette's bounding box
+``[x0, x1] × [y0, y1]`` of height h and width w (image y points down):
+
+- standing: head = topmost point; hands = the leftmost and the rightmost point above
+  ``y0 + 0.65 h``; feet = the lowest point left and right of the bottom fifth's centre.
+- sitting: head = topmost point; hands = leftmost and rightmost point between ``y0 + 0.2 h`` and
+  ``y0 + 0.75 h``; feet = the bottom-left-most and bottom-right-most points (max y − x, y + x).
+- crawling / bending: the head is at the end whose outer third of columns reaches less high
+  (the hips are the top of a stooping or crawling body); head = that end's extreme point; hands =
+  the lowest point in each of the two quarters of the box on the head's side; feet = the lowest
+  point in each of the two quarters on the other side.
+- lying facing left (head at the image's left): head = leftmost point; feet = the rightmost point
+  in the upper and in the lower half of the box; hands = the topmost and the bottommost point in
+  the columns from 15 % to 60 % of the box (arms lie along the trunk).
+- lying facing right: the mirror image.
+
+Slots are ordered consistently within a posture (the image-left hand first for standing and
+sitting, the outer quarter first for crawling, the upper point first for lying), so particles
+that follow them keep their labels; scoring is under the best left/right assignment anyway.
+Every point is a foreground pixel (x, y) on the silhouette's boundary or inside it.
+
+The nearest-point map (:func:`nearest_silhouette_points`) holds, for every pixel, the nearest
+foreground pixel (Euclidean distance transform); the tracker projects a predicted part that has
+left the silhouette by one gather from it. See ``docs/mixed-state.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES
+from jaxtrack.vision.histograms import FRAME_OK, _check_mask, bounding_box
+
+__all__ = ["NUM_PARTS", "PART_NAMES", "nearest_silhouette_points", "part_hypotheses",
+           "posture_hypotheses"]
+
+PART_NAMES = ("head", "hand_1", "hand_2", "foot_1", "foot_2")
+NUM_PARTS = len(PART_NAMES)
+
+
+class _Pixels:
+    """The foreground pixels of one mask and its bounding box."""
+
+    def __init__(self, mask: np.ndarray):
+        self.ys, self.xs = np.nonzero(mask)
+        self.x0, self.y0, self.x1, self.y1 = bounding_box(mask)
+        self.width = self.x1 - self.x0 + 1
+        self.height = self.y1 - self.y0 + 1
+
+    def select(self, where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels where ``where`` holds; all pixels if none does (never an empty choice)."""
+        if not where.any():
+            return self.xs, self.ys
+        return self.xs[where], self.ys[where]
+
+
+def _extreme(xs: np.ndarray, ys: np.ndarray, score: np.ndarray) -> np.ndarray:
+    """The pixel of largest ``score``; ties share it, their mean taken (a point of the run)."""
+    best = score == score.max()
+    return np.array([np.mean(xs[best]), np.mean(ys[best])])
+
+
+def _standing(p: _Pixels) -> np.ndarray:
+    head = _extreme(p.xs, p.ys, -p.ys)
+    xs, ys = p.select(p.ys <= p.y0 + 0.65 * p.height)
+    hands = [_extreme(xs, ys, -xs), _extreme(xs, ys, xs)]
+    xs, ys = p.select(p.ys >= p.y0 + 0.8 * p.height)
+    centre = xs.mean()
+    left, right = xs <= centre, xs > centre
+    feet = [_extreme(xs[left], ys[left], ys[left]) if left.any() else _extreme(xs, ys, ys),
+            _extreme(xs[right], ys[right], ys[right]) if right.any() else _extreme(xs, ys, ys)]
+    return np.stack([head, *hands, *feet])
+
+
+def _sitting(p: _Pixels) -> np.ndarray:
+    head = _extreme(p.xs, p.ys, -p.ys)
+    xs, ys = p.select((p.ys >= p.y0 + 0.2 * p.height) & (p.ys <= p.y0 + 0.75 * p.height))
+    hands = [_extreme(xs, ys, -xs), _extreme(xs, ys, xs)]
+    feet = [_extreme(p.xs, p.ys, p.ys - p.xs), _extreme(p.xs, p.ys, p.ys + p.xs)]
+    return np.stack([head, *hands, *feet])
+
+
+def _lowest_in_columns(p: _Pixels, start: float, stop: float) -> np.ndarray:
+    xs, ys = p.select((p.xs >= p.x0 + start * p.width) & (p.xs < p.x0 + stop * p.width))
+    return _extreme(xs, ys, ys)
+
+
+def _crawling_head_left(p: _Pixels) -> np.ndarray:
+    head = _extreme(p.xs, p.ys, -p.xs)
+    hands = [_lowest_in_columns(p, 0.0, 0.25), _lowest_in_columns(p, 0.25, 0.5)]
+    feet = [_lowest_in_columns(p, 0.75, 1.01), _lowest_in_columns(p, 0.5, 0.75)]
+    return np.stack([head, *hands, *feet])
+
+
+def _lying_head_left(p: _Pixels) -> np.ndarray:
+    head = _extreme(p.xs, p.ys, -p.xs)
+    middle = p.y0 + 0.5 * p.height
+    upper_xs, upper_ys = p.select(p.ys <= middle)
+    lower_xs, lower_ys = p.select(p.ys > middle)
+    feet = [_extreme(upper_xs, upper_ys, upper_xs), _extreme(lower_xs, lower_ys, lower_xs)]
+    xs, ys = p.select((p.xs >= p.x0 + 0.15 * p.width) & (p.xs <= p.x0 + 0.6 * p.width))
+    hands = [_extreme(xs, ys, -ys), _extreme(xs, ys, ys)]
+    return np.stack([head, *hands, *feet])
+
+
+def _mirrored(function, mask: np.ndarray) -> np.ndarray:
+    """``function`` applied to the left-right mirror of ``mask``, its points mapped back."""
+    points = function(_Pixels(mask[:, ::-1]))
+    points[:, 0] = mask.shape[1] - 1 - points[:, 0]
+    return points
+
+
+def _crawling(mask: np.ndarray) -> np.ndarray:
+    p = _Pixels(mask)
+    third = p.width / 3
+    left_top = p.ys[p.xs < p.x0 + third].min()
+    right_top = p.ys[p.xs > p.x1 - third].min()
+    # the hips are the top of a stooping or crawling body; the head is at the lower end
+    return _crawling_head_left(p) if left_top >= right_top else _mirrored(_crawling_head_left,
+                                                                           mask)
+
+
+def posture_hypotheses(mask: np.ndarray) -> np.ndarray:
+    """``(postures, parts, 2)`` pixel positions (x, y) of head, hands and feet under each posture
+    (:data:`jaxtrack.priors.postures.POSTURE_NAMES` order) for one non-empty silhouette."""
+    mask = _check_mask(mask)
+    if not mask.any():
+        raise ValueError("mask has no foreground pixel: an empty silhouette has no part "
+                         "hypotheses (part_hypotheses reports such frames by their status)")
+    p = _Pixels(mask)
+    hypotheses = np.stack([
+        _standing(p),
+        _sitting(p),
+        _crawling(mask),
+        _lying_head_left(p),
+        _mirrored(_lying_head_left, mask),
+    ])
+    assert hypotheses.shape == (NUM_POSTURES, NUM_PARTS, 2), POSTURE_NAMES
+    return hypotheses
+
+
+def part_hypotheses(masks: np.ndarray, status: np.ndarray) -> np.ndarray:
+    """Every posture's hypotheses in every frame, Z_t = {z_t^q}.
+
+    Args:
+        masks: ``(time, height, width)`` bool silhouettes.
+        status: ``(time,)`` from :func:`jaxtrack.vision.histograms.silhouette_features`;
+            frames not ``FRAME_OK`` get the image centre for every part (finite, and ignored
+            by the tracker, which reads the status).
+
+    Returns:
+        ``(time, postures, parts, 2)`` float64 pixels.
+    """
+    masks = np.asarray(masks)
+    status = np.asarray(status)
+    if masks.ndim != 3 or status.shape != masks.shape[:1]:
+        raise ValueError(f"masks must be (time, height, width) and status (time,), got "
+                         f"{masks.shape} and {status.shape}")
+    height, width = masks.shape[1:]
+    centre = np.array([(width - 1) / 2, (height - 1) / 2])
+    out = np.broadcast_to(centre, (len(masks), NUM_POSTURES, NUM_PARTS, 2)).copy()
+    for index, mask in enumerate(masks):
+        if status[index] == FRAME_OK:
+            out[index] = posture_hypotheses(mask)
+    return out
+
+
+def nearest_silhouette_points(mask: np.ndarray) -> np.ndarray:
+    """For every pixel, the nearest foreground pixel: ``(height, width, 2)`` int16 (x, y).
+
+    A foreground pixel maps to itself; an empty mask maps every pixel to itself (nothing to
+    project onto). Exact Euclidean distance transform (``scipy.ndimage``).
+    """
+    from scipy import ndimage
+
+    mask = _check_mask(mask)
+    height, width = mask.shape
+    if max(height, width) > np.iinfo(np.int16).max:
+        raise ValueError(f"mask of {mask.shape} is too large for int16 pixel indices")
+    if not mask.any():
+        ys, xs = np.mgrid[:height, :width]
+        return np.stack([xs, ys], axis=-1).astype(np.int16)
+    _, (rows, columns) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    return np.stack([columns, rows], axis=-1).astype(np.int16)
