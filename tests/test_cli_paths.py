@@ -256,3 +256,20 @@ def test_too_many_particles_are_refused_with_the_memory_they_need(tmp_path, monk
     step = tracking_bytes("latent", 2000) - tracking_bytes("latent", 1000)
     assert step > 0 and tracking_bytes("latent", 3000) - tracking_bytes("latent", 2000) == step
     assert tracking_bytes("latent", 200) < available
+
+
+def test_garbage_motion_files_are_one_line_naming_the_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(jaxtrack.priors.train, "train_prior", _fail_if_trained)
+    garbage = tmp_path / "garbage.bvh"
+    garbage.write_bytes(np.random.default_rng(3).integers(0, 256, 3000, np.uint8).tobytes())
+    letter = tmp_path / "letter.amc"
+    letter.write_text("Dear diary,\nnot motion capture.\n")
+    for arguments, message in (
+            (["--clips", str(garbage)], f"{garbage}: not a BVH file: it holds binary data"),
+            (["--clips", str(letter), "--asf", str(bundled_folder() / "cmu_asfamc_walk" /
+                                                   "07.asf")],
+             f"{letter}, line 1: 'Dear' before the first frame number (not an AMC file?)")):
+        code = main(["train", *arguments, "--out", str(tmp_path / "m.npz")])
+        error = capsys.readouterr().err
+        assert code == 2 and message in error and error.count("\n") == 1, error
+        assert error.isascii() and error.strip().isprintable(), repr(error)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack.body._bvh import euler_matrices
+from jaxtrack.body._bvh import euler_matrices, read_lines, shown
 from jaxtrack.body.motion import MocapFormatError, Motion
 
 _INCH = 0.0254
@@ -54,8 +54,8 @@ def _floats(path: Path, line: int, tokens: list[str], count: int, what: str) -> 
     try:
         return np.array([float(t) for t in tokens[:count]])
     except ValueError:
-        raise MocapFormatError(path, line,
-                               f"{what}: {tokens[:count]} are not all numbers") from None
+        numbers = shown(" ".join(tokens[:count]))
+        raise MocapFormatError(path, line, f"{what}: {numbers} are not all numbers") from None
 
 
 @dataclass
@@ -72,10 +72,7 @@ class AsfSkeleton:
 
 def parse_asf(path: Path) -> AsfSkeleton:
     """Read an ASF file; raise MocapFormatError naming the line of any fault."""
-    try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as error:
-        raise MocapFormatError(path, None, f"cannot read: {error}") from error
+    lines = read_lines(path, "an ASF")
     section, bone, metres_per_unit, degrees = None, None, _INCH / 0.45, True
     root_order = ["TX", "TY", "TZ", "RX", "RY", "RZ"]
     root_axis, root_orientation = "XYZ", np.zeros(3)
@@ -111,13 +108,13 @@ def parse_asf(path: Path) -> AsfSkeleton:
                     raise MocapFormatError(path, number,
                                            "bone block lacks name, direction or length")
                 if bone.name in names:
-                    raise MocapFormatError(path, number, f"bone {bone.name!r} defined twice")
+                    raise MocapFormatError(path, number, f"bone {shown(bone.name)} defined twice")
                 names[bone.name] = len(bones)
                 bones.append(bone)
                 bone = None
             elif bone is None:
                 raise MocapFormatError(path, number,
-                                       f"{tokens[0]!r} outside a begin/end bone block")
+                                       f"{shown(tokens[0])} outside a begin/end bone block")
             elif key == "name":
                 bone.name = tokens[1] if len(tokens) > 1 else ""
             elif key == "direction":
@@ -135,10 +132,12 @@ def parse_asf(path: Path) -> AsfSkeleton:
         elif section == ":hierarchy" and key not in ("begin", "end"):
             hierarchy_seen = True
             if tokens[0] not in names:
-                raise MocapFormatError(path, number, f"hierarchy names unknown bone {tokens[0]!r}")
+                raise MocapFormatError(path, number,
+                                       f"hierarchy names unknown bone {shown(tokens[0])}")
             for child in tokens[1:]:
                 if child not in names or child == "root":
-                    raise MocapFormatError(path, number, f"hierarchy names unknown bone {child!r}")
+                    raise MocapFormatError(path, number,
+                                           f"hierarchy names unknown bone {shown(child)}")
                 bones[names[child]].parent = names[tokens[0]]
     if bone is not None:
         raise MocapFormatError(path, len(lines),
@@ -154,10 +153,7 @@ def parse_asf(path: Path) -> AsfSkeleton:
 
 def parse_amc(path: Path, skeleton: AsfSkeleton) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Read an AMC file -> root values `(time, 6)` in `root_order` and DOF values per bone."""
-    try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as error:
-        raise MocapFormatError(path, None, f"cannot read: {error}") from error
+    lines = read_lines(path, "an AMC")
     expected = {bone.name: len(bone.dofs) for bone in skeleton.bones if bone.dofs}
     expected["root"] = 6
     frames: list[dict[str, list[float]]] = []
@@ -173,17 +169,20 @@ def parse_amc(path: Path, skeleton: AsfSkeleton) -> tuple[np.ndarray, dict[str, 
             frame_lines.append(number)
             continue
         if not frames:
-            raise MocapFormatError(path, number, f"{tokens[0]!r} before the first frame number")
+            raise MocapFormatError(path, number,
+                                   f"{shown(tokens[0])} before the first frame number "
+                                   "(not an AMC file?)")
         name = tokens[0]
         if name not in expected:
             raise MocapFormatError(path, number,
-                                   f"unknown bone {name!r} (not in the ASF, or it has no dof)")
+                                   f"unknown bone {shown(name)} (not in the ASF, or it has no dof)")
         if len(tokens) - 1 != expected[name]:
-            raise MocapFormatError(path, number, f"bone {name!r} has {len(tokens) - 1} values, "
+            raise MocapFormatError(path, number, f"bone {shown(name)} has {len(tokens) - 1} "
+                                   "values, "
                                    f"the ASF declares {expected[name]}")
-        values = _floats(path, number, tokens[1:], expected[name], f"bone {name!r}")
+        values = _floats(path, number, tokens[1:], expected[name], f"bone {shown(name)}")
         if not np.all(np.isfinite(values)):
-            raise MocapFormatError(path, number, f"non-finite value for bone {name!r}")
+            raise MocapFormatError(path, number, f"non-finite value for bone {shown(name)}")
         frames[-1][name] = values
     if not frames:
         raise MocapFormatError(path, len(lines), "no frames (empty motion)")

@@ -64,6 +64,31 @@ class BvhSkeleton:
 _CHANNEL_NAMES = {f"{axis}{kind}" for axis in "XYZ" for kind in ("position", "rotation")}
 
 
+def read_lines(path: Path, kind: str) -> list[str]:
+    """The lines of a text file (`kind` names it: "a BVH"); MocapFormatError if not text.
+
+    Binary data (a NUL byte, or more than 5 % of the first 64 KiB undecodable or control
+    characters) is refused in one line instead of being parsed and quoted back.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise MocapFormatError(path, None, f"cannot read: {error}") from error
+    text = data.decode("utf-8-sig", errors="replace")
+    sample = text[:65536]
+    odd = sum(1 for c in sample
+              if c == "\ufffd" or (not c.isprintable() and c not in "\t\n\r\f\v"))
+    if "\x00" in sample or odd > 0.05 * len(sample):
+        raise MocapFormatError(path, None, f"not {kind} file: it holds binary data, not text")
+    return text.splitlines()
+
+
+def shown(text: str, limit: int = 40) -> str:
+    """`text` quoted for an error message: at most `limit` characters, unprintable ones as '?'."""
+    clean = "".join(c if c.isprintable() and c != "\ufffd" else "?" for c in text[:limit])
+    return repr(clean + ("..." if len(text) > limit else ""))
+
+
 def _tokens(lines: list[str], first: int, last: int):
     for number in range(first, last):
         for token in lines[number].split():
@@ -91,13 +116,14 @@ def parse_hierarchy(path: Path, lines: list[str], motion_line: int) -> BvhSkelet
             try:
                 values.append(float(token))
             except ValueError:
-                raise MocapFormatError(path, line, f"{what}: {token!r} is not a number") from None
+                raise MocapFormatError(path, line,
+                                       f"{what}: {shown(token)} is not a number") from None
         return values, line
 
     token, line = take("HIERARCHY")
     if token != "HIERARCHY":
         raise MocapFormatError(path, line,
-                               f"expected 'HIERARCHY', found {token!r} (not a BVH file?)")
+                               f"expected 'HIERARCHY', found {shown(token)} (not a BVH file?)")
     stack: list[int | None] = []  # joint index per open brace, None for an End Site
     pending: int | None | str = "start"
     while True:
@@ -144,7 +170,7 @@ def parse_hierarchy(path: Path, lines: list[str], motion_line: int) -> BvhSkelet
                 raise MocapFormatError(path, line, f"unknown channel(s) {unknown}")
             skeleton.channels[stack[-1]] = names
         else:
-            raise MocapFormatError(path, line, f"unexpected {token!r} in HIERARCHY")
+            raise MocapFormatError(path, line, f"unexpected {shown(token)} in HIERARCHY")
     if stack:
         raise MocapFormatError(path, motion_line or len(lines),
                                f"HIERARCHY ends with {len(stack)} unclosed '{{'")
@@ -158,7 +184,7 @@ def _header_value(path: Path, lines: list[str], number: int, label: str) -> floa
         raise MocapFormatError(path, number, f"file ends before '{label}'")
     text = lines[number].strip()
     if not text.startswith(label):
-        raise MocapFormatError(path, number + 1, f"expected '{label}', found {text[:40]!r}")
+        raise MocapFormatError(path, number + 1, f"expected '{label}', found {shown(text)}")
     try:
         return float(text[len(label):])
     except ValueError:
@@ -198,9 +224,10 @@ def parse_motion_block(path: Path, lines: list[str], motion_line: int,
                 try:
                     value = float(token)
                 except ValueError:
-                    raise MocapFormatError(path, number, f"{token!r} is not a number") from None
+                    raise MocapFormatError(path, number,
+                                           f"{shown(token)} is not a number") from None
                 if not np.isfinite(value):
-                    raise MocapFormatError(path, number, f"non-finite value {token!r}")
+                    raise MocapFormatError(path, number, f"non-finite value {shown(token)}")
     return values.reshape(frames, num_channels), frame_time
 
 
@@ -311,17 +338,13 @@ _RIG_UNIT_AND_UP = {"cmu_bvh": (_CMU_UNIT, "Y"), "animateddrawings": (_INCH, "Z"
 
 def load_bvh(path: Path) -> Motion:
     """Read a BVH file into a Motion in metres, Y up (see jaxtrack.body.motion for the table)."""
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as error:
-        raise MocapFormatError(path, None, f"cannot read: {error}") from error
-    lines = text.splitlines()
+    lines = read_lines(path, "a BVH")
     first = next((n for n, line in enumerate(lines) if line.strip()), None)
     if first is None:
         raise MocapFormatError(path, 1, "empty file")
     if lines[first].split()[0] != "HIERARCHY":
         raise MocapFormatError(path, first + 1, f"expected 'HIERARCHY', found "
-                               f"{lines[first].strip()[:40]!r} (missing hierarchy, or not BVH)")
+                               f"{shown(lines[first].strip())} (missing hierarchy, or not BVH)")
     motion_line = next((n for n, line in enumerate(lines) if line.strip() == "MOTION"), None)
     if motion_line is None:
         parse_hierarchy(path, lines, len(lines))  # reports a broken hierarchy first if there is one

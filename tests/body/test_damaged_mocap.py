@@ -221,3 +221,48 @@ def test_undamaged_copies_still_load(tmp_path):
     assert load_motion(amc, asf=ASF).num_frames == 316
     with pytest.raises(FileNotFoundError, match="pass load_motion"):
         load_motion(amc)  # no 07.asf beside it
+
+
+def _garbage(kind: str) -> bytes:
+    if kind == "random bytes":
+        return np.random.default_rng(7).integers(0, 256, 4000, dtype=np.uint8).tobytes()
+    return b"Dear diary,\nthis is a letter, not motion capture.\n"
+
+
+def _one_clean_line(error: Exception, path: Path) -> str:
+    message = str(error)
+    assert "\n" not in message and str(path) in message
+    # nothing of the file's bytes comes back: printable ASCII only (the paths here are ASCII)
+    assert message.isascii() and message.isprintable(), repr(message)
+    return message
+
+
+@pytest.mark.parametrize("garbage", ["random bytes", "a letter"])
+def test_garbage_files_get_one_line_naming_them(tmp_path, garbage):
+    expected = {"random bytes": "holds binary data, not text", "a letter": "not"}[garbage]
+    bvh, asf, amc = (tmp_path / f"garbage.{suffix}" for suffix in ("bvh", "asf", "amc"))
+    for path in (bvh, asf, amc):
+        path.write_bytes(_garbage(garbage))
+    with pytest.raises(MocapFormatError) as caught:
+        load_motion(bvh)
+    message = _one_clean_line(caught.value, bvh)
+    assert expected in message and "BVH" in message, message
+    with pytest.raises(MocapFormatError) as caught:
+        load_motion(AMC, asf=asf)  # a garbage skeleton
+    message = _one_clean_line(caught.value, asf)
+    assert expected in message and "ASF" in message, message
+    with pytest.raises(MocapFormatError) as caught:
+        load_motion(amc, asf=ASF)  # garbage motion for a good skeleton
+    message = _one_clean_line(caught.value, amc)
+    assert expected in message and "AMC" in message, message
+
+
+def test_a_few_stray_bytes_in_a_comment_do_not_make_a_file_binary(tmp_path):
+    lines = _lines(BVH_SOURCES["cmu"])
+    path = tmp_path / "bom.bvh"
+    path.write_bytes(b"\xef\xbb\xbf" + "\n".join(lines).encode() + b"\n")  # with a UTF-8 BOM
+    np.testing.assert_array_equal(load_motion(path).positions,
+                                  load_motion(BVH_SOURCES["cmu"]).positions)
+    amc = tmp_path / "07_01.amc"
+    amc.write_bytes(b"# recorded by caf\xe9 \x01\n" + AMC.read_bytes())  # Latin-1 and a control
+    assert load_motion(amc, asf=ASF).num_frames == 316
