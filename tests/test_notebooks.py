@@ -8,10 +8,10 @@ with the cell's traceback.
 
 The project's full data collection (``shared/data``, found by ``jaxtrack.data`` in any folder
 above the package or the working directory, or named by ``$JAXTRACK_DATA``) is hidden from the
-kernel: ``$JAXTRACK_DATA`` is unset, a first cell (not part of the notebook) stops the catalogue
-from looking above the package, and a Python audit hook refuses to open any file inside the
-collection, so a notebook that needs more than the files bundled with jaxtrack fails here as it
-would on a user's machine.
+kernel: ``$JAXTRACK_DATA`` is unset, ``JAXTRACK_NO_SHARED=1`` stops the catalogue from looking
+above the package or the working directory, and a first cell (not part of the notebook) installs
+a Python audit hook that refuses to open any file inside the collection, so a notebook that needs
+more than the files bundled with jaxtrack fails here as it would on a user's machine.
 """
 
 from __future__ import annotations
@@ -32,14 +32,13 @@ CELL_TIMEOUT = 900  # seconds; a hung cell fails instead of stalling the suite
 
 
 def _hide_shared_data(shared: Path | None) -> str:
-    """Code for the kernel's first cell: only the bundled files are found, ``shared`` unreadable."""
+    """Code for the kernel's first cell: ``shared`` unreadable, only the bundled files found."""
     return f"""
 import sys
 from pathlib import Path
 
-import jaxtrack.data._catalogue as _catalogue
+import jaxtrack.data
 
-_catalogue._ancestors = lambda start: []  # no shared/data (nor tests/data) above any folder
 _SHARED = {str(shared.resolve()) if shared else None!r}
 
 
@@ -52,7 +51,7 @@ def _refuse_shared(event, arguments, shared=_SHARED, Path=Path):  # bound: globa
 
 
 sys.addaudithook(_refuse_shared)
-assert _catalogue.shared_folder() is None
+assert jaxtrack.data.shared_folder() is None  # JAXTRACK_NO_SHARED=1 reached the kernel
 """
 
 
@@ -64,7 +63,9 @@ def _execute(text: str, folder: Path, monkeypatch) -> tuple[str | None, str]:
     from jaxtrack.data import shared_folder
 
     monkeypatch.delenv("JAXTRACK_DATA", raising=False)
+    monkeypatch.delenv("JAXTRACK_NO_SHARED", raising=False)
     shared = shared_folder()
+    monkeypatch.setenv("JAXTRACK_NO_SHARED", "1")  # no shared/data nor tests/data
     monkeypatch.setenv("JAXTRACK_SMOKE", "1")
     monkeypatch.setenv("MPLBACKEND", "Agg")
     # compile time dominates at smoke sizes; XLA's cheap mode about halves it (measured on the
@@ -113,6 +114,7 @@ def test_the_smoke_runs_cannot_read_the_shared_data(tmp_path, monkeypatch):
     from jaxtrack.data import shared_folder
 
     monkeypatch.delenv("JAXTRACK_DATA", raising=False)
+    monkeypatch.delenv("JAXTRACK_NO_SHARED", raising=False)
     shared = shared_folder()
     if shared is None:
         pytest.skip("no shared data folder on this machine: nothing to hide")

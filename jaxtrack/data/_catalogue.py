@@ -13,6 +13,10 @@ Places searched, in order (the first that has the file wins):
    full collection, e.g. `/work/shared/data`, or `../shared/data` beside a CI clone);
 4. `tests/data` of a source checkout (the non-commercial Bandai clips used by the tests).
 
+With the environment variable `JAXTRACK_NO_SHARED=1`, places 3 and 4 are not searched: jaxtrack
+finds what a user's machine with only the installed package finds (the bundled files, and
+`$JAXTRACK_DATA` when it is set). The tests run the notebooks and the README's commands so.
+
 Clips come back exactly as the readers make them: format quirks (units, axes, the reference frame 0
 of the MotionBuilder-friendly CMU BVHs) are handled by the readers, from what the file holds, not
 here by folder, so a file loaded by path reads the same as one found by name.
@@ -53,6 +57,15 @@ def _ancestors(start: Path) -> list[Path]:
     return [start, *start.parents]
 
 
+NO_SHARED = "JAXTRACK_NO_SHARED"
+"""Environment variable: set (to anything but `0`, `false`, `no` or empty), the catalogue
+searches no `shared/data` nor `tests/data` above the package or the working directory."""
+
+
+def _no_shared() -> bool:
+    return os.environ.get(NO_SHARED, "").strip().lower() not in ("", "0", "false", "no")
+
+
 def data_folders() -> list[tuple[str, Path]]:
     """Every place searched for data, in search order, as `(description, folder)`."""
     folders: list[tuple[str, Path]] = []
@@ -62,6 +75,8 @@ def data_folders() -> list[tuple[str, Path]]:
     environment = os.environ.get("JAXTRACK_DATA")
     if environment:
         folders.append(("$JAXTRACK_DATA", Path(environment).expanduser()))
+    if _no_shared():
+        return folders
     seen: set[Path] = set()
     here = Path(__file__).parent
     for ancestor in _ancestors(here) + _ancestors(Path.cwd()):

@@ -98,3 +98,19 @@ def test_missing_clip_lists_where_it_looked(monkeypatch, tmp_path):
     assert "$JAXTRACK_DATA" in message and str(tmp_path) in message
     with pytest.raises(ValueError, match="collection/clip"):
         path("fair1_wave_hello")
+
+
+def test_no_shared_searches_only_the_bundled_files_and_jaxtrack_data(tmp_path, monkeypatch):
+    monkeypatch.delenv("JAXTRACK_DATA", raising=False)
+    monkeypatch.chdir(tmp_path)
+    searched = [folder for _, folder in data_folders()]
+    assert (PACKAGE.parent / "tests" / "data") in searched  # a source checkout: tests/data
+    monkeypatch.setenv("JAXTRACK_NO_SHARED", "1")
+    assert data_folders() == [("files bundled with jaxtrack", bundled_folder())]
+    assert shared_folder() is None and list_clips() == BUNDLED_CLIPS
+    with pytest.raises(FileNotFoundError, match="bandai"):
+        path("bandai/dataset-2_wave-right-hand_normal_001")
+    monkeypatch.setenv("JAXTRACK_DATA", str(tmp_path))
+    assert [folder for _, folder in data_folders()] == [bundled_folder(), tmp_path]
+    monkeypatch.setenv("JAXTRACK_NO_SHARED", "0")
+    assert (PACKAGE.parent / "tests" / "data") in [folder for _, folder in data_folders()]
