@@ -10,7 +10,7 @@ above the clip's floor (its lowest joint over the whole clip) in leg lengths (hi
 the clip's median):
 
     lying             θ > 55°  and r < 0.30
-    standing          θ < 25°  and r ≥ 0.85
+    standing          θ < 30°  and r ≥ 0.85
     sitting           θ < 45°  and r < 0.85        (kneeling upright counts as sitting)
     crawling/bending  otherwise                    (stooping on straight legs, all fours, crouch)
 
@@ -71,7 +71,7 @@ class LabelRule:
 
     lying_angle: float = 55.0
     lying_height: float = 0.30
-    standing_angle: float = 25.0
+    standing_angle: float = 30.0
     standing_height: float = 0.85
     sitting_angle: float = 45.0
 

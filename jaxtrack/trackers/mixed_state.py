@@ -304,13 +304,13 @@ def smooth_fixed_lag(result: MixedStateResult, lag: int) -> SmoothedPostures:
     is the filter, ``lag ≥ time − 1`` the whole-sequence smoother."""
     if lag < 0:
         raise ValueError(f"lag must be non-negative, got {lag}")
-    return _fixed_lag(result, int(lag))
+    # the lag is traced (one compilation serves every lag); the loop runs at most T − 1 steps
+    return _fixed_lag(result, jnp.asarray(min(int(lag), result.postures.shape[0] - 1)))
 
 
 @eqx.filter_jit
-def _fixed_lag(result: MixedStateResult, lag: int) -> SmoothedPostures:
+def _fixed_lag(result: MixedStateResult, lag: Int[Array, ""]) -> SmoothedPostures:
     num_frames, num = result.postures.shape
-    lag = min(lag, num_frames - 1)
 
     def at(time):
         """Indices at ``time`` of the paths of frame min(time + lag, T−1)'s particles."""

@@ -60,9 +60,12 @@ class _Pixels:
 
 
 def _extreme(xs: np.ndarray, ys: np.ndarray, score: np.ndarray) -> np.ndarray:
-    """The pixel of largest ``score``; ties share it, their mean taken (a point of the run)."""
-    best = score == score.max()
-    return np.array([np.mean(xs[best]), np.mean(ys[best])])
+    """The pixel of largest ``score``; of tied pixels the one nearest their mean (a pixel of
+    the silhouette even when the ties lie on two separate limbs)."""
+    best = np.flatnonzero(score == score.max())
+    mean_x, mean_y = xs[best].mean(), ys[best].mean()
+    pick = best[np.argmin((xs[best] - mean_x) ** 2 + (ys[best] - mean_y) ** 2)]
+    return np.array([xs[pick], ys[pick]], np.float64)
 
 
 def _standing(p: _Pixels) -> np.ndarray:

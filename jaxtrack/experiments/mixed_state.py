@@ -1,0 +1,276 @@
+"""Kwatra et al.'s mixed-state tracker end to end: render real posture clips, train the posture
+model, track, and score instantaneous (extended Ghost), filtered and smoothed estimates.
+
+- :func:`render_posture_sequence` renders one clip from one viewpoint over a known empty scene,
+  takes the silhouettes by background subtraction, and keeps the true head, wrists and ankles
+  and the posture labels of :func:`jaxtrack.priors.postures.posture_labels`.
+- :func:`train` renders the training clips from several viewpoints and fits the
+  :class:`~jaxtrack.priors.postures.PostureModel` (saved with :func:`save_posture_model`).
+- :func:`track` runs filter and smoother on one rendered sequence or on silhouettes;
+  :func:`evaluate` scores the test clips (:func:`score`: the paper's Table 1 — mean squared
+  error per part, hands and feet under the best left/right assignment per frame; fraction of
+  frames within ε pixels; posture error rate).
+
+The clip split (by clip and, where the data allow, by subject) is :data:`TRAINING_CLIPS` /
+:data:`TEST_CLIPS`; see ``docs/mixed-state.md`` for why subject 75 is on both sides.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import jax
+import jax.random as jr
+import numpy as np
+
+from jaxtrack.priors.postures import (
+    NUM_POSTURES,
+    POSTURE_NAMES,
+    PostureModel,
+    fit_posture_model,
+    posture_labels,
+)
+from jaxtrack.trackers.mixed_state import (
+    MixedStateFrame,
+    MixedStateModel,
+    filter_sequence,
+    instantaneous_estimates,
+    observations_from_silhouettes,
+    smooth,
+    smooth_fixed_lag,
+)
+
+__all__ = ["EPSILONS", "TEST_CLIPS", "TRAINING_CLIPS", "VIEW_AZIMUTHS", "PostureSequence",
+           "evaluate", "render_posture_sequence", "score", "track", "train"]
+
+TRAINING_CLIPS = ("cmu_posture_bvh/75_17", "cmu_posture_bvh/75_19", "cmu_posture_bvh/64_26",
+                  "deepmimic_getup_bvh/getup_facedown", "deepmimic_getup_bvh/crawl",
+                  "cmu_amc/07_01")
+"""Sitting (subject 75), stooping (64), getting up and crawling (DeepMimic), walking (07)."""
+TEST_CLIPS = ("cmu_posture_bvh/139_16", "cmu_posture_bvh/77_07", "cmu_posture_bvh/75_20",
+              "deepmimic_getup_bvh/roll")
+"""Lying → all fours → kneel → stand (subject 139), half-crouch (77), low sit (a held-out clip
+of subject 75: the only subject who sits), forward roll (a held-out DeepMimic clip)."""
+VIEW_AZIMUTHS = (np.pi / 2, -np.pi / 2, np.pi / 4, -np.pi / 4, 0.0)
+"""Camera azimuths (radians from the subject's mean facing direction): both profiles (lying
+facing left and right), two obliques, frontal."""
+PART_TRUTH_MARKERS = ("head", "left_wrist", "right_wrist", "left_ankle", "right_ankle")
+EPSILONS = (10.0, 20.0, 30.0, 50.0)
+
+
+@dataclass(frozen=True)
+class PostureSequence:
+    """One rendered view of a clip: silhouettes and the truth.
+
+    Attributes:
+        name: ``<clip>_az<degrees>_<background>``.
+        masks: ``(time, height, width)`` bool silhouettes from background subtraction.
+        parts: ``(time, 5, 2)`` true head, left/right wrist, left/right ankle (pixels).
+        labels: ``(time,)`` true postures.
+        image_size: ``(width, height)``.
+    """
+
+    name: str
+    masks: np.ndarray
+    parts: np.ndarray
+    labels: np.ndarray
+    image_size: tuple[int, int]
+
+
+def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int, int] = (640, 480),
+                            background: str = "photo", fps: float = 30.0, seed: int = 0,
+                            max_frames: int | None = None) -> PostureSequence:
+    """Render ``clip`` seen from ``azimuth`` over a ``background`` whose empty scene is known,
+    and take its silhouettes by background subtraction
+    (:func:`jaxtrack.vision.histograms.silhouettes`)."""
+    from jaxtrack.body._backgrounds import make_background
+    from jaxtrack.body._staging import frontal_camera
+    from jaxtrack.body.markers import HUMANEVA_15
+    from jaxtrack.body.render import render_motion
+    from jaxtrack.data import load_clip
+    from jaxtrack.vision.histograms import silhouettes
+
+    motion = load_clip(clip).resample(fps)
+    if max_frames is not None:
+        if max_frames < 2:
+            raise ValueError(f"max_frames must be at least 2, got {max_frames}")
+        motion = motion.select(0, min(max_frames, motion.num_frames))
+    camera = frontal_camera(motion, tuple(image_size), azimuth=azimuth, elevation=0.1)
+    scene, _ = make_background(background, tuple(image_size), np.random.default_rng(seed))
+    rendered = render_motion(motion, camera, image_size=tuple(image_size), background=scene,
+                             markers=HUMANEVA_15, seed=seed, progress=False)
+    names = list(rendered.marker_names)
+    truth = rendered.markers_2d[:, [names.index(name) for name in PART_TRUTH_MARKERS]]
+    labels = posture_labels(rendered.joints_3d, rendered.markers_2d, names)
+    masks = silhouettes(rendered.images, scene)
+    return PostureSequence(f"{clip.split('/')[-1]}_az{round(np.degrees(azimuth))}_{background}",
+                           masks, np.asarray(truth, np.float64), labels,
+                           rendered.image_size)
+
+
+def _render_all(clips, azimuths, backgrounds, image_size, max_frames, seed):
+    sequences = []
+    for index, clip in enumerate(clips):
+        for view, azimuth in enumerate(azimuths):
+            for background in backgrounds:
+                sequences.append(render_posture_sequence(
+                    clip, azimuth, image_size=image_size, background=background,
+                    seed=seed + 97 * index + view, max_frames=max_frames))
+    return sequences
+
+
+def train(clips: Sequence[str] = TRAINING_CLIPS, *, azimuths: Sequence[float] = VIEW_AZIMUTHS,
+          backgrounds: Sequence[str] = ("photo",), image_size: tuple[int, int] = (640, 480),
+          num_bins: int = 16, max_frames: int | None = None, seed: int = 0,
+          regularisation: float = 0.05, pseudocount: float = 0.5) -> tuple[PostureModel, dict]:
+    """Render the training clips from every azimuth over every background, label them and fit
+    the posture model. Returns the model and a JSON-able description (clips, views, label
+    counts, transition counts) to save with it."""
+    from jaxtrack.priors.postures import transition_counts
+    from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
+
+    sequences = _render_all(clips, azimuths, backgrounds, image_size, max_frames, seed)
+    features, labels = [], []
+    for sequence in sequences:
+        values, status = silhouette_features(sequence.masks, num_bins)
+        keep = status == FRAME_OK
+        features.append(values[keep])
+        labels.append(sequence.labels[keep])
+    model = fit_posture_model(features, labels, regularisation=regularisation,
+                              pseudocount=pseudocount)
+    all_labels = np.concatenate(labels)
+    description = {
+        "clips": list(clips), "azimuths": [float(a) for a in azimuths],
+        "backgrounds": list(backgrounds), "image_size": list(image_size),
+        "num_bins": num_bins, "frames": int(all_labels.size),
+        "label_counts": {name: int(np.sum(all_labels == q))
+                         for q, name in enumerate(POSTURE_NAMES)},
+        "transition_counts": transition_counts(labels).astype(int).tolist(),
+        "regularisation": regularisation, "pseudocount": pseudocount,
+    }
+    return model, description
+
+
+def _best_pair_errors(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Squared error per frame of a pair of parts under the better of the two assignments."""
+    straight = np.sum((estimate - truth) ** 2, axis=-1)
+    crossed = np.sum((estimate - truth[:, ::-1]) ** 2, axis=-1)
+    return np.where(straight.sum(-1, keepdims=True) <= crossed.sum(-1, keepdims=True), straight,
+                    crossed)
+
+
+def part_squared_errors(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """``(time, 5)`` squared errors (px²) of head, hand, hand, foot, foot; hands and feet under
+    the best left/right assignment per frame (the paper's superposition)."""
+    estimate, truth = np.asarray(estimate, np.float64), np.asarray(truth, np.float64)
+    if estimate.shape != truth.shape or estimate.shape[1:] != (5, 2):
+        raise ValueError(f"estimate and truth must both be (time, 5, 2), got {estimate.shape} "
+                         f"and {truth.shape}")
+    head = np.sum((estimate[:, :1] - truth[:, :1]) ** 2, axis=-1)
+    return np.concatenate([head, _best_pair_errors(estimate[:, 1:3], truth[:, 1:3]),
+                           _best_pair_errors(estimate[:, 3:5], truth[:, 3:5])], axis=1)
+
+
+def score(parts: np.ndarray, posture: np.ndarray, truth_parts: np.ndarray,
+          truth_labels: np.ndarray, valid: np.ndarray | None = None) -> dict:
+    """Mean squared error per part (px²), fraction of frames within each ε in :data:`EPSILONS`
+    per part, largest head error (px) and posture error rate, over the ``valid`` frames."""
+    squared = part_squared_errors(parts, truth_parts)
+    valid = np.ones(len(squared), bool) if valid is None else np.asarray(valid, bool)
+    squared, posture, labels = squared[valid], np.asarray(posture)[valid], truth_labels[valid]
+    groups = {"head": [0], "hands": [1, 2], "feet": [3, 4], "all": [0, 1, 2, 3, 4]}
+    distance = np.sqrt(squared)
+    return {
+        "mse": {name: float(squared[:, idx].mean()) for name, idx in groups.items()},
+        "within": {name: {f"{eps:g}": float(np.mean(distance[:, idx] <= eps)) for eps in EPSILONS}
+                   for name, idx in groups.items()},
+        "max_head_error": float(distance[:, 0].max()),
+        "posture_error": float(np.mean(posture != labels)),
+        "frames": int(valid.sum()),
+    }
+
+
+def track(key, model: MixedStateModel, observations: MixedStateFrame, num_particles: int = 500,
+          *, lag: int | None = None) -> dict:
+    """Filter and smooth one sequence; every estimate as NumPy arrays.
+
+    Returns a dict of ``(time,)`` postures and ``(time, 5, 2)`` parts for ``instantaneous``,
+    ``filtered``, ``smoothed`` (and ``fixed_lag`` when ``lag`` is given), each as
+    ``{"posture", "parts"}``, plus ``status``, ``ess`` and the run time in seconds.
+    """
+    begin = time.perf_counter()
+    result = filter_sequence(key, model, observations, num_particles)
+    smoothed = smooth(result)
+    jax.block_until_ready(smoothed)
+    seconds = time.perf_counter() - begin
+    posture, parts = instantaneous_estimates(model, observations)
+    out = {
+        "instantaneous": {"posture": np.asarray(posture), "parts": np.asarray(parts)},
+        "filtered": {"posture": np.asarray(result.filtered_posture),
+                     "parts": np.asarray(result.filtered_parts)},
+        "smoothed": {"posture": np.asarray(smoothed.posture), "parts": np.asarray(smoothed.parts)},
+        "status": np.asarray(result.status), "ess": np.asarray(result.ess),
+        "seconds": seconds,
+    }
+    if lag is not None:
+        lagged = smooth_fixed_lag(result, lag)
+        out["fixed_lag"] = {"posture": np.asarray(lagged.posture),
+                            "parts": np.asarray(lagged.parts)}
+    return out
+
+
+def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
+             azimuths: Sequence[float] = VIEW_AZIMUTHS, backgrounds: Sequence[str] = ("clutter",),
+             image_size: tuple[int, int] = (640, 480), num_bins: int = 16,
+             num_particles: int = 500, lag: int = 10, max_frames: int | None = None,
+             seed: int = 1, **model_options) -> dict:
+    """Render the test clips, track each view, and score every estimate.
+
+    Returns ``{"sequences": {name: {estimate: score}}, "overall": {estimate: score}}``, the
+    overall scores over all frames of all sequences pooled, estimates being ``instantaneous``
+    (extended Ghost), ``filtered``, ``smoothed`` and ``fixed_lag``.
+    """
+    from jaxtrack.vision.histograms import FRAME_OK
+
+    if posture_model.num_features != 2 * num_bins + 1:
+        raise ValueError(f"posture_model has {posture_model.num_features} features but "
+                         f"num_bins={num_bins} gives {2 * num_bins + 1}")
+    model = MixedStateModel(posture_model, **model_options)
+    sequences = _render_all(clips, azimuths, backgrounds, image_size, max_frames, seed)
+    kinds = ("instantaneous", "filtered", "smoothed", "fixed_lag")
+    pooled = {kind: {"posture": [], "parts": []} for kind in kinds}
+    truth_parts, truth_labels, valid_all, per_sequence = [], [], [], {}
+    key = jr.PRNGKey(seed)
+    for sequence in sequences:
+        observations = observations_from_silhouettes(sequence.masks, num_bins=num_bins)
+        key, subkey = jr.split(key)
+        estimates = track(subkey, model, observations, num_particles, lag=lag)
+        valid = estimates["status"] == FRAME_OK
+        per_sequence[sequence.name] = {
+            kind: score(estimates[kind]["parts"], estimates[kind]["posture"], sequence.parts,
+                        sequence.labels, valid) for kind in kinds}
+        per_sequence[sequence.name]["seconds"] = estimates["seconds"]
+        for kind in kinds:
+            for field_name in ("posture", "parts"):
+                pooled[kind][field_name].append(estimates[kind][field_name])
+        truth_parts.append(sequence.parts)
+        truth_labels.append(sequence.labels)
+        valid_all.append(valid)
+    truth_parts, truth_labels = np.concatenate(truth_parts), np.concatenate(truth_labels)
+    valid_all = np.concatenate(valid_all)
+    overall = {kind: score(np.concatenate(pooled[kind]["parts"]),
+                           np.concatenate(pooled[kind]["posture"]), truth_parts, truth_labels,
+                           valid_all) for kind in kinds}
+    confusion = np.zeros((NUM_POSTURES, NUM_POSTURES), int)
+    np.add.at(confusion, (truth_labels[valid_all],
+                          np.concatenate(pooled["smoothed"]["posture"])[valid_all]), 1)
+    return {"sequences": per_sequence, "overall": overall,
+            "smoothed_confusion": confusion.tolist(),
+            "settings": {"clips": list(clips), "azimuths": [float(a) for a in azimuths],
+                         "backgrounds": list(backgrounds), "image_size": list(image_size),
+                         "num_particles": num_particles, "lag": lag, "seed": seed,
+                         "device": jax.devices()[0].device_kind,
+                         "model": {name: float(value) for name, value in model_options.items()}}}
+

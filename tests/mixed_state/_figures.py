@@ -1,0 +1,38 @@
+"""Stick figures drawn with OpenCV: silhouettes whose head, hands and feet are known exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+
+THICKNESS = 5
+HEAD_RADIUS = 6
+
+# (head centre, neck, pelvis, hand 1, hand 2, foot 1, foot 2), pixels (x, y), on a 120 x 100 image
+FIGURES = {
+    "standing": ((50, 14), (50, 22), (50, 55), (25, 45), (75, 45), (40, 90), (60, 90)),
+    "sitting": ((50, 30), (50, 38), (50, 65), (28, 62), (72, 62), (35, 92), (65, 92)),
+    "crawling_bending": ((20, 55), (28, 55), (75, 45), (28, 85), (42, 85), (82, 88), (95, 88)),
+    "lying_left": ((15, 70), (23, 70), (70, 70), (45, 60), (45, 80), (105, 64), (105, 78)),
+}
+IMAGE_SIZE = (120, 100)  # width, height
+
+
+def draw(name: str, *, mirror: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A ``(100, 120)`` bool silhouette and its ``(5, 2)`` true extremes (head top, hand and foot
+    ends), the figure mirrored left-right on request."""
+    import cv2
+
+    head, neck, pelvis, *ends = FIGURES[name]
+    image = np.zeros(IMAGE_SIZE[::-1], np.uint8)
+    cv2.circle(image, head, HEAD_RADIUS, 1, -1)
+    cv2.line(image, neck, pelvis, 1, THICKNESS + 4)
+    cv2.line(image, head, neck, 1, THICKNESS)
+    for hand in ends[:2]:
+        cv2.line(image, neck, hand, 1, THICKNESS)
+    for foot in ends[2:]:
+        cv2.line(image, pelvis, foot, 1, THICKNESS)
+    truth = np.array([head, *ends], np.float64)
+    if mirror:
+        image = image[:, ::-1]
+        truth[:, 0] = IMAGE_SIZE[0] - 1 - truth[:, 0]
+    return image.astype(bool), truth

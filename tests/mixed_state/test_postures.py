@@ -1,0 +1,115 @@
+"""Posture labels from real mocap on the clips' documented timelines; the posture model's fit,
+transitions and files."""
+
+import numpy as np
+import pytest
+
+from jaxtrack.priors.postures import (
+    CRAWLING,
+    LYING_LEFT,
+    LYING_RIGHT,
+    NUM_POSTURES,
+    SITTING,
+    STANDING,
+    PostureFormatError,
+    fit_posture_model,
+    load_posture_model,
+    posture_labels,
+    save_posture_model,
+)
+
+
+def _labels(clip: str, fps: float = 10.0) -> tuple[np.ndarray, float]:
+    from jaxtrack.body.markers import HUMANEVA_15, marker_positions
+    from jaxtrack.data import load_clip
+
+    try:
+        motion = load_clip(clip).resample(fps)
+    except FileNotFoundError:
+        pytest.skip(f"{clip} is in the project's shared data, not found here")
+    joints = marker_positions(motion, HUMANEVA_15)
+    image = joints[..., :2] * np.array([1.0, -1.0])  # an orthographic view along -z
+    return posture_labels(joints, image, HUMANEVA_15), fps
+
+
+def _during(labels, fps, begin, end):
+    return labels[int(round(begin * fps)):int(round(end * fps)) + 1]
+
+
+def test_cmu_139_16_lies_then_crawls_then_stands():
+    labels, fps = _labels("cmu_posture_bvh/139_16")
+    lying = _during(labels, fps, 0.1, 1.6)
+    assert np.all((lying == LYING_LEFT) | (lying == LYING_RIGHT))
+    assert len(set(lying.tolist())) == 1  # one side: the body does not turn over
+    assert np.mean(_during(labels, fps, 2.0, 3.3) == CRAWLING) >= 0.5  # all fours, kneeling
+    assert np.all(_during(labels, fps, 3.5, 4.9) == CRAWLING)  # forward-leaning crouch
+    assert labels[-1] == STANDING
+
+
+def test_cmu_75_20_stands_sits_stands():
+    labels, fps = _labels("cmu_posture_bvh/75_20")
+    assert np.all(_during(labels, fps, 0.0, 0.9) == STANDING)
+    assert np.all(_during(labels, fps, 1.6, 2.7) == SITTING)
+    assert np.all(_during(labels, fps, 3.4, 4.1) == STANDING)
+
+
+def test_lying_side_follows_the_head_in_the_image():
+    labels, _ = _labels("cmu_posture_bvh/139_16")
+    from jaxtrack.body.markers import HUMANEVA_15, marker_positions
+    from jaxtrack.data import load_clip
+
+    joints = marker_positions(load_clip("cmu_posture_bvh/139_16").resample(10.0), HUMANEVA_15)
+    mirrored = joints[..., :2] * np.array([-1.0, -1.0])
+    flipped = posture_labels(joints, mirrored, HUMANEVA_15)
+    swap = {LYING_LEFT: LYING_RIGHT, LYING_RIGHT: LYING_LEFT}
+    np.testing.assert_array_equal(flipped, [swap.get(label, label) for label in labels])
+
+
+def _toy_training(rng):
+    means = rng.normal(size=(NUM_POSTURES, 3)) * 5
+    labels = [np.repeat(np.arange(NUM_POSTURES), 400), np.array([0, 0, 1, 1, 1, 2])]
+    features = [means[labels[0]] + rng.normal(size=(2000, 3)), means[labels[1]]]
+    return means, features, labels
+
+
+def test_fit_recovers_means_and_counts_transitions():
+    rng = np.random.default_rng(1)
+    means, features, labels = _toy_training(rng)
+    model = fit_posture_model(features, labels, pseudocount=0.5, regularisation=1e-3)
+    np.testing.assert_allclose(model.means, means, atol=0.2)
+    counts = np.full((NUM_POSTURES, NUM_POSTURES), 0.5)
+    for sequence in labels:
+        for i, j in zip(sequence[:-1], sequence[1:], strict=True):
+            counts[i, j] += 1
+    np.testing.assert_allclose(np.exp(model.log_transition),
+                               counts / counts.sum(1, keepdims=True))
+    assert np.mean(np.asarray(model.classify(features[0])) == labels[0]) > 0.97
+    # truncation: a far-away feature vector has the same Mahalanobis term under every posture
+    far = np.asarray(model.log_likelihoods(np.full(3, 1e6)))
+    np.testing.assert_allclose(far + 0.5 * np.asarray(model.log_determinants),
+                               -0.5 * float(model.cutoff))
+
+
+def test_a_posture_without_training_frames_is_refused():
+    with pytest.raises(ValueError, match="'lying_right' has 0 training frames"):
+        fit_posture_model([np.zeros((8, 2)) + np.arange(8)[:, None]],
+                          [np.array([0, 0, 1, 1, 2, 2, 3, 3])])
+
+
+def test_save_load_round_trip_and_damaged_files(tmp_path):
+    rng = np.random.default_rng(2)
+    _, features, labels = _toy_training(rng)
+    model = fit_posture_model(features, labels)
+    path = save_posture_model(tmp_path / "postures.npz", model, description={"clips": ["a"]})
+    saved = load_posture_model(path)
+    assert saved.description == {"clips": ["a"]}
+    for name in ("means", "precisions", "log_determinants", "log_transition", "log_initial"):
+        np.testing.assert_array_equal(getattr(saved.model, name), getattr(model, name))
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(PostureFormatError, match="damaged or truncated"):
+        load_posture_model(truncated)
+    text = tmp_path / "text.npz"
+    text.write_text("hello")
+    with pytest.raises(PostureFormatError, match="not a .npz archive"):
+        load_posture_model(text)
