@@ -39,9 +39,8 @@ def tracking_bytes(method: str, particles: int) -> int:
     for ``mht``): every particle's state and its likelihood's work arrays are live at once
     inside the compiled step, so the peak grows as particles × (state + samples read per pose
     × values per sample). MHT's modes each hold a Gauss-Newton Jacobian, 25 columns of the
-    residuals. About 13 kB a particle, an estimate to refuse impossible runs, not a
-    measurement: on CPU the peak resident memory of ``latent`` and ``condensation`` grows by
-    7-11 kB a particle from 2 000 to 50 000 particles."""
+    residuals. About 13 kB a particle: an upper estimate to refuse impossible runs, checked
+    against measured peaks in ``docs/tracking.md`` (section "Memory")."""
     per_particle = 4 * (_STATE_FLOATS + _SAMPLES_PER_POSE * _FLOATS_PER_SAMPLE)
     if method == "mht":
         per_particle *= 25

@@ -11,9 +11,8 @@ in clutter, the nearest edge is often a background line across the limb.
     distance to the nearest edge pixel (``cv2.distanceTransformWithLabels``, L2, 5 × 5 mask)
     and the tangent direction of that edge pixel (Sobel gradient turned by 90°, in [0, π))
 
-The 5 × 5 mask is within ~2 % of the true Euclidean distance (the 3 × 3 mask's horizontal
-steps count 0.955 px) at the same cost; the exact transform took ~1.4 ms more per frame.
-A few ms per 640 × 480 frame on this 2-core CPU (``benchmarks.tracker_step`` prints it).
+The 5 × 5 mask is near the exact Euclidean distance at the cost of the 3 × 3 one; the choice
+and the maps' cost are measured in ``docs/likelihoods.md`` (section "Edge maps").
 """
 
 from __future__ import annotations
@@ -83,8 +82,8 @@ def _edge_maps(frame: np.ndarray, low: float, high: float, blur: float,
 
 
 def _for_each_frame(function, count: int, workers: int | None) -> None:
-    """``function(index)`` for every frame, on ``workers`` threads (OpenCV releases the GIL:
-    two threads took 5.0 → 2.9 ms per 640 × 480 frame on this 2-core CPU)."""
+    """``function(index)`` for every frame, on ``workers`` threads (OpenCV releases the GIL, so
+    frames are computed side by side; ``docs/likelihoods.md``, "Edge maps")."""
     workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
