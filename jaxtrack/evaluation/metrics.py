@@ -8,7 +8,8 @@ threshold (25 % of the torso) for a run of consecutive frames (10): from then on
 follows the body, and the frames before that run are the frames it tracked.
 
 Everything here is NumPy, and every result is plain Python (floats, ints, bools, lists, dicts,
-None) so it can be written with :func:`jaxtrack._files.write_json_atomically` as it is.
+None) so it can be written with :func:`jaxtrack._files.write_json_atomically` as it is. The
+results measured with them: ``docs/tracking.md``.
 """
 
 from __future__ import annotations

@@ -10,7 +10,8 @@ the detectors raise :class:`FaceDetectorUnavailableError`, which says what to in
 XML file elsewhere can be named with the ``cascade`` argument or the ``JAXTRACK_FACE_CASCADE``
 environment variable, as long as ``cv2.CascadeClassifier`` exists.
 
-OpenCV is imported inside the functions, so importing this module needs no cv2.
+OpenCV is imported inside the functions, so importing this module needs no cv2. How the
+automatic initialisation uses the boxes: ``docs/real-video.md``.
 """
 
 from __future__ import annotations

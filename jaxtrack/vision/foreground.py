@@ -8,7 +8,8 @@ the template-free cue the automatic initialisation scores candidate poses agains
 (``jaxtrack.trackers.autoinit``). Parts of a person that stay still for most of the clip become
 background: supply an empty-scene ``background`` image when there is one.
 
-OpenCV is imported inside the functions, so importing this module needs no cv2.
+OpenCV is imported inside the functions, so importing this module needs no cv2. Its use on a
+real video: ``docs/real-video.md``.
 """
 
 from __future__ import annotations

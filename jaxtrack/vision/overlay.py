@@ -7,6 +7,7 @@ It serves both videos: :func:`write_overlay_video` (several trackers' estimates,
 at what the numbers say) and :func:`write_video` (a rendered sequence, optionally with its
 ground truth). Videos are written by :func:`jaxtrack.vision.video.write_frames`: OpenCV
 `mp4v`, atomically (a failed write leaves no file). cv2 is imported inside the functions.
+The one drawer for every video: ``docs/layers.md``.
 """
 
 from __future__ import annotations

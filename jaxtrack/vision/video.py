@@ -14,7 +14,8 @@ indices reported would be wrong.
 :func:`write_frames` encodes RGB frames as an mp4 (OpenCV `mp4v`), atomically: a failed write
 leaves no partial file.
 
-OpenCV is imported inside the functions, so importing this module needs no cv2.
+OpenCV is imported inside the functions, so importing this module needs no cv2. Where OpenCV
+sits among the layers: ``docs/layers.md``.
 """
 
 from __future__ import annotations
