@@ -9,6 +9,9 @@
    ``DIR/track.json`` (per-frame markers in the video's own pixels, ESS, log-likelihood, the
    initialisation and timings). Both are written atomically, the JSON last, and nothing is
    written when anything fails.
+
+A run on a real video, and the memory estimate's measurements: ``docs/real-video.md``,
+``docs/tracking.md`` (section "Memory").
 """
 
 from __future__ import annotations
