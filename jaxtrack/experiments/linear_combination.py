@@ -42,8 +42,8 @@ from jaxtrack.priors.linear_combinations import (
 from jaxtrack.trackers._options import Engine
 
 __all__ = ["CAMERA_SCALE", "CROP_SIZE", "METHODS", "HybridSequence", "TrainedLinearCombinations",
-           "evaluate", "observe", "pose2sim_cameras", "render_hybrid_sequences",
-           "skeleton_error", "track", "train"]
+           "evaluate", "load", "multi_view", "observe", "pose2sim_cameras",
+           "render_hybrid_sequences", "run_method", "skeleton_error", "track", "train"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -93,7 +93,7 @@ class HybridSequence:
         name: ``<clip>_<camera>``.
         clip: the clip's name.
         vectors: ``(time, vector)`` hybrid vectors from the exact silhouette (NaN rows where
-            the frame had no three skin blobs).
+            the frame had no three skin blobs, or the silhouette touched the image's edge).
         valid: ``(time,)`` rows of ``vectors`` that are usable.
         skeleton: ``(time, 12, 3)`` the true skeleton (camera frame, neck-relative, metres).
         observations: the frames as the tracker observes them (numpy leaves), or None.
@@ -116,6 +116,10 @@ def _background_of(sequence, size) -> np.ndarray:
     name = sequence.settings["background"]
     rng = np.random.default_rng([int(sequence.seed), 1])  # the renderer's background stream
     return _backgrounds.make_background(name, size, rng)[0]
+
+
+def _touches_border(mask: np.ndarray) -> bool:
+    return bool(mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any())
 
 
 def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
@@ -197,8 +201,8 @@ def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
         vectors = np.full((motion.num_frames, layout.size), np.nan)
         for t in range(motion.num_frames):
             silhouette = rendered.silhouettes[t]
-            if not silhouette.any():
-                continue
+            if not silhouette.any() or _touches_border(silhouette):
+                continue  # no contour, or one cut by the image's edge
             blobs = skin_blobs(skin_mask(rendered.images[t], silhouette, reference=reference))
             if not blobs.found:
                 continue
@@ -345,23 +349,25 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
              methods: tuple[str, ...] = METHODS, views: tuple[int, ...] = (0, 1, 2, 3),
              particles: int = 300, iterations: int = 5, max_frames: int | None = None,
              background: str = "photo", seed: int = 0,
-             fitness: FitnessSettings = FitnessSettings(), output: str | os.PathLike | None = None
-             ) -> dict:
+             fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+             jump_spread: float = 0.3, output: str | os.PathLike | None = None) -> dict:
     """3-D skeleton error of each method on held-out clips rendered through ``views``.
 
     Returns a JSON-able dict: per sequence and method the mean 3-D error (metres; of the
     best-fitness particle, the paper's estimate, and of the weighted mean where there is one),
     frames observed, run time per frame; and per method the mean over sequences. Written to
-    ``output`` (JSON, atomically) when given.
+    ``output`` (JSON, atomically) when given. The clips must not share a subject with the
+    training clips (``jaxtrack.data.splits.check_disjoint``).
     """
     from jaxtrack._files import write_json_atomically
+    from jaxtrack.data.splits import check_disjoint
 
+    check_disjoint(trained.description.get("clips", []), clips)
     fps = float(trained.description.get("fps", 30.0))
     layout = trained.model.layout
     results = {"trained_on": trained.description, "methods": list(methods), "particles": particles,
-               "iterations": iterations, "fitness": {k: getattr(fitness, k) for k in (
-                   "contour_weight", "hands_weight", "contour_tolerance", "hands_tolerance",
-                   "search_range", "edge_threshold")},
+               "iterations": iterations, "fitness": fitness.record(),
+               "step": float(step), "jump_spread": float(jump_spread),
                "sequences": {}}
     for clip in clips:
         for sequence in render_hybrid_sequences(clip, views=views, num_contour=layout.num_contour,
@@ -372,7 +378,8 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
                      "observed": int(np.sum(sequence.observations.found))}
             for method in methods:
                 run = run_method(method, trained, sequence.observations, particles=particles,
-                                 iterations=iterations, seed=seed, fitness=fitness)
+                                 iterations=iterations, seed=seed, fitness=fitness, step=step,
+                                 jump_spread=jump_spread, brownian_step=step)
                 errors = skeleton_error(run["skeleton"], sequence.skeleton)
                 entry[method] = {"error_m": float(errors.mean()),
                                  "seconds_per_frame": float(run["seconds_per_frame"])}
@@ -388,23 +395,102 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
     return results
 
 
-def track(trained: TrainedLinearCombinations, images: np.ndarray, background: np.ndarray, *,
-          skin_reference=None, particles: int = 300, iterations: int = 5, seed: int = 0,
-          fitness: FitnessSettings = FitnessSettings()) -> dict:
-    """Track one view of a video: ``images`` ``(time, height, width, 3)`` uint8 RGB of a static
-    camera whose empty scene is ``background``. Returns :func:`run_method`'s dict plus the
-    per-frame ``status`` (why a frame was not observed) and the tracker's image estimates
-    (``head_hands``: ``(time, 3, 2)``, ``contour``)."""
+def multi_view(trained: TrainedLinearCombinations, clip: str, *,
+               views: tuple[int, ...] = (0, 1, 2, 3), particles: int = 300, iterations: int = 5,
+               max_frames: int | None = None, background: str = "photo", seed: int = 0,
+               fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+               jump_spread: float = 0.3, ambiguities: np.ndarray | None = None,
+               sigma: float = 4.0, beta: float = 100.0, threshold: float = 0.05) -> dict:
+    """View selection (Ong & Gong §5.5–5.7) on a clip seen by several Pose2Sim cameras.
+
+    Each view is tracked on its own; per frame the view of greatest fitness × 1/ambiguity
+    (eq. 14 on the training ambiguities, eq. 10–13) is selected, and its 3-D error is compared
+    with the best and the worst view of that frame (the best is the oracle's choice).
+
+    Args:
+        ambiguities: the training vectors' ambiguities (None: computed with ``sigma``,
+            ``beta``, ``threshold``; ``jaxtrack.priors.linear_combinations.training_ambiguity``).
+
+    Returns:
+        A JSON-able dict: mean 3-D error (metres) of the selected, best, worst and each single
+        view, the share of frames where the selected view is the best, and per frame the
+        chosen view and every view's error and ambiguity.
+    """
+    from jaxtrack.priors.linear_combinations import (
+        nearest_ambiguity,
+        select_views,
+        training_ambiguity,
+    )
+
+    model = trained.model
+    layout = model.layout
+    if len(views) < 2:
+        raise ValueError(f"view selection needs at least 2 views, got {views}")
+    if ambiguities is None:
+        ambiguities = training_ambiguity(trained.vectors, layout, sigma=sigma, beta=beta,
+                                         threshold=threshold)
+    sequences = render_hybrid_sequences(clip, views=views, num_contour=layout.num_contour,
+                                        fps=float(trained.description.get("fps", 30.0)),
+                                        max_frames=max_frames, background=background,
+                                        seed=seed + 7, keep_observations=True)
+    errors, log_fitness, ambiguity, found = [], [], [], []
+    for sequence in sequences:
+        run = _track_run(trained, sequence.observations, particles=particles,
+                         iterations=iterations, seed=seed, fitness=fitness, step=step,
+                         jump_spread=jump_spread)
+        errors.append(skeleton_error(run["skeleton"], sequence.skeleton))
+        log_fitness.append(run["log_fitness"])
+        estimate = np.asarray(make_hybrid(run["contour"], run["head_hands"][:, 1:],
+                                          run["head_hands"][:, 0], run["skeleton"]))
+        seen = run["found"] & np.all(np.isfinite(estimate), axis=1)
+        view_ambiguity = np.full(len(estimate), np.inf)
+        if seen.any():
+            view_ambiguity[seen] = nearest_ambiguity(estimate[seen], trained.vectors,
+                                                     ambiguities, layout)
+        ambiguity.append(view_ambiguity)
+        found.append(seen)
+    errors, log_fitness = np.stack(errors, 1), np.stack(log_fitness, 1)
+    ambiguity, found = np.stack(ambiguity, 1), np.stack(found, 1)
+    chosen = select_views(log_fitness, np.where(np.isfinite(ambiguity), ambiguity, 0.0), found)
+    frames = np.arange(len(errors))
+    selected = errors[frames, chosen]
+    return {"clip": clip, "views": [sequence.name for sequence in sequences],
+            "selected_m": float(selected.mean()), "best_m": float(errors.min(axis=1).mean()),
+            "worst_m": float(errors.max(axis=1).mean()),
+            "single_view_m": [float(e) for e in errors.mean(axis=0)],
+            "selected_is_best": float(np.mean(chosen == errors.argmin(axis=1))),
+            "chosen": chosen.tolist(), "errors_m": errors.tolist(),
+            "ambiguity": np.where(np.isfinite(ambiguity), ambiguity, -1.0).tolist()}
+
+
+def _track_run(trained, observations, *, particles, iterations, seed, fitness, step,
+               jump_spread) -> dict:
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
 
-    observations, status = observe(images, background, skin_reference=skin_reference)
     tracker = linear_combination_tracker(trained.model, engine=Engine(particles),
-                                         fitness=fitness, iterations=iterations)
+                                         fitness=fitness, iterations=iterations, step=step,
+                                         jump_spread=jump_spread)
     result = track_observations(tracker, jr.PRNGKey(seed), observations)
     estimates = result.estimates
     return {"skeleton": np.asarray(estimates.best_skeleton_3d),
             "mean_skeleton": np.asarray(estimates.skeleton_3d),
             "head_hands": np.asarray(estimates.best_markers),
             "contour": np.asarray(estimates.contour), "found": np.asarray(estimates.found),
-            "status": status, "seconds_per_frame": result.seconds_per_frame,
+            "log_fitness": np.asarray(estimates.log_fitness),
+            "seconds_per_frame": result.seconds_per_frame,
             "compile_seconds": result.compile_seconds, "options": result.options}
+
+
+def track(trained: TrainedLinearCombinations, images: np.ndarray, background: np.ndarray, *,
+          skin_reference=None, particles: int = 300, iterations: int = 5, seed: int = 0,
+          fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+          jump_spread: float = 0.3) -> dict:
+    """Track one view of a video: ``images`` ``(time, height, width, 3)`` uint8 RGB of a static
+    camera whose empty scene is ``background``. Returns per frame the best particle's
+    ``skeleton`` ``(time, 12, 3)`` and the weighted mean's (``mean_skeleton``), the image
+    estimates (``head_hands`` ``(time, 3, 2)``, ``contour``), ``log_fitness``, ``found`` and
+    ``status`` (why a frame was not observed), and the timings and options."""
+    observations, status = observe(images, background, skin_reference=skin_reference)
+    run = _track_run(trained, observations, particles=particles, iterations=iterations,
+                     seed=seed, fitness=fitness, step=step, jump_spread=jump_spread)
+    return run | {"status": status}

@@ -51,6 +51,9 @@ class ContourObservation(eqx.Module):
 class FitnessSettings(eqx.Module):
     """Eq. 9's weights and tolerances and the normal search's reach.
 
+    The weights, tolerances and threshold are numbers a compiled tracker takes as inputs: give
+    them as JAX scalars to sweep them without recompiling (Python floats compile per value).
+
     Attributes:
         contour_weight, hands_weight: O and R (Ong & Gong: 0.5 each).
         contour_tolerance, hands_tolerance: P and Q, squared pixels.
@@ -58,12 +61,12 @@ class FitnessSettings(eqx.Module):
         edge_threshold: the weakest gradient magnitude (of [0, 1]) that counts as an edge.
     """
 
-    contour_weight: float = eqx.field(static=True, default=0.5)
-    hands_weight: float = eqx.field(static=True, default=0.5)
-    contour_tolerance: float = eqx.field(static=True, default=16.0)
-    hands_tolerance: float = eqx.field(static=True, default=64.0)
+    contour_weight: float = 0.5
+    hands_weight: float = 0.5
+    contour_tolerance: float = 16.0
+    hands_tolerance: float = 64.0
     search_range: int = eqx.field(static=True, default=10)
-    edge_threshold: float = eqx.field(static=True, default=0.05)
+    edge_threshold: float = 0.05
 
     def __check_init__(self):
         for name in ("contour_weight", "hands_weight"):
@@ -80,6 +83,13 @@ class FitnessSettings(eqx.Module):
                              f"{self.search_range!r}")
         if not 0 <= self.edge_threshold < 1:
             raise ValueError(f"edge_threshold must be in [0, 1), got {self.edge_threshold!r}")
+
+    def record(self) -> dict:
+        """The settings as JSON-able numbers."""
+        return {name: float(getattr(self, name)) if name != "search_range"
+                else int(self.search_range) for name in (
+                    "contour_weight", "hands_weight", "contour_tolerance", "hands_tolerance",
+                    "search_range", "edge_threshold")}
 
 
 def normal_offsets(search_range: int) -> Float[Array, " offsets"]:
@@ -119,8 +129,8 @@ def contour_distances(gradient: Float[Array, "height width"], contour: Float[Arr
     best = jnp.argmax(score, axis=1)
     strongest = jnp.take_along_axis(values, best[:, None], axis=1)[:, 0]
     distance = jnp.abs(offsets)[best]
-    return jnp.where(strongest >= edge_threshold, distance, jnp.asarray(search_range,
-                                                                        contour.dtype))
+    return jnp.where(strongest >= edge_threshold, distance,
+                     jnp.asarray(search_range, contour.dtype))
 
 
 def hand_distance(model_hands: Float[Array, "2 2"], observed_hands: Float[Array, "2 2"]

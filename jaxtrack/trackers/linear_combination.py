@@ -126,6 +126,7 @@ class LinearCombinationEstimate(FrameEstimate):
             the best-fitness particle (the paper's estimate).
         contour: ``(contour, 2)`` the best particle's contour in the image.
         cluster: the best particle's cluster.
+        log_fitness: log f (eq. 9) of the best particle (view selection weighs views by it).
         found: the frame had a silhouette and three skin blobs (else it was scored flat and the
             filter only predicted).
     """
@@ -134,17 +135,19 @@ class LinearCombinationEstimate(FrameEstimate):
     best_skeleton_3d: Float[Array, "joints 3"]
     contour: Float[Array, "contour 2"]
     cluster: Int[Array, ""]
+    log_fitness: Float[Array, ""]
     found: Bool[Array, ""]
 
 
 class LinearCombinationState(eqx.Module):
-    """What the tracker carries: the filter's state, and the last frame's head and status
-    (which place its estimate in the image)."""
+    """What the tracker carries: the filter's state, the last frame's head and status (which
+    place its estimate in the image) and the best particle's log-fitness there."""
 
     filter: smc.FilterState
     info: smc.StepInfo
     head: Float[Array, " 2"]
     found: Bool[Array, ""]
+    log_fitness: Float[Array, ""]
 
 
 def _observation_at(frame) -> ContourObservation:
@@ -184,7 +187,7 @@ class LinearCombinationTracker(Tracker):
     def options(self) -> dict:
         return {"method": "linear-combination" if self.constrained else "global-pca",
                 "particles": self.num_particles, "engine": options_record(self.engine),
-                "likelihood": options_record(self.likelihood), "iterations": self.iterations,
+                "likelihood": self.likelihood.record(), "iterations": self.iterations,
                 "step": float(self.step), "jump_spread": float(self.jump_spread),
                 "clusters": self.model.num_clusters, "components": self.model.num_components}
 
@@ -222,7 +225,7 @@ class LinearCombinationTracker(Tracker):
             ess=info.ess, log_likelihood=info.log_evidence_increment,
             degenerate=info.degenerate, skeleton_3d=mean_parts.skeleton_3d,
             best_skeleton_3d=best_parts.skeleton_3d, contour=best_parts.contour,
-            cluster=best["cluster"], found=state.found)
+            cluster=best["cluster"], log_fitness=state.log_fitness, found=state.found)
 
     def first_estimate(self, state: LinearCombinationState) -> LinearCombinationEstimate:
         return self._estimate(state)
@@ -231,8 +234,14 @@ class LinearCombinationTracker(Tracker):
                ) -> tuple[LinearCombinationState, LinearCombinationEstimate]:
         observation = _observation_at(frame)
         filtered, info = self._cycles(key, state.filter, observation, self.iterations)
-        state = LinearCombinationState(filtered, info, observation.head, observation.found)
+        state = self._state(filtered, info, observation)
         return state, self._estimate(state)
+
+    def _state(self, filtered: smc.FilterState, info: smc.StepInfo,
+               observation: ContourObservation) -> LinearCombinationState:
+        best = smc.best_particle(filtered.particles, filtered.log_weights)
+        return LinearCombinationState(filtered, info, observation.head, observation.found,
+                                      self._ssm().log_likelihood(best, observation))
 
 
 @eqx.filter_jit
@@ -245,7 +254,7 @@ def _start(tracker: LinearCombinationTracker, key: PRNGKeyArray,
         filtered, info = tracker._cycles(key_cycles, filtered, observation,
                                          tracker.iterations - 1)
         filtered = eqx.tree_at(lambda f: f.time, filtered, jnp.zeros_like(filtered.time))
-    return LinearCombinationState(filtered, info, observation.head, observation.found)
+    return tracker._state(filtered, info, observation)
 
 
 @eqx.filter_jit
@@ -258,6 +267,22 @@ def _scan(tracker: LinearCombinationTracker, state: LinearCombinationState, keys
     return jax.lax.scan(body, state, (keys, jnp.arange(keys.shape[0])))
 
 
+_COMPILED: dict = {}
+
+
+def _compiled_scan(tracker, state, keys, observations):
+    """``_scan`` compiled ahead of time (so that compilation is timed apart), kept per
+    structure and shapes: sequences of one length and settings given as JAX scalars reuse it."""
+    leaves, structure = jax.tree.flatten((tracker, state, keys, observations))
+    signature = (structure, tuple((leaf.shape, str(leaf.dtype)) if eqx.is_array(leaf) else leaf
+                                  for leaf in leaves))
+    if signature not in _COMPILED:
+        if len(_COMPILED) > 16:  # a sweep over shapes should not hold every executable
+            _COMPILED.clear()
+        _COMPILED[signature] = _scan.lower(tracker, state, keys, observations).compile()
+    return _COMPILED[signature]
+
+
 class LinearCombinationTrack(eqx.Module):
     """A tracked sequence: every field of :class:`LinearCombinationEstimate` with a leading
     ``time`` axis (``estimates``), and timings.
@@ -265,7 +290,7 @@ class LinearCombinationTrack(eqx.Module):
     Attributes:
         estimates: per-frame estimates, frame 0 included.
         seconds_per_frame: run time per frame after frame 0, compilation excluded.
-        compile_seconds: time to compile the scan.
+        compile_seconds: time to compile the scan (0 when a compiled one was reused).
         options: the tracker's ``options()``.
     """
 
@@ -299,7 +324,7 @@ def track_observations(tracker: LinearCombinationTracker, key: PRNGKeyArray,
         rest = jax.tree.map(lambda leaf: leaf[1:], observations)
         keys = jr.split(key_frames, num_frames - 1)
         tick = _time.perf_counter()
-        compiled = _scan.lower(tracker, state, keys, rest).compile()
+        compiled = _compiled_scan(tracker, state, keys, rest)
         compile_seconds = _time.perf_counter() - tick
         tick = _time.perf_counter()
         _, estimates = compiled(tracker, state, keys, rest)
@@ -341,7 +366,7 @@ def linear_combination_tracker(
         dtype: the filter's float type.
     """
     for name, value in (("step", step), ("jump_spread", jump_spread)):
-        if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
+        if np.shape(value) != () or not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     return LinearCombinationTracker(
         model=model.astype(dtype), likelihood=fitness, engine=engine,

@@ -8,6 +8,11 @@ and cluster dynamics.
     >>> model.reconstruct(coefficients)                # eq. 7
 """
 
+from jaxtrack.priors.linear_combinations._ambiguity import (
+    nearest_ambiguity,
+    select_views,
+    training_ambiguity,
+)
 from jaxtrack.priors.linear_combinations._fit import (
     LinearCombinationFit,
     fit_linear_combinations,
@@ -26,5 +31,6 @@ from jaxtrack.priors.linear_combinations._model import LinearCombinationModel
 __all__ = [
     "LinearCombinationFit", "LinearCombinationFormatError", "LinearCombinationModel",
     "SavedLinearCombinations", "fit_linear_combinations", "kmeans", "load_linear_combinations",
-    "part_weights", "save_linear_combinations", "transition_matrix",
+    "nearest_ambiguity", "part_weights", "save_linear_combinations", "select_views",
+    "training_ambiguity", "transition_matrix",
 ]

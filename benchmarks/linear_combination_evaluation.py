@@ -1,0 +1,146 @@
+"""Ong & Gong's tracker on real motion: settings chosen on validation subjects, then 3-D skeleton
+error on test subjects against the two baselines, and the error surface over clusters × samples.
+
+Splits by subject (``jaxtrack.data.splits``): the model is trained on training subjects'
+gestures, eq. 9's tolerances P, Q and the propagation step ω are chosen on a validation
+subject's wave (Bandai-Namco), and the test subject's two waves (AnimatedDrawings cmu_1006) are
+only scored. Every clip is rendered through Pose2Sim cameras (``--views``) over the real-photo
+background. The error surface (``--surface``) repeats the test (and a training clip) over a grid
+of cluster counts and sample counts, as the paper's Fig. 10 and 12.
+
+    python -m benchmarks.linear_combination_evaluation [--frames 90] [--surface]
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import device_description, print_table, write_json
+
+RESULTS = Path(__file__).parent / "results"
+_AD = "animateddrawings/"
+_HISTORY = _AD + "history_c119d6b/"
+TRAIN = (_AD + "fair1_wave_hello", _HISTORY + "8yr_old_wave_hello",
+         _HISTORY + "cmu_new_walk_point", _HISTORY + "cmu_new_walk_raise_the_roof")
+VALIDATION = ("bandai/dataset-2_wave-right-hand_normal_001",)
+TEST = (_HISTORY + "cmu_1006_wave_hello_1", _HISTORY + "cmu_1006_wave_hello_2")
+
+
+def _score(trained, sequences, method, **options) -> float:
+    from jaxtrack.experiments import linear_combination as lc
+
+    errors = []
+    for sequence in sequences:
+        run = lc.run_method(method, trained, sequence.observations, **options)
+        errors.append(lc.skeleton_error(run["skeleton"], sequence.skeleton).mean())
+    return float(np.mean(errors))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=90, help="frames per clip (30 fps)")
+    parser.add_argument("--views", type=int, nargs="+", default=[0, 1, 2, 3])
+    parser.add_argument("--clusters", type=int, default=20)
+    parser.add_argument("--particles", type=int, default=300)
+    parser.add_argument("--iterations", type=int, default=5)
+    parser.add_argument("--surface", action="store_true", help="also the clusters × samples "
+                                                                "error surface")
+    parser.add_argument("--out", default=str(RESULTS / "linear_combination_evaluation.json"))
+    arguments = parser.parse_args()
+
+    import jax.numpy as jnp
+
+    from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.likelihoods.contour_normals import FitnessSettings
+
+    views = tuple(arguments.views)
+    tick = time.perf_counter()
+    trained = lc.train(list(TRAIN), views=views, num_clusters=arguments.clusters)
+    print(f"trained on {len(trained.vectors)} vectors in {time.perf_counter() - tick:.0f} s: "
+          f"{trained.model.num_components} components "
+          f"({trained.description['explained_variance']:.2f} of the variance), "
+          f"{trained.model.num_clusters} clusters", flush=True)
+    render = dict(views=views, max_frames=arguments.frames, keep_observations=True, seed=7)
+    validation = [s for clip in VALIDATION for s in lc.render_hybrid_sequences(clip, **render)]
+    test = [s for clip in TEST for s in lc.render_hybrid_sequences(clip, **render)]
+    engine = dict(particles=arguments.particles, iterations=arguments.iterations)
+
+    # validation: P, Q on a grid (JAX scalars: one compilation), then ω per filter
+    sweep = []
+    for contour_tolerance, hands_tolerance in itertools.product((4.0, 16.0, 64.0),
+                                                                (16.0, 64.0, 256.0)):
+        fitness = FitnessSettings(contour_tolerance=jnp.asarray(contour_tolerance),
+                                  hands_tolerance=jnp.asarray(hands_tolerance))
+        error = _score(trained, validation, "linear-combination", fitness=fitness,
+                       step=jnp.asarray(0.1), **engine)
+        sweep.append({"P": contour_tolerance, "Q": hands_tolerance, "step": 0.1,
+                      "error_m": error})
+        print(f"validation P={contour_tolerance:g} Q={hands_tolerance:g}: {error:.4f} m",
+              flush=True)
+    best = min(sweep, key=lambda row: row["error_m"])
+    fitness = FitnessSettings(contour_tolerance=jnp.asarray(best["P"]),
+                              hands_tolerance=jnp.asarray(best["Q"]))
+    steps = {}
+    for method in ("linear-combination", "global-pca"):
+        scores = {}
+        for step in (0.03, 0.1, 0.3):
+            scores[step] = _score(trained, validation, method, fitness=fitness,
+                                  step=jnp.asarray(step), brownian_step=jnp.asarray(step),
+                                  **engine)
+            print(f"validation {method} step={step:g}: {scores[step]:.4f} m", flush=True)
+        steps[method] = min(scores, key=scores.get)
+        sweep += [{"method": method, "P": best["P"], "Q": best["Q"], "step": step,
+                   "error_m": error} for step, error in scores.items()]
+
+    # test subjects: the tracker and both baselines with the settings chosen above
+    rows = []
+    for method in lc.METHODS:
+        step = steps.get(method, 0.0)
+        per_sequence = []
+        for sequence in test:
+            run = lc.run_method(method, trained, sequence.observations, fitness=fitness,
+                                step=jnp.asarray(step), brownian_step=jnp.asarray(step),
+                                **engine)
+            per_sequence.append(lc.skeleton_error(run["skeleton"], sequence.skeleton).mean())
+        rows.append({"method": method, "step": step, "error_m": float(np.mean(per_sequence)),
+                     "worst_m": float(np.max(per_sequence)), "sequences": len(per_sequence)})
+    mean_skeleton = np.concatenate([s.skeleton for s in test]).mean(axis=0)
+    rows.append({"method": "mean test skeleton (oracle constant)", "error_m": float(np.mean(
+        [lc.skeleton_error(np.broadcast_to(mean_skeleton, s.skeleton.shape), s.skeleton).mean()
+         for s in test]))})
+    print(f"device: {device_description()}")
+    print(f"test subjects ({', '.join(TEST)}), views {views}, {arguments.frames} frames, "
+          f"P={best['P']:g} Q={best['Q']:g}")
+    print_table(rows, [("method", "method", "s"), ("step", "ω", "g"),
+                       ("error_m", "3-D error m", ".4f"), ("worst_m", "worst seq. m", ".4f")])
+
+    surface = []
+    if arguments.surface:
+        training_sequence = lc.render_hybrid_sequences(TRAIN[0], **render)
+        for clusters in (10, 40, 100):
+            model = lc.train(list(TRAIN), views=views, num_clusters=clusters)
+            for samples in (20, 100, 300):
+                options = dict(fitness=fitness, step=jnp.asarray(steps["linear-combination"]),
+                               particles=samples, iterations=arguments.iterations)
+                entry = {"clusters": clusters, "samples": samples,
+                         "training_m": _score(model, training_sequence, "linear-combination",
+                                              **options),
+                         "test_m": _score(model, test, "linear-combination", **options)}
+                surface.append(entry)
+                print(json.dumps(entry), flush=True)
+    write_json(arguments.out, {"device": device_description(), "train": TRAIN,
+                               "validation": VALIDATION, "test": TEST, "views": views,
+                               "frames": arguments.frames, "trained": trained.description,
+                               "sweep": sweep, "chosen": {"P": best["P"], "Q": best["Q"],
+                                                          "steps": steps},
+                               "test_rows": rows, "surface": surface})
+
+
+if __name__ == "__main__":
+    main()
