@@ -24,6 +24,7 @@ import jax.numpy as jnp
 from jax import lax
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
+from jaxtrack.smc._cond import cond_any
 from jaxtrack.smc._model import StateSpaceModel, check_observation_shape
 from jaxtrack.smc._random import split
 from jaxtrack.smc._resampling import Resampler, Systematic, effective_sample_size
@@ -105,11 +106,12 @@ def _measure(key, model, particles, prior_log_weights, observation, axis_name):
     degenerate = ~jnp.isfinite(increment)
     num = prior_log_weights.shape[0]
 
-    def reseed(_):
+    def reseed(operands):
+        key, model, particles, observation, unnormalised, increment, degenerate = operands
         fresh = _init_particles(key, model, num)
         fresh_log_likelihoods, _ = _log_likelihoods(model, fresh, observation)
         fresh_log_weights = fresh_log_likelihoods - jax.nn.logsumexp(fresh_log_likelihoods)
-        uniform = jnp.full_like(prior_log_weights, -math.log(num))
+        uniform = jnp.full_like(unnormalised, -math.log(num))
         fresh_log_weights = jnp.where(
             jnp.isfinite(jax.nn.logsumexp(fresh_log_likelihoods)), fresh_log_weights, uniform
         )
@@ -119,16 +121,19 @@ def _measure(key, model, particles, prior_log_weights, observation, axis_name):
         normalised = jnp.where(degenerate, 0.0, unnormalised - increment)
         return jax.tree.map(keep, fresh, particles), keep(fresh_log_weights, normalised)
 
-    def keep_going(_):
+    def keep_going(operands):
+        _, _, particles, _, unnormalised, increment, _ = operands
         return particles, unnormalised - increment
 
-    # Under vmap over sequences the predicate is made unbatched (any sequence degenerate), so
-    # the re-seeding is computed only on frames that need it instead of on every frame.
-    if axis_name is None:
-        any_degenerate = degenerate
+    # Under vmap over sequences the re-seeding runs only on frames where some sequence needs
+    # it (cond_any; a plain lax.cond would become a select and re-seed on every frame). The
+    # branches take everything as operands: cond_any's batching rule must see what is batched.
+    if axis_name is not None:
+        degenerate_somewhere = lax.psum(degenerate.astype(jnp.int32), axis_name) > 0
     else:
-        any_degenerate = lax.psum(degenerate.astype(jnp.int32), axis_name) > 0
-    particles, log_weights = lax.cond(any_degenerate, reseed, keep_going, None)
+        degenerate_somewhere = degenerate
+    operands = (key, model, particles, observation, unnormalised, increment, degenerate)
+    particles, log_weights = cond_any(degenerate_somewhere, reseed, keep_going, operands)
     return particles, log_weights, increment, degenerate, num_invalid
 
 

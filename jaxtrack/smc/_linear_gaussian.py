@@ -28,7 +28,9 @@ def _mvn_log_density(residual, cholesky):
     triangular solve per particle was 3x slower on CPU.
     """
     identity = jnp.eye(cholesky.shape[0], dtype=cholesky.dtype)
-    solved = jsl.solve_triangular(cholesky, identity, lower=True) @ residual
+    # residual @ L⁻ᵀ == L⁻¹ residual, written vector-times-matrix so that, vmapped over
+    # particles, the particle axis stays the leading axis of the product (docs/engine.md)
+    solved = residual @ jsl.solve_triangular(cholesky, identity, lower=True).T
     log_det = 2.0 * jnp.sum(jnp.log(jnp.diagonal(cholesky)))
     dim = residual.shape[-1]
     return -0.5 * (jnp.dot(solved, solved) + log_det + dim * math.log(2.0 * math.pi))
@@ -74,21 +76,26 @@ class LinearGaussian(StateSpaceModel):
         """One frame's observation is a vector of this shape (checked by the engine)."""
         return (self.observation_matrix.shape[0],)
 
+    # Products are written vector @ matrix.T: vmapped over particles, (particles, state) @
+    # (state, state) keeps the particle axis leading; matrix @ vector makes XLA lay the
+    # particles out as (state, particles) and transpose every gather and noise draw into it
+    # (docs/engine.md, "Where the time went").
+
     def init(self, key):
         noise = fast_normal(key, (self.state_dim,), self.initial_mean.dtype)
-        return self.initial_mean + jnp.linalg.cholesky(self.initial_covariance) @ noise
+        return self.initial_mean + noise @ jnp.linalg.cholesky(self.initial_covariance).T
 
     def propagate(self, key, particle, time):
         noise = fast_normal(key, particle.shape, particle.dtype)
         cholesky = jnp.linalg.cholesky(self.transition_covariance)
-        return self.transition_matrix @ particle + cholesky @ noise
+        return particle @ self.transition_matrix.T + noise @ cholesky.T
 
     def log_likelihood(self, particle, observation):
-        residual = observation - self.observation_matrix @ particle
+        residual = observation - particle @ self.observation_matrix.T
         return _mvn_log_density(residual, jnp.linalg.cholesky(self.observation_covariance))
 
     def log_transition_density(self, previous, particle, time):
-        residual = particle - self.transition_matrix @ previous
+        residual = particle - previous @ self.transition_matrix.T
         return _mvn_log_density(residual, jnp.linalg.cholesky(self.transition_covariance))
 
     def sample(self, key: PRNGKeyArray, num_frames: int):
