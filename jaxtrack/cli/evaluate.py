@@ -77,6 +77,14 @@ def add_parser(subparsers) -> None:
                         help="eq. 1's minimiser when training the GPLVM (default bfgs, what the "
                              "tracking results in docs/tracking.md used; lbfgs: see docs/gplvm.md)")
     add_tracker_options(parser)
+    parser.add_argument("--baseline-dynamics", choices=("training", "test_start"),
+                        default="training",
+                        help="what CONDENSATION's AR(2) and MHT's step are learned from: the "
+                             "--train clips' poses (default), or the first 30 frames of each "
+                             "test clip's ground truth (Tian et al.'s protocol)")
+    parser.add_argument("--allow-same-subject", action="store_true",
+                        help="score --test clips whose subject (jaxtrack.data.splits) also "
+                             "performed a --train clip; by default that is refused")
     parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"),
@@ -114,6 +122,13 @@ def run(args: argparse.Namespace) -> int:
     if overlap:
         raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
                         f"--train")
+    if not args.allow_same_subject:
+        from jaxtrack.data.splits import check_disjoint
+
+        try:
+            check_disjoint(args.train, args.test)
+        except ValueError as error:
+            raise UserError(f"{error}; or pass --allow-same-subject") from None
     if args.particles is not None and args.particles < 1:
         raise UserError(f"--particles must be positive, got {args.particles}")
     if args.views < 1:
@@ -148,7 +163,8 @@ def run(args: argparse.Namespace) -> int:
                                               max_frames=args.max_frames, asf=args.asf):
             result = run_method(args.method, prior, sequence, particles=particles,
                                 seed=args.seed, likelihood=options.likelihood,
-                                refinement=options.refinement, background=options.foreground)
+                                refinement=options.refinement, background=options.foreground,
+                                baseline_dynamics=args.baseline_dynamics)
             tracker_record = result.options
             metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                                      seconds_per_frame=result.seconds_per_frame,
@@ -166,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
     overall = summarise(per_sequence)
     write_json_atomically(args.json, {
         "method": args.method, "particles": particles, "seed": args.seed,
-        "tracker": tracker_record,
+        "tracker": tracker_record, "baseline_dynamics": args.baseline_dynamics,
         "train": args.train, "test": args.test,
         "prior": prior.description,
         "overall": overall, "sequences": per_sequence})

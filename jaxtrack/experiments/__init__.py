@@ -8,13 +8,16 @@ Nothing below it imports it.
 
 from jaxtrack.experiments.protocol import (
     AR_TRAINING_FRAMES,
+    BASELINE_DYNAMICS,
     DEFAULT_PARTICLES,
     METHODS,
     TestSequence,
+    baseline_training_states,
     build_tracker,
     render_test_sequences,
     run_method,
 )
 
-__all__ = ["AR_TRAINING_FRAMES", "DEFAULT_PARTICLES", "METHODS", "TestSequence", "build_tracker",
-           "render_test_sequences", "run_method"]
+__all__ = ["AR_TRAINING_FRAMES", "BASELINE_DYNAMICS", "DEFAULT_PARTICLES", "METHODS",
+           "TestSequence", "baseline_training_states", "build_tracker", "render_test_sequences",
+           "run_method"]

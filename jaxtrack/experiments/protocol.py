@@ -6,7 +6,11 @@
    (:func:`render_test_sequences`): a frontal view and random viewpoints in the training views'
    range, over real-photo and cluttered backgrounds.
 3. Track each with a method (:func:`run_method`), all initialised from frame 0's ground truth,
-   and score with :func:`jaxtrack.evaluation.evaluate_track`.
+   and score with :func:`jaxtrack.evaluation.evaluate_track`. The baselines learn their
+   dynamics from the prior's training poses (``baseline_dynamics="training"``), or, as Tian et
+   al. did, from the first 30 frames of the test clip's ground truth (``"test_start"``).
+
+Which clips are training, validation and test subjects: :mod:`jaxtrack.data.splits`.
 """
 
 from __future__ import annotations
@@ -28,12 +32,17 @@ from jaxtrack.body import (
 from jaxtrack.priors.train import TrainedPrior
 from jaxtrack.trackers import Likelihood, Refinement
 
-__all__ = ["AR_TRAINING_FRAMES", "DEFAULT_PARTICLES", "METHODS", "TestSequence", "build_tracker",
-           "render_test_sequences", "run_method"]
+__all__ = ["AR_TRAINING_FRAMES", "BASELINE_DYNAMICS", "DEFAULT_PARTICLES", "METHODS",
+           "TestSequence", "baseline_training_states", "build_tracker", "render_test_sequences",
+           "run_method"]
 
 METHODS = ("latent", "condensation", "mht")
 DEFAULT_PARTICLES = {"latent": 200, "condensation": 1000, "mht": 10}
 AR_TRAINING_FRAMES = 30  # Tian et al.: the baseline's AR(2) dynamics come from 30 frames
+BASELINE_DYNAMICS = ("training", "test_start")
+"""Where CONDENSATION's AR(2) and MHT's step are learned: the prior's training poses (the
+default: nothing is learned from the clip that is scored), or the first
+:data:`AR_TRAINING_FRAMES` frames of the test clip's ground truth (Tian et al.'s protocol)."""
 
 
 @dataclass(frozen=True)
@@ -83,9 +92,28 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
     return sequences
 
 
+def baseline_training_states(prior: TrainedPrior, sequence: TestSequence,
+                             baseline_dynamics: str = "training"
+                             ) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(states, sequence_ids)`` the baselines learn their dynamics from
+    (:data:`BASELINE_DYNAMICS`); ``sequence_ids`` is None for the one test-clip trajectory."""
+    if baseline_dynamics == "training":
+        if prior.training_states is None:
+            raise ValueError("this prior was saved without its training poses, which the "
+                             "baselines' dynamics are learned from: train it again "
+                             "(jaxtrack train), or use baseline_dynamics='test_start'")
+        return prior.training_states, prior.training_sequence_ids
+    if baseline_dynamics == "test_start":
+        truth = jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES])
+        return np.asarray(spm_initial_state(truth, prior.template)), None
+    raise ValueError(f"baseline_dynamics must be one of {BASELINE_DYNAMICS}, got "
+                     f"{baseline_dynamics!r}")
+
+
 def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int,
                   likelihood: Likelihood = Likelihood(),
-                  refinement: Refinement | None | str = "default", background: bool = True):
+                  refinement: Refinement | None | str = "default", background: bool = True,
+                  baseline_dynamics: str = "training", latent_options: dict | None = None):
     """The tracker ``method`` for a test sequence (start it at frame 0's ground truth).
 
     Every method is scored by the same ``likelihood``; ``refinement`` is the full-state
@@ -94,8 +122,9 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
     CONDENSATION and MHT, which report their own estimates as the paper did; None: none);
     ``background``: with ``"limbs+edges"``, score the arms against the sequence's median
     background too (the foreground term, ``jaxtrack.likelihoods.edges``). CONDENSATION's AR(2)
-    and MHT's step are learned from the first :data:`AR_TRAINING_FRAMES` frames of ground
-    truth, as Tian et al. did."""
+    and MHT's step are learned as ``baseline_dynamics`` says (:data:`BASELINE_DYNAMICS`).
+    ``latent_options``: further keyword arguments of :func:`~jaxtrack.trackers.latent_tracker`
+    (e.g. ``{"subject_lengths": True}``)."""
     from jaxtrack import trackers
     from jaxtrack.vision import median_grey_background
 
@@ -105,28 +134,27 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
         return trackers.latent_tracker(prior.model, prior.template,
                                        engine=trackers.Engine(particles), fps=sequence.fps,
                                        likelihood=likelihood, refinement=refinement,
-                                       background=scene)
+                                       background=scene, **(latent_options or {}))
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if refinement == "default":
         refinement = None
-    states = np.asarray(spm_initial_state(jnp.asarray(sequence.truth[:AR_TRAINING_FRAMES]),
-                                          prior.template))
+    states, ids = baseline_training_states(prior, sequence, baseline_dynamics)
     if method == "condensation":
         return trackers.condensation_tracker(prior.template, states,
                                              engine=trackers.Engine(particles),
                                              likelihood=likelihood, refinement=refinement,
-                                             background=scene)
-    if method == "mht":
-        return trackers.mht_tracker(prior.template, states, num_modes=particles,
-                                    likelihood=likelihood, refinement=refinement,
-                                    background=scene)
-    raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+                                             background=scene, sequence_ids=ids)
+    return trackers.mht_tracker(prior.template, states, num_modes=particles,
+                                likelihood=likelihood, refinement=refinement,
+                                background=scene, sequence_ids=ids)
 
 
 def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
                particles: int | None = None, seed: int = 0,
                likelihood: Likelihood = Likelihood(),
                refinement: Refinement | None | str = "default", background: bool = True,
-               progress: bool = True):
+               baseline_dynamics: str = "training", progress: bool = True):
     """Track a test sequence with one method from frame 0's ground truth; returns the
     :class:`~jaxtrack.trackers.TrackResult` (its ``options`` say what ran; the other
     arguments: :func:`build_tracker`)."""
@@ -134,6 +162,6 @@ def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
 
     particles = particles or DEFAULT_PARTICLES[method]
     tracker = build_tracker(method, prior, sequence, particles, likelihood, refinement,
-                            background)
+                            background, baseline_dynamics)
     return track(tracker, jr.PRNGKey(seed), sequence.frames, sequence.truth[0],
                  progress=progress, description=f"{method} N={particles}")

@@ -25,7 +25,7 @@ from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE
 
 __all__ = ["AR2Dynamics", "DEFAULT_RIDGE", "LatentWalk", "constant_velocity",
-           "default_noise_floor", "fit_ar2", "random_walk_dynamics"]
+           "default_noise_floor", "fit_ar2", "random_walk_dynamics", "step_std_within"]
 
 DEFAULT_RIDGE = 1e-4
 """Relative ridge of :func:`fit_ar2`: the penalty is this fraction of the lag Gram matrix's mean
@@ -88,10 +88,11 @@ def _stabilise(first: Array, second: Array, max_root: float) -> tuple[Array, Arr
 
 
 @eqx.filter_jit
-def _fit_ar2(states: Array, ridge: Array, min_noise_std: Array, max_root: float) -> AR2Dynamics:
-    mean = jnp.mean(states, axis=0)
-    centred = states - mean
-    target, lag1, lag2 = centred[2:], centred[1:-1], centred[:-2]
+def _fit_ar2(centred: Array, mean: Array, valid: Array, ridge: Array, min_noise_std: Array,
+             max_root: float) -> AR2Dynamics:
+    # rows of `valid` False straddle two trajectories: they drop out of every sum
+    mask = valid[:, None].astype(centred.dtype)
+    target, lag1, lag2 = centred[2:] * mask, centred[1:-1] * mask, centred[:-2] * mask
     # per-dimension 2×2 normal equations of target ≈ a₁ lag1 + a₂ lag2
     g11, g12, g22 = (jnp.sum(lag1 * lag1, 0), jnp.sum(lag1 * lag2, 0), jnp.sum(lag2 * lag2, 0))
     b1, b2 = jnp.sum(lag1 * target, 0), jnp.sum(lag2 * target, 0)
@@ -106,7 +107,7 @@ def _fit_ar2(states: Array, ridge: Array, min_noise_std: Array, max_root: float)
     second = jnp.where(solvable, (g11 * b2 - g12 * b1) / safe, 0)
     first, second = _stabilise(first, second, max_root)
     residuals = target - first * lag1 - second * lag2
-    dof = jnp.maximum(target.shape[0] - 2, 1)
+    dof = jnp.maximum(jnp.sum(valid) - 2, 1)
     noise_std = jnp.sqrt(jnp.sum(residuals**2, axis=0) / dof)
     return AR2Dynamics(
         first_coefficients=first,
@@ -122,8 +123,9 @@ def fit_ar2(
     ridge: float = DEFAULT_RIDGE,
     min_noise_std: float | Float[ArrayLike, " state"] = 1e-6,
     max_root: float = 1.0,
+    sequence_ids: ArrayLike | None = None,
 ) -> AR2Dynamics:
-    """Learn diagonal AR(2) dynamics from a trajectory by ridge least squares.
+    """Learn diagonal AR(2) dynamics from a trajectory (or several) by ridge least squares.
 
     Each dimension is its own AR(2) process about the trajectory's mean μ,
     ``x_t − μ = a₁ (x_{t−1} − μ) + a₂ (x_{t−2} − μ) + w`` (so ``d = (1 − a₁ − a₂) μ``).
@@ -143,6 +145,10 @@ def fit_ar2(
         min_noise_std: floor of the noise standard deviation (scalar or ``(state,)``), so that
             no dimension gets zero noise.
         max_root: largest modulus allowed for the roots of ``z² − a₁ z − a₂``.
+        sequence_ids: ``(time,)`` one id per row when ``states`` stacks several trajectories
+            (e.g. training clips × views, ``PoseSet.sequence_ids``): only lags inside one
+            trajectory are fitted, each trajectory is centred on its own mean for the fit, and
+            μ is the mean over all rows. None: one trajectory.
 
     Returns:
         :class:`AR2Dynamics` in the dtype of ``states`` (float32 unless float64 comes in).
@@ -156,7 +162,29 @@ def fit_ar2(
     floor = jnp.broadcast_to(jnp.asarray(min_noise_std, states.dtype), states.shape[1:])
     if not bool(jnp.all(floor > 0)):
         raise ValueError("min_noise_std must be positive in every dimension")
-    return _fit_ar2(states, jnp.asarray(ridge, states.dtype), floor, float(max_root))
+    if sequence_ids is None:
+        centred, valid = states - jnp.mean(states, axis=0), jnp.ones(states.shape[0] - 2, bool)
+    else:
+        centred, valid = _centre_sequences(states, sequence_ids)
+    return _fit_ar2(centred, jnp.mean(states, axis=0), valid,
+                    jnp.asarray(ridge, states.dtype), floor, float(max_root))
+
+
+def _centre_sequences(states: Array, sequence_ids: ArrayLike) -> tuple[Array, Array]:
+    """Each trajectory minus its own mean, and which (t−2, t−1, t) triples lie in one."""
+    ids = np.asarray(sequence_ids)
+    if ids.shape != (states.shape[0],):
+        raise ValueError(f"sequence_ids must have one id per row of states ({states.shape[0]}), "
+                         f"got shape {ids.shape}")
+    _, index = np.unique(ids, return_inverse=True)
+    values = np.asarray(states, np.float64)
+    means = np.zeros((index.max() + 1, values.shape[1]))
+    np.add.at(means, index, values)
+    means /= np.bincount(index)[:, None]
+    valid = (index[2:] == index[1:-1]) & (index[1:-1] == index[:-2])
+    if not valid.any():
+        raise ValueError("no trajectory in sequence_ids has the 3 consecutive rows an AR(2) needs")
+    return jnp.asarray(values - means[index], states.dtype), jnp.asarray(valid)
 
 
 def random_walk_dynamics(
@@ -179,6 +207,17 @@ def random_walk_dynamics(
         first_coefficients=jnp.ones_like(steps), second_coefficients=jnp.zeros_like(steps),
         offset=jnp.zeros_like(steps), noise_std=jnp.maximum(steps, floor),
     )
+
+
+def step_std_within(states: ArrayLike, sequence_ids: ArrayLike | None = None) -> np.ndarray:
+    """``(state,)`` RMS frame-to-frame step of stacked trajectories, never across two."""
+    steps = np.diff(np.asarray(states, np.float64), axis=0)
+    if sequence_ids is not None:
+        ids = np.asarray(sequence_ids)
+        steps = steps[ids[1:] == ids[:-1]]
+    if len(steps) == 0:
+        raise ValueError("training_states need two consecutive frames of one trajectory")
+    return np.sqrt(np.mean(steps**2, axis=0))
 
 
 def default_noise_floor(torso_pixels: float, relative: float = 0.002) -> np.ndarray:

@@ -27,13 +27,21 @@ __all__ = ["TrainedPrior", "load_prior", "train_prior"]
 
 @dataclass(frozen=True)
 class TrainedPrior:
-    """A GPLVM with the SPM template its poses are expressed in."""
+    """A GPLVM with the SPM template its poses are expressed in.
+
+    ``training_states`` (``(n, 25)`` SPM states) and ``training_sequence_ids`` (``(n,)``, one id
+    per clip × view) are the poses it was trained on, in order: the baselines' dynamics are
+    learned from them (``jaxtrack.experiments.build_tracker``), so that no method learns
+    anything from the clip it is scored on. None for a prior saved before they were kept.
+    """
 
     model: GPLVM
     template: SPMTemplate
     description: dict
     seconds: float = 0.0
     labels: tuple[str, ...] = ()
+    training_states: np.ndarray | None = None
+    training_sequence_ids: np.ndarray | None = None
 
 
 _TEMPLATE_ARRAYS = ("reference_lengths", "reference_angles")
@@ -58,13 +66,16 @@ def load_prior(path: str | Path) -> TrainedPrior:
                                f"(missing {', '.join(missing)}); not written by train_prior")
     template = SPMTemplate(*(jnp.asarray(saved.arrays[name]) for name in _TEMPLATE_ARRAYS))
     return TrainedPrior(saved.model, template, saved.description,
-                        labels=tuple(saved.arrays.get("labels", ())))
+                        labels=tuple(saved.arrays.get("labels", ())),
+                        training_states=saved.arrays.get("training_states"),
+                        training_sequence_ids=saved.arrays.get("training_sequence_ids"))
 
 
 def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
                 active_size: int = 200, iterations: int = 3, active_steps: int = 300,
                 optimiser: str = "bfgs", seed: int = 0, cache: str | Path | None = None,
-                progress: bool = True, asf: str | os.PathLike | None = None) -> TrainedPrior:
+                progress: bool = True, asf: str | os.PathLike | None = None,
+                mirror: bool = False) -> TrainedPrior:
     """Train (or load from ``cache`` when it was trained with the same settings) a GPLVM.
 
     Args:
@@ -80,6 +91,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
             tracking result was measured with, or ``"lbfgs"``).
         cache: ``.npz`` path; reused when its settings match, (re)written otherwise.
         asf: the skeleton of every ``.amc`` path among ``clips`` (default: the one beside each).
+        mirror: also train on each clip's left-right mirror image (:meth:`Motion.mirror`: a
+            right-hand wave becomes a left-hand one), named ``<clip> (mirrored)``.
 
     Raises:
         jaxtrack.priors.gplvm.GPLVMFormatError: ``cache`` exists but is damaged or not a GPLVM.
@@ -92,16 +105,22 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
     settings = {"clips": identities, "views": views, "fps": fps, "active_size": active_size,
                 "iterations": iterations, "active_steps": active_steps,
                 "inactive_dtype": "float64", "seed": seed, "features": "spm_link_vectors",
-                # 2: μ from all poses through the active set; 3: fit_gplvm's faster defaults
-                "version": 3}
+                # 2: μ from all poses through the active set; 3: fit_gplvm's faster defaults;
+                # 4: the training poses kept for the baselines' dynamics
+                "version": 4}
     if optimiser != "bfgs":  # absent for BFGS, so that existing caches of it stay valid
         settings["optimiser"] = optimiser
+    if mirror:  # absent without, likewise
+        settings["mirror"] = True
     key = _settings_key(settings)
     if cache is not None and Path(cache).is_file():
         saved = load_prior(cache)
         if saved.description.get("settings_key") == key:
             return saved
-    poses = pose_set(clip_motions(clips, asf=asf), views=views, fps=fps)
+    motions = clip_motions(clips, asf=asf)
+    if mirror:
+        motions |= {f"{name} (mirrored)": motion.mirror() for name, motion in motions.items()}
+    poses = pose_set(motions, views=views, fps=fps)
     with jax.enable_x64(True):
         features = np.asarray(pose_features(poses.states, poses.template))
     fit = fit_gplvm(features, active_size=active_size, iterations=iterations,
@@ -116,5 +135,9 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
             "reference_lengths": np.asarray(poses.template.reference_lengths),
             "reference_angles": np.asarray(poses.template.reference_angles),
             "labels": np.array(labels),
+            "training_states": np.asarray(poses.states, np.float64),
+            "training_sequence_ids": np.asarray(poses.sequence_ids),
         })
-    return TrainedPrior(fit.model, poses.template, description, fit.seconds, labels)
+    return TrainedPrior(fit.model, poses.template, description, fit.seconds, labels,
+                        training_states=np.asarray(poses.states, np.float64),
+                        training_sequence_ids=np.asarray(poses.sequence_ids))

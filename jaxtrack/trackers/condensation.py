@@ -35,6 +35,7 @@ from jaxtrack.priors.dynamics import (
     default_noise_floor,
     fit_ar2,
     random_walk_dynamics,
+    step_std_within,
 )
 from jaxtrack.trackers._options import Engine, Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import (
@@ -218,6 +219,18 @@ def _noise_floor(states: np.ndarray, min_noise_std) -> np.ndarray:
     return np.asarray(min_noise_std, np.float64)
 
 
+def _placement_walks(dynamics, states, sequence_ids, floor):
+    walk = np.zeros(SPM_STATE_SIZE, bool)
+    walk[:3] = True
+    steps = np.maximum(step_std_within(states, sequence_ids), np.broadcast_to(floor, walk.shape))
+    dtype = dynamics.noise_std.dtype
+    return type(dynamics)(
+        first_coefficients=jnp.where(walk, 1.0, dynamics.first_coefficients).astype(dtype),
+        second_coefficients=jnp.where(walk, 0.0, dynamics.second_coefficients).astype(dtype),
+        offset=jnp.where(walk, 0.0, dynamics.offset).astype(dtype),
+        noise_std=jnp.where(walk, jnp.asarray(steps, dtype), dynamics.noise_std))
+
+
 def _cast(tree, dtype):
     return jax.tree.map(lambda leaf: jnp.asarray(np.asarray(leaf, np.float64), dtype), tree)
 
@@ -234,11 +247,13 @@ def condensation_tracker(
     min_noise_std: float | Float[ArrayLike, " 25"] | None = None,
     max_root: float = 1.0,
     initial_spread: float = 1.0,
+    sequence_ids: ArrayLike | None = None,
     dtype=jnp.float32,
 ) -> CondensationTracker:
     """Tian et al.'s baseline: CONDENSATION in the 25-d SPM state with AR(2) dynamics learned
-    from ``training_states`` (the paper: the first 30 frames of ground truth,
-    ``spm_initial_state(truth[:30], template)``).
+    from ``training_states``: the training clips' poses (``sequence_ids`` given, what the
+    evaluation does by default) or, as the paper did, the first 30 frames of the test clip's
+    ground truth (``spm_initial_state(truth[:30], template)``).
 
     Args:
         template: the SPM template the states are expressed in.
@@ -253,11 +268,19 @@ def condensation_tracker(
         min_noise_std: floor of the AR noise std (scalar or ``(25,)``); None:
             ``default_noise_floor`` of the training torso length.
         initial_spread: initial particles spread by this many noise stds about frame 0's state.
+        sequence_ids: ``(time,)`` when ``training_states`` stacks several trajectories (clips ×
+            views): lags are fitted within each (:func:`~jaxtrack.priors.dynamics.fit_ar2`),
+            and the placement (log scale, translation), which depends on each training
+            camera, walks (A₁ = 1, A₂ = 0, d = 0, noise the RMS step within trajectories)
+            instead of reverting to the training cameras' mean.
         dtype: the filter's float type.
     """
     states = _training_states(training_states)
     floor = _noise_floor(states, min_noise_std)
-    dynamics = fit_ar2(states, ridge=ridge, min_noise_std=floor, max_root=max_root)
+    dynamics = fit_ar2(states, ridge=ridge, min_noise_std=floor, max_root=max_root,
+                       sequence_ids=sequence_ids)
+    if sequence_ids is not None:
+        dynamics = _placement_walks(dynamics, states, sequence_ids, floor)
     return CondensationTracker(
         dynamics=dynamics.astype(dtype), template=_cast(template, dtype), likelihood=likelihood,
         engine=engine, refinement=refinement, background=background,

@@ -36,7 +36,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from jaxtrack import smc
-from jaxtrack.body import SPMTemplate, spm_forward
+from jaxtrack.body import SPM_LINKS, SPMTemplate, spm_forward
 from jaxtrack.likelihoods import PartTemplates
 from jaxtrack.priors.dynamics import LatentWalk
 from jaxtrack.priors.gplvm import GPLVM
@@ -86,6 +86,8 @@ class LatentModel(smc.StateSpaceModel):
         initial_spread: std of the initial cloud around the initial latent, in units of ν.
         sharpness: λ of the likelihood.
         nearest: read pixels at the nearest sample point (10–40× faster) instead of bilinearly.
+        link_scale: ``(11,)`` the tracked subject's link lengths over the prior's, fixed at
+            frame 0 (:attr:`LatentTracker.subject_lengths`); ones: the prior's proportions.
     """
 
     prior: GPLVM
@@ -96,6 +98,7 @@ class LatentModel(smc.StateSpaceModel):
     initial_placement: Float[Array, " 3"]
     initial_spread: Float[Array, ""]
     sharpness: Float[Array, ""]
+    link_scale: Float[Array, " 11"]
     nearest: bool = eqx.field(static=True, default=True)
 
     def init(self, key: PRNGKeyArray) -> dict:
@@ -110,9 +113,15 @@ class LatentModel(smc.StateSpaceModel):
         latent, placement = self.walk.sample(key, particle["latent"], particle["placement"])
         return {"latent": latent, "placement": placement}
 
+    def features_of(self, latent: Float[Array, " latent"]) -> Float[Array, " 22"]:
+        """μ(x) with every link stretched to the tracked subject's proportions."""
+        vectors = self.prior.mean(latent).reshape(-1, 2) * self.link_scale[:, None]
+        return vectors.reshape(-1)
+
     def markers_of(self, particle: dict) -> Float[Array, "markers 2"]:
         # spm_forward(states_from_features(μ(x), placement)) without the angles in between
-        return markers_from_features(self.prior.mean(particle["latent"]), particle["placement"])
+        return markers_from_features(self.features_of(particle["latent"]),
+                                     particle["placement"])
 
     def log_likelihood(self, particle: dict, observation) -> Float[Array, ""]:
         # Tian et al. eq. 7's form on the markers of μ(x)
@@ -161,6 +170,10 @@ class LatentTracker(Tracker):
         initial_spread: std of the initial cloud about μ⁻¹ of frame 0's pose, in units of ν.
         jump_probability: chance per particle and frame of a jump to a training latent.
         mode_radius: the estimate averages the particles within this many ν of the best one.
+        subject_lengths: decode every particle with the tracked subject's link lengths: each
+            link of μ(x) is stretched by (its length in frame 0's pose) / (its length in μ of
+            μ⁻¹(frame 0's pose)), clipped to [1/2, 2], so a person whose proportions differ
+            from the training subjects' is not drawn with theirs. False: the paper's decoder.
     """
 
     prior: GPLVM
@@ -175,6 +188,7 @@ class LatentTracker(Tracker):
     initial_spread: float = eqx.field(static=True, default=1.0)
     jump_probability: float = eqx.field(static=True, default=DEFAULT_JUMP_PROBABILITY)
     mode_radius: float = eqx.field(static=True, default=3.0)
+    subject_lengths: bool = eqx.field(static=True, default=False)
 
     def __check_init__(self):
         if not 0 <= self.jump_probability < 1:
@@ -196,7 +210,8 @@ class LatentTracker(Tracker):
                 "refinement": options_record(self.refinement),
                 "foreground": self.background is not None,
                 "placement_std": self.placement_std, "initial_spread": self.initial_spread,
-                "jump_probability": self.jump_probability, "mode_radius": self.mode_radius}
+                "jump_probability": self.jump_probability, "mode_radius": self.mode_radius,
+                "subject_lengths": self.subject_lengths}
 
     def start(self, key: PRNGKeyArray, first_frame, initial_pose) -> LatentState:
         markers = check_initial_pose(initial_pose)
@@ -207,6 +222,13 @@ class LatentTracker(Tracker):
             features = pose_features(jnp.asarray(state), jax.tree.map(
                 lambda leaf: jnp.asarray(np.asarray(leaf), jnp.float64), self.template))
             latent = np.asarray(prior.inverse(features[None]).latents[0])
+            link_scale = np.ones(len(SPM_LINKS))
+            if self.subject_lengths:
+                decoded = np.asarray(prior.mean(jnp.asarray(latent))).reshape(-1, 2)
+                observed = np.asarray(features).reshape(-1, 2)
+                ratio = (np.linalg.norm(observed, axis=-1)
+                         / np.maximum(np.linalg.norm(decoded, axis=-1), 1e-9))
+                link_scale = np.clip(ratio, 0.5, 2.0)
         torso = float(np.exp(state[0]))
         placement_std = self.placement_std
         if placement_std is None:
@@ -222,7 +244,7 @@ class LatentTracker(Tracker):
                             pool=self.prior.latents, placement_std=cast(placement_std)),
             initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
             initial_spread=cast(self.initial_spread), sharpness=cast(self.likelihood.lam),
-            nearest=self.likelihood.nearest)
+            link_scale=cast(link_scale), nearest=self.likelihood.nearest)
         refined, refine_std = start_refinement(self.refinement, cast(state))
         filtered = initialize_filter(key, model, jnp.asarray(first_frame),
                                     self.num_particles)
@@ -261,7 +283,7 @@ class LatentTracker(Tracker):
             return LatentState(model, filtered, None, None), estimate
         with jax.named_scope("candidates"):
             particle = self.estimate_particle(model, filtered.particles, filtered.log_weights)
-            decoded = states_from_features(model.prior.mean(particle["latent"]),
+            decoded = states_from_features(model.features_of(particle["latent"]),
                                            particle["placement"], model.template)
         # the carried pose and μ of the particles' estimate refined side by side; the particles
         # stay in the latent space (the refinement does not feed back into them)
@@ -285,6 +307,7 @@ def latent_tracker(
     initial_spread: float = 1.0,
     jump_probability: float = DEFAULT_JUMP_PROBABILITY,
     mode_radius: float = 3.0,
+    subject_lengths: bool = False,
     dtype=jnp.float32,
 ) -> LatentTracker:
     """The latent tracker with a trained prior.
@@ -306,6 +329,7 @@ def latent_tracker(
         initial_spread: see :class:`LatentTracker`.
         jump_probability: see :class:`LatentTracker`.
         mode_radius: see :class:`LatentTracker`.
+        subject_lengths: see :class:`LatentTracker`.
         dtype: the filter's float type (μ⁻¹ at the start always runs in float64).
     """
     std = np.asarray(prior.dynamics_std, np.float64)
@@ -334,4 +358,4 @@ def latent_tracker(
         latent_std=cast(std), engine=engine, host_prior=_HostPrior(prior),
         refinement=refinement, background=background, placement_std=placement_std,
         initial_spread=float(initial_spread), jump_probability=float(jump_probability),
-        mode_radius=float(mode_radius))
+        mode_radius=float(mode_radius), subject_lengths=bool(subject_lengths))

@@ -53,7 +53,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int, PRNGKeyArray
 from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE, SPMTemplate, spm_forward
 from jaxtrack.likelihoods import PartTemplates
-from jaxtrack.priors.dynamics import constant_velocity, default_noise_floor
+from jaxtrack.priors.dynamics import constant_velocity, default_noise_floor, step_std_within
 from jaxtrack.trackers._gauss_newton import refine_pose
 from jaxtrack.trackers._options import Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import check_initial_pose, frame0_state, frame0_templates
@@ -362,6 +362,7 @@ def mht_tracker(
     prune_below: float = 1.0,
     max_steps: int = 10,
     min_step_std: float | Float[ArrayLike, " 25"] | None = None,
+    sequence_ids: ArrayLike | None = None,
     dtype=jnp.float32,
 ) -> MHTTracker:
     """Multiple-hypothesis tracking with ``num_modes`` modes in the 25-d SPM state.
@@ -384,6 +385,8 @@ def mht_tracker(
         prune_below: see :class:`MHTTracker`.
         max_steps: see :class:`MHTTracker`.
         min_step_std: see :class:`MHTTracker`.
+        sequence_ids: ``(time,)`` when ``training_states`` stacks several trajectories
+            (training clips × views): steps are measured within each, never across two.
         dtype: the tracker's float type.
     """
     if step_std is None and training_states is not None:
@@ -392,7 +395,7 @@ def mht_tracker(
                 or training_states.shape[0] < 2):
             raise ValueError(f"training_states must be (time >= 2, {SPM_STATE_SIZE}) SPM "
                              f"states, got {training_states.shape}")
-        step_std = np.sqrt(np.mean(np.diff(training_states, axis=0) ** 2, axis=0))
+        step_std = step_std_within(training_states, sequence_ids)
     if step_std is not None:
         step_std = np.asarray(step_std, np.float64)
         if step_std.shape != (SPM_STATE_SIZE,) or not np.all(np.isfinite(step_std)):

@@ -392,3 +392,24 @@ def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
         refine_pose(start, frame, templates, template, start, std, solver="lbfgs")
     with pytest.raises(ValueError, match="FrameInChunk"):
         refine_pose(start, (frames, 1, 0), templates, template, start, std, solver="parts")
+
+
+def test_fit_ar2_over_several_trajectories_never_fits_across_two():
+    rng = np.random.default_rng(0)
+
+    def trajectory(mean, length=300):
+        x = np.zeros((length, 2))
+        for t in range(2, length):
+            x[t] = 1.5 * x[t - 1] - 0.7 * x[t - 2] + rng.normal(0, 0.1, 2)
+        return x + mean
+
+    states = np.concatenate([trajectory(0.0), trajectory(50.0)])
+    ids = np.repeat([3, 7], 300)
+    joint = fit_ar2(states, sequence_ids=ids)
+    np.testing.assert_allclose(joint.first_coefficients, 1.5, atol=0.05)
+    np.testing.assert_allclose(joint.second_coefficients, -0.7, atol=0.05)
+    np.testing.assert_allclose(joint.noise_std, 0.1, atol=0.01)
+    # stacked as one trajectory, the jump between the two means inflates the noise
+    assert np.all(np.asarray(fit_ar2(states).noise_std) > 2 * np.asarray(joint.noise_std))
+    with pytest.raises(ValueError, match="one id per row"):
+        fit_ar2(states, sequence_ids=ids[:-1])
