@@ -199,10 +199,14 @@ def _step(key, model: MixedStateModel, postures, parts, velocities, log_weights,
     log_f = model.postures.log_transition + model.log_posture_likelihoods(frame)[None, :]
     log_rows = jax.nn.logsumexp(log_f, axis=1)
     log_f = (log_f - log_rows[:, None]).astype(dtype)
-    children = jr.categorical(key_posture, log_f[postures])
-    velocities = velocities + model.velocity_std.astype(dtype) * jr.normal(
+    # inverse-CDF draw from the parent's row of F: one uniform per particle
+    cumulative = jnp.cumsum(jnp.exp(log_f), axis=1)
+    uniforms = jr.uniform(key_posture, (num,), dtype) * cumulative[:, -1][postures]
+    children = jnp.minimum(jnp.sum(cumulative[postures] < uniforms[:, None], axis=1),
+                           NUM_POSTURES - 1).astype(postures.dtype)
+    velocities = velocities + model.velocity_std.astype(dtype) * smc.fast_normal(
         key_velocity, velocities.shape, dtype)
-    predicted = parts + velocities + model.position_std.astype(dtype) * jr.normal(
+    predicted = parts + velocities + model.position_std.astype(dtype) * smc.fast_normal(
         key_position, parts.shape, dtype)
     projected = jax.vmap(_project, in_axes=(0, None))(predicted, frame.nearest)
     predicted = jnp.where(ok, projected, predicted)
