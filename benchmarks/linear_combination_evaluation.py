@@ -6,9 +6,10 @@ gestures, eq. 9's tolerances P, Q and the propagation step ω are chosen on a va
 subject's wave (Bandai-Namco), and the test subject's two waves (AnimatedDrawings cmu_1006) are
 only scored. Every clip is rendered through Pose2Sim cameras (``--views``) over the real-photo
 background. The error surface (``--surface``) repeats the test (and a training clip) over a grid
-of cluster counts and sample counts, as the paper's Fig. 10 and 12.
+of cluster counts and sample counts, as the paper's Fig. 10 and 12; ``--multi-view`` tracks each
+test clip in every view and selects a view per frame by fitness × 1/ambiguity (§5.5–5.7).
 
-    python -m benchmarks.linear_combination_evaluation [--frames 90] [--surface]
+    python -m benchmarks.linear_combination_evaluation [--frames 90] [--surface] [--multi-view]
 """
 
 from __future__ import annotations
@@ -51,6 +52,8 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--surface", action="store_true", help="also the clusters × samples "
                                                                 "error surface")
+    parser.add_argument("--multi-view", action="store_true", help="also view selection over "
+                                                                   "the four cameras")
     parser.add_argument("--out", default=str(RESULTS / "linear_combination_evaluation.json"))
     arguments = parser.parse_args()
 
@@ -120,6 +123,19 @@ def main() -> None:
     print_table(rows, [("method", "method", "s"), ("step", "ω", "g"),
                        ("error_m", "3-D error m", ".4f"), ("worst_m", "worst seq. m", ".4f")])
 
+    selection = []
+    if arguments.multi_view:
+        from jaxtrack.priors.linear_combinations import training_ambiguity
+
+        ambiguities = training_ambiguity(trained.vectors, trained.model.layout)
+        for clip in TEST:
+            result = lc.multi_view(trained, clip, views=views, max_frames=arguments.frames,
+                                   fitness=fitness, step=jnp.asarray(steps["linear-combination"]),
+                                   ambiguities=ambiguities, **engine)
+            selection.append({key: result[key] for key in (
+                "clip", "selected_m", "best_m", "worst_m", "single_view_m", "selected_is_best")})
+            print(json.dumps(selection[-1]), flush=True)
+
     surface = []
     if arguments.surface:
         training_sequence = lc.render_hybrid_sequences(TRAIN[0], **render)
@@ -139,7 +155,8 @@ def main() -> None:
                                "frames": arguments.frames, "trained": trained.description,
                                "sweep": sweep, "chosen": {"P": best["P"], "Q": best["Q"],
                                                           "steps": steps},
-                               "test_rows": rows, "surface": surface})
+                               "test_rows": rows, "view_selection": selection,
+                               "surface": surface})
 
 
 if __name__ == "__main__":

@@ -1,0 +1,53 @@
+"""The scripted comparison (``python -m benchmarks.tracking``): its statistics and a quick run."""
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmarks import tracking
+
+
+def test_t_interval_is_the_students_t_half_width():
+    values = [0.10, 0.12, 0.08, 0.11]
+    expected = 3.182446 * np.std(values, ddof=1) / 2  # t(0.975, 3) × s / √4
+    assert tracking.t_interval(values) == pytest.approx(expected, rel=1e-5)
+    assert tracking.t_interval([0.1]) == 0.0
+
+
+def test_summarise_groups_runs_by_configuration():
+    def run(method, estimate, error, failed, seed):
+        return {"method": method, "estimate": estimate, "likelihood": "limbs+edges",
+                "particles": 200, "sequence": "s", "seed": seed, "mean_error_torso": error,
+                "mean_error_px": 100 * error, "fraction_within_15": 1 - error, "failed": failed,
+                "ms_per_frame": 10.0 + seed, "compile_seconds": 5.0 - seed}
+
+    rows = tracking.summarise([run("latent", "own", 0.2, True, 0), run("latent", "own", 0.1,
+                                                                      False, 1),
+                               run("condensation", "refined", 0.05, False, 0)])
+    assert [(row["method"], row["estimate"]) for row in rows] == [("latent", "own"),
+                                                                   ("condensation", "refined")]
+    latent = rows[0]
+    assert latent["runs"] == 2 and latent["lost"] == "1/2"
+    assert latent["error_torso"] == pytest.approx(0.15)
+    assert latent["ms_per_frame"] == pytest.approx(10.5) and latent["compile_seconds"] == 5.0
+    assert "| latent | own |" in tracking.markdown_table(rows)
+
+
+def test_quick_comparison_writes_every_output(tmp_path, monkeypatch):
+    monkeypatch.setattr(tracking, "RESULTS", tmp_path / "results")
+    out = tmp_path / "quick"
+    assert tracking.main(["--quick", "--out", str(out)]) == 0
+    runs = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
+    assert len(runs) == 4 and {run["estimate"] for run in runs} == {"own", "refined"}
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["split"] == "test" and summary["baseline_dynamics"] == "training"
+    assert all(np.isfinite(row["error_torso"]) for row in summary["rows"])
+    assert (out / "errors.png").stat().st_size > 1000
+    assert "error/torso" in (out / "table.md").read_text()
+
+
+def test_bad_arguments_are_refused_in_one_line(capsys):
+    with pytest.raises(SystemExit):
+        tracking.main(["--seeds", "0"])
+    assert "--seeds must be at least 1" in capsys.readouterr().err
