@@ -93,7 +93,7 @@ class HybridSequence:
         name: ``<clip>_<camera>``.
         clip: the clip's name.
         vectors: ``(time, vector)`` hybrid vectors from the exact silhouette (NaN rows where
-            the frame had no three skin blobs, or the silhouette touched the image's edge).
+            the frame had no silhouette or no three skin blobs).
         valid: ``(time,)`` rows of ``vectors`` that are usable.
         skeleton: ``(time, 12, 3)`` the true skeleton (camera frame, neck-relative, metres).
         observations: the frames as the tracker observes them (numpy leaves), or None.
@@ -116,10 +116,6 @@ def _background_of(sequence, size) -> np.ndarray:
     name = sequence.settings["background"]
     rng = np.random.default_rng([int(sequence.seed), 1])  # the renderer's background stream
     return _backgrounds.make_background(name, size, rng)[0]
-
-
-def _touches_border(mask: np.ndarray) -> bool:
-    return bool(mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any())
 
 
 def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
@@ -201,8 +197,9 @@ def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
         vectors = np.full((motion.num_frames, layout.size), np.nan)
         for t in range(motion.num_frames):
             silhouette = rendered.silhouettes[t]
-            if not silhouette.any() or _touches_border(silhouette):
-                continue  # no contour, or one cut by the image's edge
+            if not silhouette.any():
+                continue  # no contour (a figure cut by the crop's edge is kept, as in the
+                # paper's upper-body views: the crop frames the upper body, arms may leave it)
             blobs = skin_blobs(skin_mask(rendered.images[t], silhouette, reference=reference))
             if not blobs.found:
                 continue

@@ -248,7 +248,7 @@ def step(
     degenerate = jnp.any(degenerate)
     info = StepInfo(
         increment, _reported_ess(log_weights, degenerate), resampled, degenerate,
-        jnp.sum(num_invalid), ancestors,
+        jnp.sum(num_invalid, dtype=jnp.int32), ancestors,
     )
     new_state = FilterState(particles, log_weights, time, state.log_evidence + increment)
     return new_state, info
