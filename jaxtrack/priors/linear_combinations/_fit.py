@@ -179,6 +179,9 @@ def fit_linear_combinations(
                          f"{sequence_ids.shape}")
     if not np.all(np.isfinite(vectors)):
         raise ValueError("vectors hold non-finite values")
+    if len(vectors) < max(2, num_clusters):
+        raise ValueError(f"got {len(vectors)} hybrid vectors: fitting needs at least 2 and at "
+                         f"least num_clusters ({num_clusters})")
     if not 0 < variance_fraction <= 1 or not 0 < local_variance_fraction <= 1:
         raise ValueError("variance_fraction and local_variance_fraction must be in (0, 1]")
     weights = part_weights(vectors, layout)
