@@ -61,8 +61,12 @@ def main(argv=None) -> dict:
     args = parser.parse_args(argv)
     if args.frames < 2 or args.particles < 1 or args.repeats < 1:
         parser.error("--frames must be at least 2, --particles and --repeats at least 1")
-    from jaxtrack.trackers.mixed_state import (MixedStateModel, filter_sequence, smooth,
-                                               smooth_fixed_lag)
+    from jaxtrack.trackers.mixed_state import (
+        MixedStateModel,
+        filter_sequence,
+        smooth,
+        smooth_fixed_lag,
+    )
 
     observations, posture_model = _observations(args.frames)
     model = MixedStateModel(jax.tree.map(lambda leaf: leaf.astype(np.float32), posture_model))

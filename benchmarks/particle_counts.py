@@ -1,18 +1,27 @@
-"""Bootstrap-filter throughput vs particle count, against a NumPy reference (and pydpf's figures).
+"""Bootstrap-filter throughput vs particle count: the engine, a straightforward JAX filter and
+NumPy side by side (and pydpf's published figures).
 
-The model follows pydpf's linear-Gaussian benchmark generator: state dimension 25, observation
-dimension 1, dense sparse-random dynamics with spectral radius < 1, random SPD noise covariances,
-T = 1000 frames, a batch of 128 sequences. (pydpf's bias vectors are left out: they add one vector
-addition per particle and change no cost.) float32, systematic resampling at every frame.
+The model is pydpf's linear-Gaussian benchmark (``--model pydpf``, the default): state 25,
+observation 1, A_ij = 0.38^(|i−j|+1), Q = I, H = e₁, R = 1, T = 1000 frames, a batch of 128
+sequences, float32, systematic resampling at every frame. ``--model random`` draws dense
+random dynamics and covariances the way pydpf's data generator does.
 
-Two measurements, compile time apart from run time (median of repeats):
-1. batch: 128 sequences at N in {100, 1 000, 10 000} through ``smc.run_batch`` (chunked);
-2. sweep: one sequence at N = 10^2 ... 10^6.
-The NumPy reference runs the same filter (same model, same observations) on a few sequences of
-each configuration in the same process; the table prints JAX/NumPy speed ratios.
+Three filters run the same data in one process:
 
-    python -m benchmarks.particle_counts            # full run (tens of minutes on 2 cores)
-    python -m benchmarks.particle_counts --quick    # smaller batch and sweep, for a smoke test
+* the engine: ``smc.run_batch`` with ``smc.LinearGaussian`` (chunking ``"auto"``);
+* the straightforward JAX filter a user would write in thirty lines
+  (:func:`straightforward_filter`: particles as one ``(N, 25)`` array, ``x @ A.T`` plus
+  ``jax.random.normal`` noise, ``cumsum`` + ``searchsorted`` systematic resampling, one
+  ``lax.scan``, ``jit(vmap(...))`` over the whole batch);
+* the same filter in NumPy on a few sequences.
+
+The engine and the straightforward filter alternate (``--alternations``, E S E S …) and the
+table prints medians and the median of the per-pair ratios; compile time is measured apart
+(lowering and compiling, before any run). Every log-evidence is checked against the exact
+Kalman value. A single-sequence sweep N = 10² … 10⁶ reports per-frame time and peak memory.
+
+    python -m benchmarks.particle_counts            # full run (about an hour on 2 cores)
+    python -m benchmarks.particle_counts --quick    # batch 8, 100 frames, for a smoke test
 
 ``--tracking`` runs the other sweep instead: tracking error and ms/frame of the three trackers
 (latent, CONDENSATION, MHT) on the demo's held-out wave vs N, see ``benchmarks/_tracking_sweep.py``:
@@ -24,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import statistics
 import sys
 import time
 
@@ -31,6 +41,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+from jax import lax
 from tqdm import tqdm
 
 from benchmarks._common import device_description, peak_rss_mb, print_table, time_call, write_json
@@ -59,6 +70,75 @@ def pydpf_style_model(seed: int = 0, state_dim: int = 25, observation_dim: int =
     arrays = (dynamics, spd(state_dim, 0.3, 0.1), observation, spd(observation_dim, 0.3, 0.2),
               np.zeros(state_dim), spd(state_dim, 1.0, 0.3))
     return smc.LinearGaussian(*(jnp.asarray(a, jnp.float32) for a in arrays))
+
+
+def pydpf_benchmark_model(state_dim: int = 25) -> smc.LinearGaussian:
+    """pydpf's linear-Gaussian benchmark: A_ij = 0.38^(|i−j|+1), Q = I, H = e₁, R = 1,
+    x₀ ~ N(0, I)."""
+    index = np.arange(state_dim)
+    transition = 0.38 ** (np.abs(index[:, None] - index[None, :]) + 1.0)
+    observation = np.zeros((1, state_dim))
+    observation[0, 0] = 1.0
+    arrays = (transition, np.eye(state_dim), observation, np.eye(1), np.zeros(state_dim),
+              np.eye(state_dim))
+    return smc.LinearGaussian(*(jnp.asarray(a, jnp.float32) for a in arrays))
+
+
+def straightforward_filter(model: smc.LinearGaussian, num_particles: int):
+    """The bootstrap filter a user writes in plain JAX, as ``(key, observations) -> log Z``.
+
+    Particles are one ``(N, state)`` array; ``x @ A.T`` plus ``jax.random.normal`` noise
+    (times chol(Q) unless Q = I), Gaussian log-weights, systematic resampling by ``cumsum`` and
+    ``searchsorted``, one ``lax.scan`` over frames.
+    """
+    transition_t = jnp.asarray(model.transition_matrix).T
+    observation_t = jnp.asarray(model.observation_matrix).T
+    chol_q = np.linalg.cholesky(np.asarray(model.transition_covariance, np.float64))
+    noise_t = None if np.allclose(chol_q, np.eye(len(chol_q))) else jnp.asarray(chol_q.T,
+                                                                                 jnp.float32)
+    r_inv = np.linalg.inv(np.linalg.cholesky(np.asarray(model.observation_covariance,
+                                                        np.float64)))
+    r_inv_t = jnp.asarray(r_inv.T, jnp.float32)
+    log_norm = float(np.log(np.abs(np.linalg.det(r_inv)))
+                     - 0.5 * r_inv.shape[0] * math.log(2 * math.pi))
+    chol_p_t = jnp.asarray(np.linalg.cholesky(np.asarray(model.initial_covariance,
+                                                         np.float64)).T, jnp.float32)
+    mean0, dim, n = jnp.asarray(model.initial_mean), model.state_dim, num_particles
+
+    def log_likelihood(x, y):
+        residual = (y[None] - x @ observation_t) @ r_inv_t
+        return log_norm - 0.5 * jnp.sum(residual * residual, axis=1)
+
+    def log_mean_weight(log_weights):
+        top = jnp.max(log_weights)
+        return top + jnp.log(jnp.sum(jnp.exp(log_weights - top))) - math.log(n)
+
+    def filter_one(key, observations):
+        key_init, key_frames = jr.split(key)
+        x = mean0 + jr.normal(key_init, (n, dim)) @ chol_p_t
+        log_weights = log_likelihood(x, observations[0])
+
+        def frame(carry, inputs):
+            x, log_weights, log_evidence = carry
+            key, y = inputs
+            key_offset, key_noise = jr.split(key)
+            log_evidence = log_evidence + log_mean_weight(log_weights)
+            cumulative = jnp.cumsum(jnp.exp(log_weights - jnp.max(log_weights)))
+            positions = (jnp.arange(n) + jr.uniform(key_offset)) / n * cumulative[-1]
+            ancestors = jnp.minimum(jnp.searchsorted(cumulative, positions, side="right"), n - 1)
+            noise = jr.normal(key_noise, (n, dim))
+            if noise_t is not None:
+                noise = noise @ noise_t
+            x = x[ancestors] @ transition_t + noise
+            return (x, log_likelihood(x, y), log_evidence), None
+
+        frames = observations.shape[0]
+        (x, log_weights, log_evidence), _ = lax.scan(
+            frame, (x, log_weights, jnp.zeros((), jnp.float32)),
+            (jr.split(key_frames, frames - 1), observations[1:]))
+        return log_evidence + log_mean_weight(log_weights)
+
+    return filter_one
 
 
 def numpy_bootstrap_filter(model, observations: np.ndarray, num_particles: int, seed: int) -> float:
@@ -105,30 +185,70 @@ def _numpy_seconds_per_sequence(model, observations, num_particles, sequences):
     return float(np.median(times))
 
 
-def batch_benchmark(model, observations, particle_counts, numpy_sequences, chunk_size):
+def _compile(function, *args):
+    """(seconds to lower and compile, the compiled function)."""
+    start = time.perf_counter()
+    compiled = jax.jit(function).lower(*args).compile()
+    return time.perf_counter() - start, compiled
+
+
+def _timed(function, *args):
+    start = time.perf_counter()
+    output = jax.block_until_ready(function(*args))
+    return time.perf_counter() - start, output
+
+
+def batch_benchmark(model, observations, particle_counts, numpy_sequences, alternations):
+    """Engine and straightforward filter alternating on the whole batch; NumPy on a few."""
     rows = []
     batch, frames = observations.shape[:2]
     keys = jr.split(jr.key(1), batch)
+    exact = np.asarray(jax.vmap(lambda y: smc.kalman_filter(model, y).log_evidence)(observations))
     for num_particles in tqdm(particle_counts, desc="batch", leave=False):
-        run = lambda k, y, n=num_particles: smc.run_batch(  # noqa: E731
-            k, model, y, n, chunk_size=chunk_size).log_evidence
-        compile_s, run_s, log_evidence = time_call(run, keys, observations, repeats=1)
-        assert np.all(np.isfinite(np.asarray(log_evidence))), "non-finite log evidence"
+        chunk = smc.auto_chunk_size(model, num_particles, batch)
+        engine_compile, _ = _compile(lambda k, y, c=min(chunk, batch), n=num_particles:
+                                     smc.run_batch(k[:c], model, y[:c], n,
+                                                   chunk_size=None).log_evidence,
+                                     keys, observations)
+        engine = lambda k, y, n=num_particles, c=chunk: smc.run_batch(  # noqa: E731
+            k, model, y, n, chunk_size=c).log_evidence
+        simple_compile, simple = _compile(jax.vmap(straightforward_filter(model, num_particles)),
+                                          keys, observations)
+        _timed(engine, keys, observations)  # warm: the chunk's compiled function is cached
+        engine_times, simple_times = [], []
+        for _ in tqdm(range(alternations), desc=f"N={num_particles}", leave=False):
+            seconds, engine_evidence = _timed(engine, keys, observations)
+            engine_times.append(seconds)
+            seconds, simple_evidence = _timed(simple, keys, observations)
+            simple_times.append(seconds)
+        engine_s, simple_s = statistics.median(engine_times), statistics.median(simple_times)
+        ratio = statistics.median(s / e for s, e in zip(simple_times, engine_times, strict=True))
         numpy_s = _numpy_seconds_per_sequence(model, observations, num_particles, numpy_sequences)
         reference = PYDPF_SECONDS_PER_BATCH["cpu"].get(num_particles)
         if reference is not None:  # pydpf timed 128 x 1000 frames: scale to this workload
             reference *= batch * frames / (128 * 1000)
         rows.append(dict(
-            mode="batch", particles=num_particles, sequences=batch, frames=frames,
-            compile_s=compile_s, run_s=run_s, per_sequence_s=run_s / batch,
-            per_frame_ms=1e3 * run_s / (batch * frames),
-            particle_frames_per_s=num_particles * frames * batch / run_s,
-            numpy_per_sequence_s=numpy_s, speedup_vs_numpy=numpy_s / (run_s / batch),
+            mode="batch", particles=num_particles, sequences=batch, frames=frames, chunk=chunk,
+            compile_s=engine_compile, run_s=engine_s, per_sequence_s=engine_s / batch,
+            per_frame_ms=1e3 * engine_s / (batch * frames),
+            particle_frames_per_s=num_particles * frames * batch / engine_s,
+            engine_error=_evidence_error(engine_evidence, exact),
+            simple_compile_s=simple_compile, simple_run_s=simple_s,
+            simple_error=_evidence_error(simple_evidence, exact),
+            speedup_vs_simple=ratio, engine_times=engine_times, simple_times=simple_times,
+            numpy_per_sequence_s=numpy_s, speedup_vs_numpy=numpy_s / (engine_s / batch),
             pydpf_cpu_s=reference,
-            speedup_vs_pydpf_cpu=None if reference is None else reference / run_s,
+            speedup_vs_pydpf_cpu=None if reference is None else reference / engine_s,
             peak_rss_mb=peak_rss_mb(),
         ))
     return rows
+
+
+def _evidence_error(log_evidence, exact) -> float:
+    """Mean |log Z − exact| over the sequences; a non-finite estimate fails the benchmark."""
+    log_evidence = np.asarray(log_evidence, np.float64)
+    assert np.all(np.isfinite(log_evidence)), "non-finite log evidence"
+    return float(np.mean(np.abs(log_evidence - exact)))
 
 
 def sweep_benchmark(model, observations, particle_counts, numpy_limit):
@@ -172,35 +292,44 @@ def main(argv=None) -> int:
                         help="frames of the single-sequence sweep (100)")
     parser.add_argument("--numpy-sequences", type=int, default=2,
                         help="sequences the NumPy reference runs per batch configuration")
-    parser.add_argument("--chunk-size", type=int, default=4,
-                        help="sequences vmapped at once (4; 16 falls out of cache at N = 10^4)")
+    parser.add_argument("--alternations", type=int, default=3,
+                        help="engine / straightforward filter runs, alternating (3)")
+    parser.add_argument("--model", choices=("pydpf", "random"), default="pydpf",
+                        help="pydpf's benchmark model (default) or pydpf-style random dynamics")
     parser.add_argument("--quick", action="store_true", help="batch 8, 100 frames, N <= 10^5")
     parser.add_argument("--json", default="benchmarks/results/particle_counts.json")
     args = parser.parse_args(argv)
     if args.quick:
-        args.batch, args.frames = 8, 100
+        args.batch, args.frames, args.alternations = 8, 100, 1
         args.sweep_particles = [n for n in args.sweep_particles if n <= 100_000]
-    model = pydpf_style_model()
+    model = pydpf_benchmark_model() if args.model == "pydpf" else pydpf_style_model()
     _, observations = jax.vmap(lambda k: model.sample(k, args.frames))(
         jr.split(jr.key(0), args.batch))
     print(f"device: {device_description()}")
-    print(f"model: linear-Gaussian, state 25, observation 1, float32; batch {args.batch} x "
-          f"{args.frames} frames; sweep 1 x {args.sweep_frames} frames")
+    print(f"model: {args.model} linear-Gaussian, state 25, observation 1, float32; batch "
+          f"{args.batch} x {args.frames} frames; sweep 1 x {args.sweep_frames} frames")
     rows = batch_benchmark(model, observations, args.batch_particles, args.numpy_sequences,
-                           args.chunk_size)
+                           args.alternations)
     rows += sweep_benchmark(model, observations[0, :args.sweep_frames], args.sweep_particles,
                             numpy_limit=100_000)
     columns = [("mode", "mode", "s"), ("particles", "N", "d"), ("sequences", "seqs", "d"),
-               ("compile_s", "compile s", ".2f"), ("run_s", "run s", ".3f"),
-               ("per_sequence_s", "s/seq", ".4f"), ("per_frame_ms", "ms/frame", ".4f"),
+               ("chunk", "chunk", "d"), ("compile_s", "compile s", ".2f"),
+               ("run_s", "run s", ".3f"), ("per_frame_ms", "ms/seq-frame", ".4f"),
                ("particle_frames_per_s", "particle-frames/s", ".3g"),
+               ("simple_compile_s", "simple compile s", ".2f"),
+               ("simple_run_s", "simple run s", ".3f"),
+               ("speedup_vs_simple", "x simple", ".2f"),
                ("numpy_per_sequence_s", "numpy s/seq", ".4f"),
                ("speedup_vs_numpy", "x numpy", ".1f"), ("pydpf_cpu_s", "pydpf cpu s*", ".1f"),
-               ("speedup_vs_pydpf_cpu", "x pydpf", ".2f"), ("peak_rss_mb", "peak MB", ".0f")]
+               ("speedup_vs_pydpf_cpu", "x pydpf", ".2f"),
+               ("engine_error", "|logZ err| engine", ".2f"),
+               ("simple_error", "|logZ err| simple", ".2f"), ("peak_rss_mb", "peak MB", ".0f")]
     print_table(rows, columns)
     write_json(args.json, {"benchmark": "particle_counts", "device": device_description(),
                            "arguments": vars(args), "rows": rows})
-    print("* pydpf's published CPU time per 128 x 1000-frame batch, scaled to this batch x frames")
+    print("x simple: the straightforward JAX filter's time over the engine's (median of the "
+          "alternating pairs); * pydpf's published CPU time per 128 x 1000-frame batch, scaled "
+          "to this batch x frames")
     print(f"wrote {args.json}")
     return 0
 

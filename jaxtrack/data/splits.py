@@ -96,7 +96,8 @@ _CLIP_SUBJECT = {clip: subject for subject, (_, clips) in SUBJECTS.items() for c
 def _normalise(clip: str) -> str:
     name = clip.replace("\\", "/").strip("/")
     name = re.sub(r"\.(bvh|amc|mp4)$", "", name, flags=re.IGNORECASE)
-    for folder, collection in (("animateddrawings_bvh/", _AD), ("bandai_namco_gestures/", "bandai/"),
+    for folder, collection in (("animateddrawings_bvh/", _AD),
+                               ("bandai_namco_gestures/", "bandai/"),
                                ("cmu_asfamc_walk/", "cmu_amc/"), ("cmu_bvh_131/", "cmu_bvh/"),
                                ("pose2sim_demo_singleperson/", "pose2sim/")):
         if name.startswith(folder):

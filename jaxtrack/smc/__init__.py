@@ -4,7 +4,7 @@ Models implement ``StateSpaceModel`` for one particle; ``run`` filters a whole s
 compiled ``lax.scan``; ``step`` is the same frame update for online use.
 """
 
-from jaxtrack.smc._batch import run_batch
+from jaxtrack.smc._batch import auto_chunk_size, run_batch
 from jaxtrack.smc._filter import (
     FilterResult,
     FilterState,
@@ -44,7 +44,8 @@ from jaxtrack.smc._smoothing import SmoothedPaths, discrete_marginals, ffbsi, tr
 __all__ = [
     "FilterResult", "FilterState", "KalmanResult", "LinearGaussian", "Multinomial", "Resampler",
     "Residual", "SmoothedPaths", "SoftResampling", "StateSpaceModel", "StepInfo", "StopGradient",
-    "Stratified", "Systematic", "best_particle", "discrete_marginals", "effective_sample_size",
+    "Stratified", "Systematic", "auto_chunk_size", "best_particle", "discrete_marginals",
+    "effective_sample_size",
     "fast_normal", "ffbsi", "filter_sequence", "initialize", "kalman_filter",
     "multinomial_ancestors",
     "random_linear_gaussian", "residual_ancestors", "rts_smoother", "run", "run_batch", "step",

@@ -26,7 +26,7 @@ from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
 from jaxtrack.smc._cond import cond_any
 from jaxtrack.smc._model import StateSpaceModel, check_observation_shape
-from jaxtrack.smc._random import split
+from jaxtrack.smc._random import particle_keys, split
 from jaxtrack.smc._resampling import Resampler, Systematic, effective_sample_size
 
 
@@ -95,7 +95,7 @@ def _log_likelihoods(model, particles, observation):
 
 
 def _init_particles(key, model, num_particles):
-    return jax.vmap(model.init)(split(key, num_particles))
+    return jax.vmap(model.init)(particle_keys(key, num_particles))
 
 
 def _measure(key, model, particles, prior_log_weights, observation, axis_name):
@@ -227,7 +227,7 @@ def step(
         ancestors, carried, resample = select(key_select, log_weights)
         parents = _gather(particles, ancestors)
         children = jax.vmap(model.propagate, in_axes=(0, 0, None))(
-            split(key_propagate, num), parents, time
+            particle_keys(key_propagate, num), parents, time
         )
         children, log_weights, increment, degenerate, num_invalid = _measure(
             key_reseed, model, children, carried, observation, axis_name

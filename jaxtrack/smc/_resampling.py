@@ -74,6 +74,25 @@ def _search(weights: Array, cumulative: Array, positions: Array) -> Ancestors:
     return jnp.minimum(indices, last_positive).astype(jnp.int32)
 
 
+def _sorted_search(weights: Array, cumulative: Array, offset: Array) -> Ancestors:
+    """``_search`` for the N evenly spaced positions ``(j + offset) / N × total``, in O(N).
+
+    Position j lies past particle i's cumulative weight when ``j ≥ k_i = ⌈N c_i / total −
+    offset⌉``, so ``ancestors[j] = #{i : k_i ≤ j}``: a histogram of the ``k_i`` (one
+    scatter-add) and its cumulative sum replace the N binary searches (about 2× faster at
+    N = 10³ and 10⁴ on CPU, docs/engine.md). A particle of zero weight has ``k_i = k_{i−1}`` and
+    is never selected; the last index is clamped as in ``_search``.
+    """
+    num = weights.shape[0]
+    total = cumulative[-1]
+    thresholds = jnp.ceil(cumulative * (num / total) - offset)
+    thresholds = jnp.clip(thresholds, 0, num).astype(jnp.int32)
+    histogram = jnp.zeros(num + 1, jnp.int32).at[thresholds].add(1)
+    indices = jnp.cumsum(histogram[:num])
+    last_positive = num - 1 - jnp.argmax(weights[::-1] > 0)
+    return jnp.minimum(indices, last_positive).astype(jnp.int32)
+
+
 def draw_indices(key: PRNGKeyArray, log_weights: LogWeights, num_draws: int) -> Ancestors:
     """``num_draws`` independent indices from the categorical distribution of the weights."""
     weights, cumulative = _cumulative_weights(log_weights)
@@ -96,12 +115,10 @@ def stratified_ancestors(key: PRNGKeyArray, log_weights: LogWeights) -> Ancestor
 
 
 def systematic_ancestors(key: PRNGKeyArray, log_weights: LogWeights) -> Ancestors:
-    """One uniform offset shared by N evenly spaced positions (lowest variance, O(N log N))."""
+    """One uniform offset shared by N evenly spaced positions (lowest variance, O(N))."""
     weights, cumulative = _cumulative_weights(log_weights)
-    num = weights.shape[0]
     offset = uniform(key, (), dtype=cumulative.dtype)
-    positions = (jnp.arange(num, dtype=cumulative.dtype) + offset) / num
-    return _search(weights, cumulative, positions * cumulative[-1])
+    return _sorted_search(weights, cumulative, offset)
 
 
 def residual_ancestors(key: PRNGKeyArray, log_weights: LogWeights) -> Ancestors:

@@ -19,8 +19,12 @@ def test_extreme_bits_give_finite_symmetric_draws():
     assert abs(draws[2]) < 1e-6 and abs(draws[3]) < 1e-6
 
 
-def test_per_particle_draws_are_standard_normal_and_independent():
-    keys = jr.split(jr.key(0), 40_000)
+@pytest.mark.parametrize("make_keys", ["split", "particle_keys"])
+def test_per_particle_draws_are_standard_normal_and_independent(make_keys):
+    from jaxtrack.smc._random import particle_keys
+
+    keys = jr.split(jr.key(0), 40_000) if make_keys == "split" else particle_keys(jr.key(0),
+                                                                                   40_000)
     draws = np.asarray(jax.vmap(lambda key: smc.fast_normal(key, (25,)))(keys))
     assert draws.dtype == np.float32 and np.all(np.isfinite(draws))
     flat = draws.ravel()
@@ -55,3 +59,18 @@ def test_split_and_uniform_match_jax_random_bit_for_bit(num):
     key = jax.random.PRNGKey(5)
     assert np.array_equal(uniform(key, (4,), jnp.float64),
                           jax.random.uniform(key, (4,), jnp.float64))
+
+
+def test_particle_keys_are_distinct_keys_of_the_input_kind():
+    from jaxtrack.smc._random import particle_keys
+
+    for key in (jax.random.PRNGKey(3), jax.random.key(11)):
+        keys = particle_keys(key, 5000)
+        assert keys.shape[0] == 5000 and keys.dtype == key.dtype
+        data = np.asarray(jax.random.key_data(keys) if keys.dtype != jnp.uint32 else keys)
+        assert len({tuple(row) for row in data}) == 5000
+        # threefry draws from them are standard normal too
+        draws = np.asarray(jax.vmap(lambda k: jr.normal(k, ()))(keys))
+        assert stats.kstest(draws, "norm").pvalue > 1e-3
+    assert not np.array_equal(jax.random.key_data(particle_keys(jr.key(0), 8)),
+                              jax.random.key_data(particle_keys(jr.key(1), 8)))

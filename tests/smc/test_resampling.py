@@ -102,3 +102,22 @@ def test_wrappers_return_normalised_weights(resampler):
 def test_soft_resampling_rejects_bad_alpha():
     with pytest.raises(ValueError, match="alpha"):
         smc.SoftResampling(1.5)
+
+
+@pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
+def test_systematic_histogram_search_equals_the_binary_search(dtype):
+    """The O(N) search (histogram of thresholds) selects what N binary searches select, up to a
+    position that lands within rounding of a cumulative weight."""
+    from jaxtrack.smc._resampling import _sorted_search
+
+    for seed, num in enumerate((7, 100, 1000, 10_000)):
+        weights = jnp.asarray(_weights(num), dtype)
+        log_weights = jnp.log(weights)
+        raw, cumulative = _cumulative_weights(log_weights)
+        offset = jr.uniform(jr.key(seed), (), dtype)
+        positions = (jnp.arange(num, dtype=dtype) + offset) / num * cumulative[-1]
+        fast = np.asarray(_sorted_search(raw, cumulative, offset))
+        slow = np.asarray(_search(raw, cumulative, positions))
+        assert np.mean(fast == slow) > 0.999 and np.max(np.abs(fast - slow)) <= 1
+        assert np.all(np.diff(fast) >= 0) and fast.min() >= 0 and fast.max() < num
+        assert not np.isin(fast, np.flatnonzero(np.asarray(weights) == 0)).any()

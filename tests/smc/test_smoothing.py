@@ -101,8 +101,11 @@ def test_hmm_filter_and_smoothers_match_enumeration(hmm):
     weights = jax.nn.softmax(result.log_weights, axis=-1)
     pf_filtering = np.asarray(jnp.sum(weights * result.particles, axis=-1))
     np.testing.assert_allclose(pf_filtering, filtering, atol=0.02)
-    # Both drop the same Gaussian constant -1/2 log(2 pi) per frame.
-    assert float(result.log_evidence) == pytest.approx(log_evidence, abs=0.02)
+    # Both drop the same Gaussian constant -1/2 log(2 pi) per frame. One run's log evidence
+    # has a standard deviation of about 0.02 nats here (200 seeds): the mean of 8 is within 0.02
+    evidences = jax.vmap(lambda key: smc.filter_sequence(key, model, observations, 10_000)
+                         .log_evidence)(jr.split(jr.key(0), 8))
+    assert float(jnp.mean(evidences)) == pytest.approx(log_evidence, abs=0.02)
 
     traced = smc.trace_ancestry(result)
     traced_marginals = smc.discrete_marginals(traced.paths, traced.log_weights, 2)[:, 1]
