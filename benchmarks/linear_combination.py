@@ -22,8 +22,8 @@ from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
 HISTORY = "animateddrawings/history_c119d6b/"
-TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "cmu_1006_wave_hello_1")
-HELD_OUT = HISTORY + "8yr_old_wave_hello"
+TRAIN = ("animateddrawings/fair1_wave_hello", HISTORY + "8yr_old_wave_hello")  # training subjects
+HELD_OUT = HISTORY + "cmu_1006_wave_hello_1"  # a test subject (jaxtrack.data.splits)
 
 
 def main() -> None:

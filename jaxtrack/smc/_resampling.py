@@ -2,8 +2,9 @@
 
 Every resampler maps ``(key, log_weights) -> (ancestors, log_weights)``: normalised log weights
 in, indices of the selected parents and the normalised log weights the children carry out.
-All schemes draw N uniforms (or one), search them in the cumulative sum of the weights with
-``searchsorted``: O(N log N) time and O(N) memory. (``jax.random.categorical`` with a shape
+All schemes draw N uniforms (or one) and search them in the cumulative sum of the weights:
+``searchsorted``, O(N log N) time, or for systematic resampling's evenly spaced positions a
+histogram of thresholds, O(N) time; O(N) memory for all. (``jax.random.categorical`` with a shape
 builds an N×N array; never use it for resampling.)
 
 Selection guarantees, also in float32 where the cumulative sum ends below 1: a particle of zero
