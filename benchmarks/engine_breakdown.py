@@ -13,6 +13,9 @@ engine (``smc.run_batch``) in one process, variants alternating, medians of ``--
 * the dynamics' matmul, and the engine's per-frame records (weighted mean and best particle).
 
     python -m benchmarks.engine_breakdown [--particles 1000] [--batch 16] [--frames 300]
+    python -m benchmarks.engine_breakdown --chunk-sweep 1 2 4 8 16 32 --batch 32 --frames 200
+
+``--chunk-sweep`` times the engine alone over a batch vmapped in chunks of each size instead.
 
 Prints µs per sequence-frame and writes ``benchmarks/results/engine_breakdown.json``.
 """
@@ -125,8 +128,12 @@ def main(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--chunk", type=int, default=16, help="sequences per vmapped chunk")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--chunk-sweep", type=int, nargs="+", default=None,
+                        help="time the engine over the batch in chunks of these sizes instead")
     parser.add_argument("--json", default="benchmarks/results/engine_breakdown.json")
     args = parser.parse_args(argv)
+    if args.chunk_sweep is not None and min(args.chunk_sweep) < 1:
+        parser.error("--chunk-sweep sizes must be at least 1")
     for name in ("particles", "batch", "frames", "chunk", "repeats"):
         if getattr(args, name) < 1:
             parser.error(f"--{name} must be at least 1")
@@ -134,6 +141,8 @@ def main(argv=None) -> int:
     _, observations = jax.vmap(lambda k: model.sample(k, args.frames))(
         jr.split(jr.key(0), args.batch))
     keys = jr.split(jr.key(1), args.batch)
+    if args.chunk_sweep is not None:
+        return chunk_sweep(model, keys, observations, args)
     chunks = [slice(start, start + args.chunk) for start in range(0, args.batch, args.chunk)]
 
     def chunked(function):
@@ -165,6 +174,32 @@ def main(argv=None) -> int:
     write_json(args.json, {"benchmark": "engine_breakdown", "device": device_description(),
                            "arguments": vars(args), "rows": rows,
                            "numpy_version": np.__version__})
+    return 0
+
+
+def chunk_sweep(model, keys, observations, args) -> int:
+    """The engine's time per sequence-frame over the batch in chunks of each size."""
+    def run(size):
+        return smc.run_batch(keys, model, observations, args.particles,
+                             chunk_size=size).log_evidence
+
+    for size in tqdm(args.chunk_sweep, desc="compile", leave=False):
+        jax.block_until_ready(run(size))
+    times = {size: [] for size in args.chunk_sweep}
+    for _ in tqdm(range(args.repeats), desc="repeats", leave=False):
+        for size in args.chunk_sweep:
+            start = time.perf_counter()
+            jax.block_until_ready(run(size))
+            times[size].append(time.perf_counter() - start)
+    rows = [{"chunk": size, "us": 1e6 * statistics.median(values) / (args.batch * args.frames),
+             "times": values} for size, values in times.items()]
+    print(f"device: {device_description()}")
+    print(f"engine, N = {args.particles}, batch {args.batch}, {args.frames} frames; medians of "
+          f"{args.repeats}; auto chunk: "
+          f"{smc.auto_chunk_size(model, args.particles, args.batch)}")
+    print_table(rows, [("chunk", "chunk", "d"), ("us", "µs per sequence-frame", ".1f")])
+    write_json(args.json, {"benchmark": "engine_chunks", "device": device_description(),
+                           "arguments": vars(args), "rows": rows})
     return 0
 
 
