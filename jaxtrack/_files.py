@@ -12,7 +12,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["LARGE_OUTPUT_BYTES", "NotEnoughMemoryError", "available_memory", "check_memory",
-           "format_bytes", "warn_large_output", "write_atomically", "write_json_atomically"]
+           "format_bytes", "warn_large_output", "write_atomically", "write_json_atomically",
+           "write_npz_atomically"]
 
 LARGE_OUTPUT_BYTES = 1_000_000_000  # warn before writing a file larger than this
 
@@ -106,6 +107,36 @@ def write_json_atomically(path: str | os.PathLike, value) -> Path:
         with open(temporary, "w") as file:
             json.dump(value, file, indent=2)
             file.write("\n")
+            file.flush()
+            os.fsync(file.fileno())
+
+    write_atomically(path, write)
+    return path
+
+
+def write_npz_atomically(path: str | os.PathLike, arrays: dict, metadata: dict | None = None,
+                         *, compress: bool = False, what: str = "description") -> Path:
+    """Write ``arrays`` (and ``metadata`` as a JSON string under the key ``"metadata"``) as one
+    ``.npz`` file, atomically (:func:`write_atomically`), synced to disk. Returns the path.
+
+    Raises:
+        ValueError: ``metadata`` is not JSON-serialisable (``what`` names the culprit in the
+            message), before anything is written.
+    """
+    import numpy as np
+
+    contents = dict(arrays)
+    if metadata is not None:
+        try:
+            contents["metadata"] = np.array(json.dumps(metadata))
+        except TypeError as error:
+            raise ValueError(f"{what} must be JSON-serialisable: {error}") from None
+    saver = np.savez_compressed if compress else np.savez
+    path = Path(path)
+
+    def write(temporary: Path) -> None:
+        with open(temporary, "wb") as file:
+            saver(file, **contents)
             file.flush()
             os.fsync(file.fileno())
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from jaxtrack._files import write_atomically
+from jaxtrack._files import write_npz_atomically
 from jaxtrack.body.camera import Camera
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "RenderedSequence", "SequenceFormatError",
@@ -108,18 +108,8 @@ def save_sequence(path: str | os.PathLike, sequence: RenderedSequence, *,
         "markers_2d": np.asarray(sequence.markers_2d, np.float64),
         "joints_3d": np.asarray(sequence.joints_3d, np.float64),
         "visibility": np.asarray(sequence.visibility, bool),
-        "metadata": np.array(json.dumps(metadata)),
     }
-    saver = np.savez_compressed if compress else np.savez
-
-    def write(temporary: Path) -> None:
-        with open(temporary, "wb") as file:
-            saver(file, **arrays)
-            file.flush()
-            os.fsync(file.fileno())
-
-    write_atomically(path, write)
-    return path
+    return write_npz_atomically(path, arrays, metadata, compress=compress, what="settings")
 
 
 def load_sequence(path: str | os.PathLike) -> RenderedSequence:

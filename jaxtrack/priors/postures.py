@@ -50,7 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from jaxtrack._files import write_atomically
+from jaxtrack._files import write_npz_atomically
 
 __all__ = ["CRAWLING", "LYING_LEFT", "LYING_RIGHT", "NUM_POSTURES", "POSTURE_NAMES", "SITTING",
            "STANDING", "LabelRule", "PostureFormatError", "PostureModel", "SavedPostureModel",
@@ -256,21 +256,8 @@ def save_posture_model(path: str | os.PathLike, model: PostureModel, *,
     metadata = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
                 "postures": list(POSTURE_NAMES), "num_features": model.num_features,
                 "description": description or {}}
-    try:
-        metadata_text = json.dumps(metadata)
-    except TypeError as error:
-        raise ValueError(f"description must be JSON-serialisable: {error}") from None
     contents = {name: np.asarray(getattr(model, name)) for name in _ARRAYS}
-    contents["metadata"] = np.array(metadata_text)
-
-    def write(temporary: Path) -> None:
-        with open(temporary, "wb") as file:
-            np.savez(file, **contents)
-            file.flush()
-            os.fsync(file.fileno())
-
-    write_atomically(path, write)
-    return path
+    return write_npz_atomically(path, contents, metadata)
 
 
 def load_posture_model(path: str | os.PathLike) -> SavedPostureModel:

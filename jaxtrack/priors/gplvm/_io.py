@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxtrack._files import write_atomically
+from jaxtrack._files import write_npz_atomically
 from jaxtrack.priors.gplvm._kernel import KernelParameters
 from jaxtrack.priors.gplvm._model import GPLVM
 
@@ -67,23 +67,10 @@ def save_gplvm(path: str | os.PathLike, model: GPLVM, *, description: dict | Non
         "description": description or {}, "trace": trace or [],
         "extra_arrays": sorted(arrays or {}),
     }
-    try:
-        metadata_text = json.dumps(metadata)
-    except TypeError as error:
-        raise ValueError(f"description and trace must be JSON-serialisable: {error}") from None
     contents = {name: np.asarray(getattr(model.kernel, name)) for name in _KERNEL_FIELDS}
     contents |= {name: np.asarray(getattr(model, name)) for name in _MODEL_FIELDS}
     contents |= {f"extra/{name}": np.asarray(value) for name, value in (arrays or {}).items()}
-    contents["metadata"] = np.array(metadata_text)
-
-    def write(temporary: Path) -> None:
-        with open(temporary, "wb") as file:
-            np.savez(file, **contents)
-            file.flush()
-            os.fsync(file.fileno())
-
-    write_atomically(path, write)
-    return path
+    return write_npz_atomically(path, contents, metadata, what="description and trace")
 
 
 def _fail(path: Path, reason: str) -> GPLVMFormatError:

@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxtrack._files import write_atomically
+from jaxtrack._files import write_npz_atomically
 from jaxtrack.body.hybrid import HybridLayout
 from jaxtrack.priors.linear_combinations._model import LinearCombinationModel
 
@@ -63,22 +63,9 @@ def save_linear_combinations(path: str | os.PathLike, model: LinearCombinationMo
         "components": model.num_components, "clusters": model.num_clusters,
         "description": description or {}, "extra_arrays": sorted(arrays or {}),
     }
-    try:
-        metadata_text = json.dumps(metadata)
-    except TypeError as error:
-        raise ValueError(f"description must be JSON-serialisable: {error}") from None
     contents = {name: np.asarray(getattr(model, name)) for name in _FIELDS}
     contents |= {f"extra/{name}": np.asarray(value) for name, value in (arrays or {}).items()}
-    contents["metadata"] = np.array(metadata_text)
-
-    def write(temporary: Path) -> None:
-        with open(temporary, "wb") as file:
-            np.savez(file, **contents)
-            file.flush()
-            os.fsync(file.fileno())
-
-    write_atomically(path, write)
-    return path
+    return write_npz_atomically(path, contents, metadata)
 
 
 def _fail(path: Path, reason: str) -> LinearCombinationFormatError:
