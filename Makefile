@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env install clean
+.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env bench-peers-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -37,6 +37,12 @@ bench: $(STAMP)
 # GPy (the GPLVM benchmark's reference) lives in its own venv so it never touches jaxtrack's
 bench-gpy-env:
 	$(PYTHON) -m venv .venv-gpy && .venv-gpy/bin/pip install -q -r benchmarks/requirements-gpy.txt
+
+# the particle-count benchmark's peer libraries, each in its own venv (particles needs numpy<2,
+# cuthbert its own jax): benchmarks/_peers.py runs them when these exist
+bench-peers-env:
+	$(PYTHON) -m venv .venv-peers-particles && .venv-peers-particles/bin/pip install -q particles==0.4 "numpy<2"
+	$(PYTHON) -m venv .venv-peers-cuthbert && .venv-peers-cuthbert/bin/pip install -q cuthbert==0.1.1
 
 bench-gplvm: $(STAMP)
 	$(BIN)/python -m benchmarks.gplvm

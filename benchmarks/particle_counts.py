@@ -13,7 +13,11 @@ Three filters run the same data in one process:
   (:func:`straightforward_filter`: particles as one ``(N, 25)`` array, ``x @ A.T`` plus
   ``jax.random.normal`` noise, ``cumsum`` + ``searchsorted`` systematic resampling, one
   ``lax.scan``, ``jit(vmap(...))`` over the whole batch);
-* the same filter in NumPy on a few sequences.
+* the same filter in NumPy on a few sequences;
+* two peer libraries, each in its own venv (``make bench-peers-env``, skipped with a note
+  where missing; :mod:`benchmarks._peers`), on the first ``--peer-sequences`` sequences:
+  ``particles`` (N. Chopin; ``SMC`` on ``Bootstrap``, systematic resampling at every frame) and
+  ``cuthbert`` (JAX; ``smc.particle_filter``, compile timed apart).
 
 The engine and the straightforward filter alternate (``--alternations``, E S E S …) and the
 table prints medians and the median of the per-pair ratios; compile time is measured apart
@@ -45,6 +49,7 @@ from jax import lax
 from tqdm import tqdm
 
 from benchmarks._common import device_description, peak_rss_mb, print_table, time_call, write_json
+from benchmarks._peers import run_peers
 from jaxtrack import smc
 
 PYDPF_SECONDS_PER_BATCH = {"cpu": {1_000: 19.1, 10_000: 258.0}, "gpu": {1_000: 0.64, 10_000: 4.87}}
@@ -198,12 +203,17 @@ def _timed(function, *args):
     return time.perf_counter() - start, output
 
 
-def batch_benchmark(model, observations, particle_counts, numpy_sequences, alternations):
-    """Engine and straightforward filter alternating on the whole batch; NumPy on a few."""
+def batch_benchmark(model, observations, particle_counts, numpy_sequences, alternations,
+                    peer_sequences=0):
+    """Engine and straightforward filter alternating on the whole batch; NumPy and the peer
+    libraries (particles, cuthbert: :mod:`benchmarks._peers`) on a few sequences."""
     rows = []
     batch, frames = observations.shape[:2]
     keys = jr.split(jr.key(1), batch)
     exact = np.asarray(jax.vmap(lambda y: smc.kalman_filter(model, y).log_evidence)(observations))
+    peers = {}
+    if peer_sequences > 0:
+        peers = run_peers(model, observations[:peer_sequences], particle_counts)
     for num_particles in tqdm(particle_counts, desc="batch", leave=False):
         chunk = smc.auto_chunk_size(model, num_particles, batch)
         engine_compile, _ = _compile(lambda k, y, c=min(chunk, batch), n=num_particles:
@@ -224,6 +234,10 @@ def batch_benchmark(model, observations, particle_counts, numpy_sequences, alter
         engine_s, simple_s = statistics.median(engine_times), statistics.median(simple_times)
         ratio = statistics.median(s / e for s, e in zip(simple_times, engine_times, strict=True))
         numpy_s = _numpy_seconds_per_sequence(model, observations, num_particles, numpy_sequences)
+        peer_columns = {}
+        for library, result in peers.items():
+            peer_columns.update(_peer_columns(library, result, num_particles, exact,
+                                              engine_s / batch))
         reference = PYDPF_SECONDS_PER_BATCH["cpu"].get(num_particles)
         if reference is not None:  # pydpf timed 128 x 1000 frames: scale to this workload
             reference *= batch * frames / (128 * 1000)
@@ -234,14 +248,37 @@ def batch_benchmark(model, observations, particle_counts, numpy_sequences, alter
             particle_frames_per_s=num_particles * frames * batch / engine_s,
             engine_error=_evidence_error(engine_evidence, exact),
             simple_compile_s=simple_compile, simple_run_s=simple_s,
+            simple_per_sequence_s=simple_s / batch,
             simple_error=_evidence_error(simple_evidence, exact),
             speedup_vs_simple=ratio, engine_times=engine_times, simple_times=simple_times,
             numpy_per_sequence_s=numpy_s, speedup_vs_numpy=numpy_s / (engine_s / batch),
             pydpf_cpu_s=reference,
             speedup_vs_pydpf_cpu=None if reference is None else reference / engine_s,
-            peak_rss_mb=peak_rss_mb(),
+            **peer_columns, peak_rss_mb=peak_rss_mb(),
         ))
     return rows
+
+
+def _peer_columns(library, result, num_particles, exact, engine_per_sequence_s) -> dict:
+    """A peer's median s/seq, its ratio to the engine's s/seq, mean |log Z − exact| (and
+    cuthbert's compile time) at ``num_particles``; ``None`` where the peer was skipped."""
+    run = next((entry for entry in result.get("runs", ())
+                if entry["particles"] == num_particles), None)
+    if run is None:
+        return {f"{library}_per_sequence_s": None, f"speedup_vs_{library}": None,
+                f"{library}_error": None}
+    seconds = statistics.median(run["seconds"])
+    log_evidence = np.asarray(run["log_evidence"], np.float64)
+    columns = {
+        f"{library}_per_sequence_s": seconds,
+        f"speedup_vs_{library}": seconds / engine_per_sequence_s,
+        f"{library}_error": float(np.mean(np.abs(log_evidence - exact[:len(log_evidence)]))),
+        f"{library}_times": run["seconds"], f"{library}_log_evidence": run["log_evidence"],
+        f"{library}_version": result.get("version"),
+    }
+    if "compile_s" in run:
+        columns[f"{library}_compile_s"] = run["compile_s"]
+    return columns
 
 
 def _evidence_error(log_evidence, exact) -> float:
@@ -292,6 +329,9 @@ def main(argv=None) -> int:
                         help="frames of the single-sequence sweep (100)")
     parser.add_argument("--numpy-sequences", type=int, default=2,
                         help="sequences the NumPy reference runs per batch configuration")
+    parser.add_argument("--peer-sequences", type=int, default=2,
+                        help="sequences the peer libraries (particles, cuthbert; make "
+                             "bench-peers-env) run per particle count; 0 disables (2)")
     parser.add_argument("--alternations", type=int, default=3,
                         help="engine / straightforward filter runs, alternating (3)")
     parser.add_argument("--model", choices=("pydpf", "random"), default="pydpf",
@@ -309,27 +349,38 @@ def main(argv=None) -> int:
     print(f"model: {args.model} linear-Gaussian, state 25, observation 1, float32; batch "
           f"{args.batch} x {args.frames} frames; sweep 1 x {args.sweep_frames} frames")
     rows = batch_benchmark(model, observations, args.batch_particles, args.numpy_sequences,
-                           args.alternations)
+                           args.alternations, args.peer_sequences)
     rows += sweep_benchmark(model, observations[0, :args.sweep_frames], args.sweep_particles,
                             numpy_limit=100_000)
     columns = [("mode", "mode", "s"), ("particles", "N", "d"), ("sequences", "seqs", "d"),
                ("chunk", "chunk", "d"), ("compile_s", "compile s", ".2f"),
-               ("run_s", "run s", ".3f"), ("per_frame_ms", "ms/seq-frame", ".4f"),
+               ("run_s", "run s", ".3f"), ("per_sequence_s", "s/seq", ".4f"),
+               ("per_frame_ms", "ms/seq-frame", ".4f"),
                ("particle_frames_per_s", "particle-frames/s", ".3g"),
                ("simple_compile_s", "simple compile s", ".2f"),
                ("simple_run_s", "simple run s", ".3f"),
+               ("simple_per_sequence_s", "simple s/seq", ".4f"),
                ("speedup_vs_simple", "x simple", ".2f"),
                ("numpy_per_sequence_s", "numpy s/seq", ".4f"),
                ("speedup_vs_numpy", "x numpy", ".1f"), ("pydpf_cpu_s", "pydpf cpu s*", ".1f"),
                ("speedup_vs_pydpf_cpu", "x pydpf", ".2f"),
                ("engine_error", "|logZ err| engine", ".2f"),
-               ("simple_error", "|logZ err| simple", ".2f"), ("peak_rss_mb", "peak MB", ".0f")]
+               ("simple_error", "|logZ err| simple", ".2f"),
+               ("particles_per_sequence_s", "particles s/seq", ".4f"),
+               ("speedup_vs_particles", "x particles", ".1f"),
+               ("particles_error", "|logZ err| particles", ".2f"),
+               ("cuthbert_compile_s", "cuthbert compile s", ".2f"),
+               ("cuthbert_per_sequence_s", "cuthbert s/seq", ".4f"),
+               ("speedup_vs_cuthbert", "x cuthbert", ".1f"),
+               ("cuthbert_error", "|logZ err| cuthbert", ".2f"), ("peak_rss_mb", "peak MB", ".0f")]
     print_table(rows, columns)
     write_json(args.json, {"benchmark": "particle_counts", "device": device_description(),
                            "arguments": vars(args), "rows": rows})
     print("x simple: the straightforward JAX filter's time over the engine's (median of the "
           "alternating pairs); * pydpf's published CPU time per 128 x 1000-frame batch, scaled "
-          "to this batch x frames")
+          "to this batch x frames; particles, cuthbert: the peer libraries in their own venvs "
+          "(make bench-peers-env) on the first --peer-sequences sequences, median s/seq, x = "
+          "their s/seq over the engine's, log Z errors over those sequences")
     print(f"wrote {args.json}")
     return 0
 

@@ -1,0 +1,80 @@
+"""Run peer particle-filter libraries on the benchmark's model and data, each in its own venv.
+
+``particles`` (N. Chopin, NumPy) and ``cuthbert`` (JAX) never enter the jaxtrack venv; create
+theirs once with ``make bench-peers-env`` (``.venv-peers-particles``, ``.venv-peers-cuthbert``).
+The model's arrays and the observations go to a temporary .npz, ``_peer_<library>.py`` runs
+under the peer venv's python and writes JSON back. ``JAXTRACK_PEER_<LIBRARY>_PYTHON`` may name
+another python that has the library.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+PEERS = ("particles", "cuthbert")
+
+
+def peer_python(library: str) -> Path:
+    """``$JAXTRACK_PEER_<LIBRARY>_PYTHON`` or ``.venv-peers-<library>/bin/python``."""
+    override = os.environ.get(f"JAXTRACK_PEER_{library.upper()}_PYTHON")
+    return Path(override) if override else ROOT / f".venv-peers-{library}" / "bin" / "python"
+
+
+def run_peer(library: str, model, observations, particle_counts, *, seed: int = 0,
+             timeout: float | None = 3600.0) -> dict:
+    """Run ``library``'s bootstrap filter on each of ``observations`` (sequences, frames, dim)
+    for each particle count.
+
+    Returns the script's JSON (``library``, ``version``, ``runs``: per particle count
+    ``particles``, ``seconds`` and ``log_evidence`` per sequence, and for cuthbert
+    ``compile_s`` and ``first_call_s``), or ``{"skipped": reason}`` when the peer's python is
+    missing or the run fails or times out.
+    """
+    python = peer_python(library)
+    if not python.exists():
+        return {"skipped": f"no {library} python at {python} (make bench-peers-env)"}
+    inputs = {
+        "transition": np.asarray(model.transition_matrix, np.float32),
+        "transition_covariance": np.asarray(model.transition_covariance, np.float32),
+        "observation": np.asarray(model.observation_matrix, np.float32),
+        "observation_covariance": np.asarray(model.observation_covariance, np.float32),
+        "initial_mean": np.asarray(model.initial_mean, np.float32),
+        "initial_covariance": np.asarray(model.initial_covariance, np.float32),
+        "observations": np.asarray(observations, np.float32),
+        "particle_counts": np.asarray(particle_counts, np.int64),
+        "seed": np.int64(seed),
+    }
+    script = Path(__file__).resolve().parent / f"_peer_{library}.py"
+    with tempfile.TemporaryDirectory(prefix=f"jaxtrack-{library}-") as folder:
+        in_path, out_path = Path(folder) / "in.npz", Path(folder) / "out.json"
+        np.savez(in_path, **inputs)
+        command = [str(python), str(script), str(in_path), str(out_path)]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return {"skipped": f"{library} run timed out after {timeout:g} s"}
+        except OSError as error:
+            return {"skipped": f"cannot run {python}: {error}"}
+        if done.returncode != 0 or not out_path.exists():
+            tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
+            return {"skipped": f"{library} run failed ({done.returncode}): " + " | ".join(tail)}
+        result = json.loads(out_path.read_text())
+    result["summary"] = done.stdout.strip()
+    return result
+
+
+def run_peers(model, observations, particle_counts, *, seed: int = 0) -> dict:
+    """{library: :func:`run_peer`'s result} for every peer; prints a note for each skipped."""
+    results = {}
+    for library in PEERS:
+        results[library] = run_peer(library, model, observations, particle_counts, seed=seed)
+        if "skipped" in results[library]:
+            print(f"note: {library} skipped: {results[library]['skipped']}")
+    return results
