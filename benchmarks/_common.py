@@ -7,6 +7,7 @@ import os
 import platform
 import resource
 import statistics
+import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -85,3 +86,29 @@ def write_json(path: str | Path, payload: dict) -> None:
         json.dump(payload, handle, indent=2)
         temp = handle.name
     os.replace(temp, path)
+
+
+def run_in_venv(python: Path, script: Path, inputs: dict, *, output: str, read, label: str,
+                timeout: float | None) -> dict:
+    """Run ``python script IN.npz OUT`` on ``inputs`` in a temporary folder (a reference
+    library in its own venv) and return ``read(OUT)`` plus ``summary`` (the script's stdout),
+    or ``{"skipped": reason}`` when the run fails, times out or cannot start. ``output`` names
+    OUT's file (its suffix is the script's format); ``label`` names the run in the reasons."""
+    import numpy as np
+
+    with tempfile.TemporaryDirectory(prefix="jaxtrack-reference-") as folder:
+        in_path, out_path = Path(folder) / "in.npz", Path(folder) / output
+        np.savez(in_path, **inputs)
+        command = [str(python), str(script), str(in_path), str(out_path)]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return {"skipped": f"{label} run timed out after {timeout:g} s"}
+        except OSError as error:
+            return {"skipped": f"cannot run {python}: {error}"}
+        if done.returncode != 0 or not out_path.exists():
+            tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
+            return {"skipped": f"{label} run failed ({done.returncode}): " + " | ".join(tail)}
+        result = read(out_path)
+    result["summary"] = done.stdout.strip()
+    return result

@@ -13,10 +13,11 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks._common import run_in_venv
 
 ROOT = Path(__file__).resolve().parent.parent
 VENV = ROOT / ".venv-gpy"
@@ -84,24 +85,14 @@ def run_gpy_reference(
     }
     if init_latents is not None:
         inputs["init_latents"] = np.asarray(init_latents, dtype=np.float64)
-    with tempfile.TemporaryDirectory(prefix="jaxtrack-gpy-") as folder:
-        in_path, out_path = Path(folder) / "in.npz", Path(folder) / "out.npz"
-        np.savez(in_path, **inputs)
-        command = [str(python), str(SCRIPT), str(in_path), str(out_path)]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return {"skipped": f"GPy {model} run timed out after {timeout:g} s"}
-        except OSError as error:
-            return {"skipped": f"cannot run {python}: {error}"}
-        if done.returncode != 0 or not out_path.exists():
-            tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
-            return {"skipped": f"GPy {model} run failed ({done.returncode}): " + " | ".join(tail)}
-        with np.load(out_path, allow_pickle=False) as data:
-            result = {key: data[key] for key in data.files}
-    result = {k: (v.item() if v.ndim == 0 else v) for k, v in result.items()}
-    result["summary"] = done.stdout.strip()
-    return result
+    return run_in_venv(python, SCRIPT, inputs, output="out.npz", read=_read_npz,
+                       label=f"GPy {model}", timeout=timeout)
+
+
+def _read_npz(path: Path) -> dict:
+    with np.load(path, allow_pickle=False) as data:
+        return {key: (data[key].item() if data[key].ndim == 0 else data[key])
+                for key in data.files}
 
 
 if __name__ == "__main__":

@@ -16,13 +16,12 @@ log-evidence of each sequence. Imports only NumPy, JAX and cuthbert.
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 import time
 from importlib import metadata
 
 import numpy as np
+from _peer_script import main  # this folder: the script runs in the peer's venv
 
 
 def run(inputs) -> dict:
@@ -90,19 +89,7 @@ def run(inputs) -> dict:
             "device": str(jax.devices()[0]), "runs": runs}
 
 
-def main(argv) -> int:
-    in_path, out_path = argv[1], argv[2]
-    with np.load(in_path, allow_pickle=False) as data:
-        inputs = {key: data[key] for key in data.files}
-    result = run(inputs)
-    with open(out_path + ".tmp", "w") as handle:
-        json.dump(result, handle)
-    os.replace(out_path + ".tmp", out_path)
-    for entry in result["runs"]:
-        print(f"cuthbert N={entry['particles']}: compile {entry['compile_s']:.2f} s, "
-              f"{np.median(entry['seconds']):.3f} s/seq")
-    return 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv))
+    raise SystemExit(main(sys.argv, run, lambda entry: (
+        f"cuthbert N={entry['particles']}: compile {entry['compile_s']:.2f} s, "
+        f"{np.median(entry['seconds']):.3f} s/seq")))

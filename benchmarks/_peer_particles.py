@@ -14,13 +14,12 @@ count the seconds and log-evidence of each sequence. Imports only NumPy and ``pa
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 import time
 from importlib import metadata
 
 import numpy as np
+from _peer_script import main  # this folder: the script runs in the peer's venv
 
 
 def run(inputs) -> dict:
@@ -66,18 +65,6 @@ def run(inputs) -> dict:
     return {"library": "particles", "version": metadata.version("particles"), "runs": runs}
 
 
-def main(argv) -> int:
-    in_path, out_path = argv[1], argv[2]
-    with np.load(in_path, allow_pickle=False) as data:
-        inputs = {key: data[key] for key in data.files}
-    result = run(inputs)
-    with open(out_path + ".tmp", "w") as handle:
-        json.dump(result, handle)
-    os.replace(out_path + ".tmp", out_path)
-    for entry in result["runs"]:
-        print(f"particles N={entry['particles']}: {np.median(entry['seconds']):.3f} s/seq")
-    return 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv))
+    raise SystemExit(main(sys.argv, run, lambda entry: (f"particles N={entry['particles']}: "
+                                     f"{np.median(entry['seconds']):.3f} s/seq")))

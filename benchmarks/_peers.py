@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks._common import run_in_venv
 
 ROOT = Path(__file__).resolve().parent.parent
 PEERS = ("particles", "cuthbert")
@@ -52,22 +52,9 @@ def run_peer(library: str, model, observations, particle_counts, *, seed: int = 
         "seed": np.int64(seed),
     }
     script = Path(__file__).resolve().parent / f"_peer_{library}.py"
-    with tempfile.TemporaryDirectory(prefix=f"jaxtrack-{library}-") as folder:
-        in_path, out_path = Path(folder) / "in.npz", Path(folder) / "out.json"
-        np.savez(in_path, **inputs)
-        command = [str(python), str(script), str(in_path), str(out_path)]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return {"skipped": f"{library} run timed out after {timeout:g} s"}
-        except OSError as error:
-            return {"skipped": f"cannot run {python}: {error}"}
-        if done.returncode != 0 or not out_path.exists():
-            tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
-            return {"skipped": f"{library} run failed ({done.returncode}): " + " | ".join(tail)}
-        result = json.loads(out_path.read_text())
-    result["summary"] = done.stdout.strip()
-    return result
+    return run_in_venv(python, script, inputs, output="out.json",
+                       read=lambda path: json.loads(path.read_text()), label=library,
+                       timeout=timeout)
 
 
 def run_peers(model, observations, particle_counts, *, seed: int = 0) -> dict:
