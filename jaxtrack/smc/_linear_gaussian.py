@@ -29,7 +29,8 @@ def _mvn_log_density(residual, cholesky):
     """
     identity = jnp.eye(cholesky.shape[0], dtype=cholesky.dtype)
     # residual @ L⁻ᵀ == L⁻¹ residual, written vector-times-matrix so that, vmapped over
-    # particles, the particle axis stays the leading axis of the product (docs/engine.md)
+    # particles, the particle axis stays the leading axis of the product (docs/engine.md,
+    # "Speed")
     solved = residual @ jsl.solve_triangular(cholesky, identity, lower=True).T
     log_det = 2.0 * jnp.sum(jnp.log(jnp.diagonal(cholesky)))
     dim = residual.shape[-1]
@@ -79,7 +80,7 @@ class LinearGaussian(StateSpaceModel):
     # Products are written vector @ matrix.T: vmapped over particles, (particles, state) @
     # (state, state) keeps the particle axis leading; matrix @ vector makes XLA lay the
     # particles out as (state, particles) and transpose every gather and noise draw into it
-    # (docs/engine.md, "Where the time went").
+    # (docs/engine.md, "Speed").
 
     def init(self, key):
         noise = fast_normal(key, (self.state_dim,), self.initial_mean.dtype)
@@ -89,7 +90,7 @@ class LinearGaussian(StateSpaceModel):
         noise = fast_normal(key, particle.shape, particle.dtype)
         cholesky = jnp.linalg.cholesky(self.transition_covariance)
         # A x + L ε as one product [x, ε] @ [A, L]ᵀ: vmapped, one (particles, 2·state) @
-        # (2·state, state) matmul instead of two and an add (15 % of a step at N = 10³)
+        # (2·state, state) matmul instead of two and an add
         stacked = jnp.concatenate([self.transition_matrix, cholesky], axis=1)
         return jnp.concatenate([particle, noise]) @ stacked.T
 

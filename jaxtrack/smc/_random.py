@@ -65,8 +65,9 @@ def particle_keys(key: PRNGKeyArray, num: int) -> PRNGKeyArray:
     """``num`` keys for the particles' own draws (``init``, ``propagate``), from one key.
 
     For threefry keys (the default) each key is the counter hash of (key, particle index) with
-    two more rounds for the second word, about a tenth of the cost of ``split`` (a threefry
-    block per key), which is worth 4–5 % of a bootstrap-filter step at N = 10³ (docs/engine.md).
+    two more rounds for the second word, instead of ``split``'s threefry block per key
+    (``python -m benchmarks.engine_breakdown``: 12 against 20 µs per sequence-frame at N = 10³,
+    docs/engine.md).
     A model drawing with ``jax.random`` from these keys gets threefry streams as from any key;
     ``fast_normal`` gets streams that share no inner value unless both 32-bit words collide.
     Other key implementations use ``split``.

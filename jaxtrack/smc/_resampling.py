@@ -69,9 +69,13 @@ def _search(weights: Array, cumulative: Array, positions: Array) -> Ancestors:
     ``side='right'`` skips empty (zero-weight) intervals; rounding of ``u * total`` up to the
     total is mapped to the last particle of positive weight, never past it.
     """
-    num = weights.shape[0]
     indices = jnp.searchsorted(cumulative, positions, side="right")
-    last_positive = num - 1 - jnp.argmax(weights[::-1] > 0)
+    return _at_most_last_positive(indices, weights)
+
+
+def _at_most_last_positive(indices: Array, weights: Array) -> Ancestors:
+    """``indices`` clamped to the last particle of positive weight, as int32."""
+    last_positive = weights.shape[0] - 1 - jnp.argmax(weights[::-1] > 0)
     return jnp.minimum(indices, last_positive).astype(jnp.int32)
 
 
@@ -80,8 +84,8 @@ def _sorted_search(weights: Array, cumulative: Array, offset: Array) -> Ancestor
 
     Position j lies past particle i's cumulative weight when ``j ≥ k_i = ⌈N c_i / total −
     offset⌉``, so ``ancestors[j] = #{i : k_i ≤ j}``: a histogram of the ``k_i`` (one
-    scatter-add) and its cumulative sum replace the N binary searches (about 2× faster at
-    N = 10³ and 10⁴ on CPU, docs/engine.md). A particle of zero weight has ``k_i = k_{i−1}`` and
+    scatter-add) and its cumulative sum replace the N binary searches (docs/engine.md,
+    "Speed"). A particle of zero weight has ``k_i = k_{i−1}`` and
     is never selected; the last index is clamped as in ``_search``.
     """
     num = weights.shape[0]
@@ -89,9 +93,7 @@ def _sorted_search(weights: Array, cumulative: Array, offset: Array) -> Ancestor
     thresholds = jnp.ceil(cumulative * (num / total) - offset)
     thresholds = jnp.clip(thresholds, 0, num).astype(jnp.int32)
     histogram = jnp.zeros(num + 1, jnp.int32).at[thresholds].add(1)
-    indices = jnp.cumsum(histogram[:num])
-    last_positive = num - 1 - jnp.argmax(weights[::-1] > 0)
-    return jnp.minimum(indices, last_positive).astype(jnp.int32)
+    return _at_most_last_positive(jnp.cumsum(histogram[:num]), weights)
 
 
 def draw_indices(key: PRNGKeyArray, log_weights: LogWeights, num_draws: int) -> Ancestors:
