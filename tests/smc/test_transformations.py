@@ -51,6 +51,21 @@ def test_vmap_equals_loop(problem):
             np.testing.assert_array_equal(batched.resampled[index], single.resampled)
 
 
+def test_auto_chunk_size_follows_the_particle_state_and_bad_sizes_are_refused(problem):
+    model, observations = problem
+    eye = lambda rows, columns=None: jnp.eye(rows, columns, dtype=jnp.float32)  # noqa: E731
+    wide = smc.LinearGaussian(eye(25), eye(25), eye(1, 25), eye(1), jnp.zeros(25, jnp.float32),
+                              eye(25))
+    # 4 copies of 25 float32 per particle within 256 MiB
+    assert smc.auto_chunk_size(wide, 1_000, 128) == 128
+    assert smc.auto_chunk_size(wide, 10_000, 128) == 2**28 // (4 * 10_000 * 100)
+    assert smc.auto_chunk_size(wide, 1_000_000, 128) == 1
+    keys = jr.split(jr.key(3), 2)
+    batch = jnp.stack([observations, -observations])
+    with pytest.raises(ValueError, match="chunk_size must be a positive int, 'auto' or None"):
+        smc.run_batch(keys, model, batch, 16, chunk_size=0)
+
+
 class CountingModel(smc.LinearGaussian):
     """Counts how often JAX traces the model's methods (a Python side effect runs at trace time)."""
 
