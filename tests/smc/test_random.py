@@ -19,6 +19,20 @@ def test_extreme_bits_give_finite_symmetric_draws():
     assert abs(draws[2]) < 1e-6 and abs(draws[3]) < 1e-6
 
 
+def test_erf_inv_is_float32_accurate_over_every_input_bits_to_normal_makes():
+    from scipy.special import erfinv
+
+    from jaxtrack.smc._random import erf_inv
+
+    # Every 64th of the 2^24 inputs, the extremes and the switch between the two polynomials.
+    top = np.concatenate([np.arange(0, 2**24, 64), [1, 2**24 - 2, 2**24 - 1]]).astype(np.float32)
+    x = (top - np.float32(8388607.5)) * np.float32(1.0 / 8388608.0)
+    x = np.concatenate([x, np.float32([0.99662, 0.99663, -0.99663])])
+    approx = np.asarray(jax.jit(erf_inv)(jnp.asarray(x)), np.float64)
+    exact = erfinv(x.astype(np.float64))
+    assert np.max(np.abs(approx - exact) / np.abs(exact)) < 1e-6
+
+
 @pytest.mark.parametrize("make_keys", ["split", "particle_keys"])
 def test_per_particle_draws_are_standard_normal_and_independent(make_keys):
     from jaxtrack.smc._random import particle_keys
