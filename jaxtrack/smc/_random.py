@@ -1,11 +1,12 @@
 """Fast standard normals for per-particle noise: a keyed counter hash and the inverse normal CDF.
 
-On CPU, ``jax.random.normal`` (threefry) runs at ~65 M draws/s on this 2-core machine and takes
+On CPU, ``jax.random.normal`` (threefry) runs at ~80 M draws/s on this 2-core machine and takes
 about two thirds of a bootstrap-filter step; NumPy's ziggurat is as fast. ``fast_normal`` keys a
 32-bit integer hash (Wellons' "lowbias32", two rounds, one per word of the 64-bit JAX key) with a
 counter and maps 24 bits exactly to the open interval (−1, 1), then applies √2 erf⁻¹ (Giles'
 single-precision polynomials, written out: :func:`erf_inv`): ~4× the throughput of threefry
-normals (583 against 142 M draws/s, 2026-11-26), still a pure function of (key, shape).
+normals and 1.6× XLA's own erf⁻¹ (313, 78 and 198 M draws/s, ``python -m
+benchmarks.engine_breakdown --normals``, 2026-11-26), still a pure function of (key, shape).
 
 Statistical scope: counter-hash generators (as Philox/threefry, but with far fewer rounds) are
 fine for Monte-Carlo noise; they are not cryptographic. Uniforms have 24-bit resolution, so
@@ -114,7 +115,7 @@ def bits_to_normal(bits: Array) -> Float[Array, "..."]:
 # erf⁻¹(x) = x·p(w) with w = −log(1 − x²), one polynomial for w < 5 (|x| < 0.9966) and one in √w
 # beyond. Over all 2²⁴ inputs of ``bits_to_normal`` its largest relative error is 2.9e-7 against
 # float64 (XLA's float32 ``lax.erf_inv``: 5.8e-6), at 1.6x the throughput on this CPU (tests/smc/
-# test_random.py checks the error; ``python -m benchmarks.engine_breakdown`` the speed).
+# test_random.py checks the error; ``python -m benchmarks.engine_breakdown --normals`` the speed).
 _ERF_INV_CENTRAL = (2.81022636e-08, 3.43273939e-07, -3.5233877e-06, -4.39150654e-06,
                     0.00021858087, -0.00125372503, -0.00417768164, 0.246640727, 1.50140941)
 _ERF_INV_TAIL = (-0.000200214257, 0.000100950558, 0.00134934322, -0.00367342844,
