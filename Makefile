@@ -13,7 +13,8 @@ $(BIN)/python:
 
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e ".[dev]"
+	$(BIN)/pip install -q torch==2.13.0  # the local CPU wheel, before kornia (pyproject.toml)
+	$(BIN)/pip install -q -e ".[dev,kornia]"
 	touch $(STAMP)
 
 install: $(STAMP)

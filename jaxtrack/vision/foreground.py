@@ -84,17 +84,28 @@ def median_grey_background(frames: np.ndarray, *, max_samples: int = 64) -> np.n
 
 
 def foreground_mask(frame: np.ndarray, background: np.ndarray, *, threshold: int = 30,
-                    smoothing: int = 5) -> np.ndarray:
+                    smoothing: int = 5, backend: str = "opencv") -> np.ndarray:
     """Where ``frame`` differs from ``background``: a cleaned boolean mask.
 
     Args:
         frame, background: ``(height, width, 3)`` uint8 RGB images of the same size.
         threshold: grey levels (0–255) the largest channel difference must exceed.
         smoothing: size in pixels of the square opening/closing element (odd, ≥ 1; 1 disables).
+        backend: ``"opencv"``, or ``"kornia"`` for torch tensors (any device; the result is then
+            a ``jax.Array`` shared through DLPack: ``jaxtrack.vision._kornia``).
 
     Returns:
         ``(height, width)`` bool mask, True on the foreground.
     """
+    from jaxtrack.vision._kornia import check_backend
+
+    check_backend(backend)
+    if backend == "kornia":
+        from jaxtrack.vision._kornia import _as_tensor, foreground_masks
+
+        frame = _as_tensor(frame, "frame", 3)
+        return foreground_masks(frame[None], background, threshold=threshold,
+                                smoothing=smoothing)[0]
     import cv2
 
     frame = _check_rgb(frame, "frame", 3)

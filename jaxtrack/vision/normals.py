@@ -17,16 +17,26 @@ import numpy as np
 __all__ = ["gradient_magnitude"]
 
 
-def gradient_magnitude(image: np.ndarray, *, sigma: float = 1.0) -> np.ndarray:
+def gradient_magnitude(image: np.ndarray, *, sigma: float = 1.0,
+                       backend: str = "opencv") -> np.ndarray:
     """The smoothed intensity-gradient magnitude of an image, scaled to [0, 1].
 
     Args:
         image: ``(height, width, 3)`` uint8 RGB or ``(height, width)`` grey (any real dtype).
         sigma: Gaussian smoothing in pixels before the Sobel derivatives (0: none).
+        backend: ``"opencv"``, or ``"kornia"`` for a uint8 RGB torch tensor (any device; the
+            result is then a ``jax.Array`` shared through DLPack: ``jaxtrack.vision._kornia``).
 
     Returns:
         ``(height, width)`` float32; all zeros for a flat image.
     """
+    from jaxtrack.vision._kornia import check_backend
+
+    check_backend(backend)
+    if backend == "kornia":
+        from jaxtrack.vision._kornia import _as_tensor, gradient_magnitudes
+
+        return gradient_magnitudes(_as_tensor(image, "image", 3)[None], sigma=sigma)[0]
     import cv2
 
     image = np.asarray(image)

@@ -50,7 +50,7 @@ class SkinBlobs(NamedTuple):
 
 def skin_mask(image: np.ndarray, foreground: np.ndarray | None = None, *,
               reference: tuple[int, int, int] | None = None, tolerance: float = 6.0,
-              smoothing: int = 3) -> np.ndarray:
+              smoothing: int = 3, backend: str = "opencv") -> np.ndarray:
     """Skin-coloured pixels of an RGB image.
 
     Args:
@@ -60,10 +60,22 @@ def skin_mask(image: np.ndarray, foreground: np.ndarray | None = None, *,
             (:data:`SKIN_CR`, :data:`SKIN_CB`).
         tolerance: with ``reference``, the largest |ΔCr| and |ΔCb| (8-bit YCrCb levels).
         smoothing: size of the square opening that drops isolated pixels (1: none).
+        backend: ``"opencv"``, or ``"kornia"`` for torch tensors (any device; the result is then
+            a ``jax.Array`` shared through DLPack: ``jaxtrack.vision._kornia``).
 
     Returns:
         ``(height, width)`` bool.
     """
+    from jaxtrack.vision._kornia import check_backend
+
+    check_backend(backend)
+    if backend == "kornia":
+        from jaxtrack.vision._kornia import _as_tensor, skin_masks
+
+        image = _as_tensor(image, "image", 3)
+        return skin_masks(image[None], None if foreground is None else
+                          np.asarray(foreground, bool)[None], reference=reference,
+                          tolerance=tolerance, smoothing=smoothing)[0]
     import cv2
 
     image = np.asarray(image)
