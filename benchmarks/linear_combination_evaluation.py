@@ -23,14 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._common import device_description, print_table, write_json
+from jaxtrack.experiments.linear_combination import TEST_CLIPS as TEST
+from jaxtrack.experiments.linear_combination import TRAIN_CLIPS as TRAIN
+from jaxtrack.experiments.linear_combination import VALIDATION_CLIPS as VALIDATION
 
 RESULTS = Path(__file__).parent / "results"
-_AD = "animateddrawings/"
-_HISTORY = _AD + "history_c119d6b/"
-TRAIN = (_AD + "fair1_wave_hello", _HISTORY + "8yr_old_wave_hello",
-         _HISTORY + "cmu_new_walk_point", _HISTORY + "cmu_new_walk_raise_the_roof")
-VALIDATION = ("bandai/dataset-2_wave-right-hand_normal_001",)
-TEST = (_HISTORY + "cmu_1006_wave_hello_1", _HISTORY + "cmu_1006_wave_hello_2")
 
 
 def _score(trained, sequences, method, **options) -> float:

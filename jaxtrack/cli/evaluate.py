@@ -1,4 +1,7 @@
-"""``jaxtrack evaluate``: train a GPLVM, render held-out clips, track, score, write JSON/plots."""
+"""``jaxtrack evaluate``: train a model, render held-out clips, track, score, write JSON/plots.
+
+``--method latent|condensation|mht`` here; ``linear-combination`` in
+``jaxtrack.cli._linear_combination`` and ``mixed-state`` in ``jaxtrack.cli._mixed_state``."""
 
 from __future__ import annotations
 
@@ -19,7 +22,9 @@ from jaxtrack.cli._common import (
 from jaxtrack.cli._options import add_tracker_options, tracker_options
 from jaxtrack.priors.gplvm import OPTIMISERS
 
-__all__ = ["add_parser", "tracking_bytes"]
+__all__ = ["METHODS", "add_parser", "tracking_bytes"]
+
+METHODS = ("latent", "condensation", "mht", "linear-combination", "mixed-state")
 
 _SAMPLES_PER_POSE = 9 * 12 * 7
 """Pixels one pose's likelihood reads: 9 limb strips of 12 × 7 points (``likelihoods.limbs``;
@@ -59,14 +64,19 @@ def add_parser(subparsers) -> None:
             "videos. A clip is a catalogue name (see jaxtrack.data.list_clips()) or a path to a "
             ".bvh file or an .amc file (its .asf beside it, or given with --asf)."),
     )
-    parser.add_argument("--method", required=True, choices=("latent", "condensation", "mht"),
+    parser.add_argument("--method", required=True, choices=METHODS,
                         help="the tracker: Tian et al.'s latent-space tracker, CONDENSATION in "
-                        "the 25-d state with AR(2) dynamics, or multiple-hypothesis tracking")
-    parser.add_argument("--train", nargs="+", required=True, metavar="CLIP",
-                        help="clips to train the GPLVM on: catalogue names or .bvh/.amc files")
-    parser.add_argument("--test", nargs="+", required=True, metavar="CLIP",
+                        "the 25-d state with AR(2) dynamics, multiple-hypothesis tracking, Ong "
+                        "& Gong's linear-combination tracker (3-D skeleton error), or Kwatra et "
+                        "al.'s mixed-state tracker (posture and body parts)")
+    parser.add_argument("--train", nargs="+", default=None, metavar="CLIP",
+                        help="clips to train on: catalogue names or .bvh/.amc files (required "
+                        "for latent, condensation and mht; linear-combination and mixed-state "
+                        "default to their training clips)")
+    parser.add_argument("--test", nargs="+", default=None, metavar="CLIP",
                         help="held-out clips to render and track: catalogue names or "
-                             ".bvh/.amc files")
+                             ".bvh/.amc files (required for latent, condensation and mht; "
+                             "linear-combination and mixed-state default to their test clips)")
     add_asf_option(parser)
     parser.add_argument("--particles", type=int, default=None,
                         help="particles (modes for mht); default 200 / 1000 / 10")
@@ -98,10 +108,44 @@ def add_parser(subparsers) -> None:
                              "is cached beside it as gplvm_cache.npz)")
     parser.add_argument("--plots", type=Path, default=None, metavar="DIR",
                         help="also write error plots and overlay videos into DIR")
+    group = parser.add_argument_group("linear-combination and mixed-state")
+    # linear-combination options
+    group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
+                       help="linear-combination: Pose2Sim cameras (0-3) to render through "
+                       "(default all four)")
+    group.add_argument("--iterations", type=int, default=None,
+                       help="linear-combination: CONDENSATION iterations per frame (default 5)")
+    # mixed-state options
+    group.add_argument("--bins", type=int, default=None, metavar="B",
+                       help="mixed-state: bins per axis of the silhouette projection histograms "
+                       "(default 16)")
+    group.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
+                       help="mixed-state: camera azimuths each --train and --test clip is "
+                       "rendered from, degrees from the subject's facing direction (default 90 "
+                       "-90 45 -45 0)")
+    group.add_argument("--size", default=None, metavar="WIDTHxHEIGHT",
+                       help="mixed-state: size of the rendered images (default 640x480)")
+    group.add_argument("--lag", type=int, default=None, metavar="FRAMES",
+                       help="mixed-state: lag of the fixed-lag smoother scored beside the "
+                       "whole-sequence one (default 10)")
+    group.add_argument("--train-max-frames", type=int, default=None, metavar="N",
+                       help="mixed-state: at most the first N frames of each --train clip "
+                       "(default: all)")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.method == "linear-combination":
+        from jaxtrack.cli import _linear_combination
+
+        return _linear_combination.evaluate(args)
+    if args.method == "mixed-state":
+        from jaxtrack.cli import _mixed_state
+
+        return _mixed_state.evaluate(args)
+    for option in ("train", "test"):
+        if getattr(args, option) is None:
+            raise UserError(f"--{option} is required for --method {args.method}")
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.evaluation import (

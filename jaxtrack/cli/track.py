@@ -1,5 +1,9 @@
 """``jaxtrack track``: the latent-space tracker (Tian, Li & Sclaroff 2005) over a video file.
 
+(``--method linear-combination``: Ong & Gong's tracker over one or several calibrated videos,
+``jaxtrack.cli._linear_combination``; ``--method mixed-state``: Kwatra et al.'s posture and body
+parts, ``jaxtrack.cli._mixed_state``.) The latent tracker:
+
 1. decode the frames (downscaled so the longer side is at most ``--max-size``),
 2. initialise on the first frame, by hand (``--init manual:x,y,...``: the 12 markers in video
    pixels) or automatically (``--init face``: face and foreground-blob head boxes, then a search
@@ -52,24 +56,44 @@ def add_parser(subparsers) -> None:
             "the bundled Pose2Sim clip (jaxtrack.data.path('pose2sim/videos/cam03_half.mp4')): "
             "jaxtrack track --model jaxtrack-demo/gplvm_waves.npz --video CLIP.mp4 --out p2s"),
     )
+    parser.add_argument("--method", choices=("latent", "linear-combination", "mixed-state"),
+                        default="latent",
+                        help="the tracker (default latent); --model must come from jaxtrack "
+                        "train with the same --method")
     parser.add_argument("--model", required=True, type=Path, metavar="MODEL.npz",
-                        help="a prior from jaxtrack train (or jaxtrack-demo/gplvm_waves.npz)")
-    parser.add_argument("--video", required=True, type=Path, metavar="FILE",
-                        help="the video to track (anything OpenCV's FFmpeg reads: mp4, avi, mov)")
+                        help="a model from jaxtrack train (or jaxtrack-demo/gplvm_waves.npz)")
+    parser.add_argument("--video", required=True, type=Path, nargs="+", metavar="FILE",
+                        help="the video to track (anything OpenCV's FFmpeg reads: mp4, avi, "
+                        "mov); linear-combination: one per calibrated camera")
     parser.add_argument("--init", default="face", metavar="face|manual:x,y,...",
                         help="first-frame pose: found automatically (face, the default) or the "
                         "12 markers given by hand (see below)")
     parser.add_argument("--out", required=True, type=Path, metavar="DIR",
                         help="folder to write overlay.mp4 and track.json into (created)")
-    parser.add_argument("--particles", type=int, default=200,
-                        help="particles of the latent-space filter (default 200; memory grows "
-                        f"by about {_BYTES_PER_PARTICLE // 1000} kB per particle)")
+    parser.add_argument("--particles", type=int, default=None,
+                        help="particles of the filter (default 200 for latent, 300 for "
+                        "linear-combination, 500 for mixed-state; latent: memory grows by "
+                        f"about {_BYTES_PER_PARTICLE // 1000} kB per particle)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the particle filter (default 0)")
     add_tracker_options(parser)
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
+    group = parser.add_argument_group("linear-combination and mixed-state")
+    # linear-combination options
+    group.add_argument("--calibration", type=Path, default=None, metavar="FILE",
+                       help="linear-combination: the cameras' calibration (a Pose2Sim "
+                       "Calib.qca.txt), one camera per --video in order")
+    group.add_argument("--iterations", type=int, default=None,
+                       help="linear-combination: CONDENSATION iterations per frame (default 5)")
+    group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
+                       help="linear-combination: which cameras of --calibration (0-based, in "
+                       "its order) filmed the --video files, one per video (default: all)")
+    group.add_argument("--skin", default=None, metavar="R,G,B",
+                       help="linear-combination: a sample of the person's skin colour (default: "
+                       "a fixed chroma box)")
+    # mixed-state options
     parser.set_defaults(handler=run)
 
 
@@ -201,6 +225,19 @@ def run(args: argparse.Namespace) -> int:
         write_overlay_video,
     )
 
+    if args.method == "linear-combination":
+        from jaxtrack.cli import _linear_combination
+
+        return _linear_combination.track(args)
+    if args.method == "mixed-state":
+        from jaxtrack.cli import _mixed_state
+
+        return _mixed_state.track(args)
+    if len(args.video) != 1:
+        raise UserError(f"--video: --method latent tracks one video, got {len(args.video)}")
+    args.video = args.video[0]
+    if args.particles is None:
+        args.particles = 200
     started = time.perf_counter()
     if args.particles < 1:
         raise UserError(f"--particles must be positive, got {args.particles}")

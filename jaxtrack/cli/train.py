@@ -1,4 +1,7 @@
-"""``jaxtrack train``: learn a GPLVM pose prior from clips (``jaxtrack.priors.train``)."""
+"""``jaxtrack train``: learn a model from clips: the latent tracker's GPLVM pose prior
+(``jaxtrack.priors.train``), the linear-combination model (``--method linear-combination``:
+``jaxtrack.cli._linear_combination``) or the mixed-state posture model (``--method mixed-state``:
+``jaxtrack.cli._mixed_state``)."""
 
 from __future__ import annotations
 
@@ -16,13 +19,16 @@ from jaxtrack.cli._common import (
     output_folder,
 )
 
-__all__ = ["add_parser"]
+__all__ = ["METHODS", "add_parser"]
+
+METHODS = ("latent", "linear-combination", "mixed-state")
 
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "train",
-        help="learn a GPLVM pose prior from real motion clips (a model for jaxtrack track)",
+        help="learn a model from real motion clips (a GPLVM pose prior by default; a model for "
+             "jaxtrack track)",
         description=(
             "Project the clips' upper-body poses from several viewpoints (±45°), learn a 2-D "
             "GPLVM with its latent dynamics (Algorithm 1 of Tian et al.) and save it with its "
@@ -32,24 +38,59 @@ def add_parser(subparsers) -> None:
         epilog="example: jaxtrack train --clips animateddrawings/fair1_wave_hello "
                "animateddrawings/history_c119d6b/8yr_old_wave_hello --out waves.npz",
     )
-    parser.add_argument("--clips", nargs="+", required=True, metavar="CLIP",
-                        help="clips to learn from: catalogue names or .bvh/.amc files")
+    parser.add_argument("--method", choices=METHODS, default="latent",
+                        help="what to train: the latent tracker's GPLVM prior (default), Ong & "
+                        "Gong's linear-combination model, or Kwatra et al.'s posture model")
+    parser.add_argument("--clips", nargs="+", default=None, metavar="CLIP",
+                        help="clips to learn from: catalogue names or .bvh/.amc files "
+                        "(required for latent; linear-combination and mixed-state default to "
+                        "their training clips of jaxtrack.data.splits)")
     add_asf_option(parser)
     parser.add_argument("--out", required=True, type=Path, metavar="MODEL.npz",
                         help="model file to write (reused when it holds a model trained with "
                              "the same settings)")
-    parser.add_argument("--views", type=int, default=5, help="viewpoints per clip (default 5)")
+    parser.add_argument("--views", type=int, default=5,
+                        help="latent: viewpoints per clip (default 5)")
     parser.add_argument("--active", type=int, default=200, help="active set size (default 200)")
     parser.add_argument("--iterations", type=int, default=3,
                         help="outer iterations of Algorithm 1 (default 3)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the training (default 0)")
+    group = parser.add_argument_group("linear-combination and mixed-state")
+    # linear-combination options
+    group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
+                       help="linear-combination: Pose2Sim cameras (0-3) each clip is rendered "
+                       "through (default all four)")
+    group.add_argument("--clusters", type=int, default=None,
+                       help="linear-combination: k-means clusters of the coefficient space")
+    # mixed-state options
+    group.add_argument("--max-frames", type=int, default=None, metavar="N",
+                       help="linear-combination, mixed-state: at most the first N frames of "
+                       "each clip (default: all)")
+    group.add_argument("--bins", type=int, default=None, metavar="B",
+                       help="mixed-state: bins per axis of the silhouette projection histograms "
+                       "(default 16)")
+    group.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
+                       help="mixed-state: camera azimuths each clip is rendered from, degrees "
+                       "from the subject's facing direction (default 90 -90 45 -45 0)")
+    group.add_argument("--size", default=None, metavar="WIDTHxHEIGHT",
+                       help="mixed-state: size of the rendered images (default 640x480)")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.method == "linear-combination":
+        from jaxtrack.cli import _linear_combination
+
+        return _linear_combination.train(args)
+    if args.method == "mixed-state":
+        from jaxtrack.cli import _mixed_state
+
+        return _mixed_state.train(args)
     from jaxtrack.priors.train import train_prior
 
+    if args.clips is None:
+        raise UserError("--clips is required for --method latent")
     sources = check_clips(args.clips, "--clips", args.asf)
     check_asf(args.asf, sources)
     if args.out.suffix != ".npz":

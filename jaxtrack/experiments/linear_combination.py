@@ -41,9 +41,10 @@ from jaxtrack.priors.linear_combinations import (
 )
 from jaxtrack.trackers._options import Engine
 
-__all__ = ["CAMERA_SCALE", "CROP_SIZE", "METHODS", "HybridSequence", "TrainedLinearCombinations",
-           "evaluate", "load", "multi_view", "observe", "pose2sim_cameras",
-           "render_hybrid_sequences", "run_method", "skeleton_error", "track", "train"]
+__all__ = ["CAMERA_SCALE", "CROP_SIZE", "METHODS", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
+           "HybridSequence", "TrainedLinearCombinations", "evaluate", "load", "multi_view",
+           "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
+           "skeleton_error", "track", "train"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -53,6 +54,19 @@ CROP_SIZE = (160, 240)
 
 METHODS = ("linear-combination", "global-pca", "nearest-neighbour")
 """The tracker and its two baselines (``docs/linear-combination.md``)."""
+
+_AD = "animateddrawings/"
+_HISTORY = _AD + "history_c119d6b/"
+
+TRAIN_CLIPS = (_AD + "fair1_wave_hello", _HISTORY + "8yr_old_wave_hello",
+               _HISTORY + "cmu_new_walk_point", _HISTORY + "cmu_new_walk_raise_the_roof")
+"""Training subjects' gestures the model is trained on (``jaxtrack.data.splits``: training)."""
+
+VALIDATION_CLIPS = ("bandai/dataset-2_wave-right-hand_normal_001",)
+"""The validation subject's wave on which eq. 9's P, Q and the step ω are chosen."""
+
+TEST_CLIPS = (_HISTORY + "cmu_1006_wave_hello_1", _HISTORY + "cmu_1006_wave_hello_2")
+"""The test subject's two waves: only ever scored."""
 
 _NECK = UPPER_BODY_12.index("neck")
 
@@ -98,6 +112,9 @@ class HybridSequence:
         skeleton: ``(time, 12, 3)`` the true skeleton (camera frame, neck-relative, metres).
         observations: the frames as the tracker observes them (numpy leaves), or None.
         status: per frame, empty when observed, else why not.
+        images: ``(time, height, width, 3)`` uint8 RGB rendered frames (``keep_images``), or
+            None.
+        background: ``(height, width, 3)`` uint8 RGB, the empty scene behind them, or None.
     """
 
     name: str
@@ -107,6 +124,8 @@ class HybridSequence:
     skeleton: np.ndarray
     observations: ContourObservation | None = None
     status: tuple[str, ...] = field(default_factory=tuple)
+    images: np.ndarray | None = None
+    background: np.ndarray | None = None
 
 
 def _background_of(sequence, size) -> np.ndarray:
@@ -169,10 +188,11 @@ def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
 def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
                             num_contour: int = 100, fps: float = 30.0,
                             max_frames: int | None = None, background: str = "photo",
-                            seed: int = 0, keep_observations: bool = False
-                            ) -> list[HybridSequence]:
+                            seed: int = 0, keep_observations: bool = False,
+                            keep_images: bool = False) -> list[HybridSequence]:
     """Hybrid vectors of one real clip through the Pose2Sim cameras ``views`` (module
-    docstring); with ``keep_observations`` also the frames as the tracker observes them."""
+    docstring); with ``keep_observations`` also the frames as the tracker observes them, with
+    ``keep_images`` the rendered frames and their empty scene."""
     from jaxtrack.body.camera import to_camera_frame
     from jaxtrack.data import resolve_clip
     from jaxtrack.vision.contours import silhouette_contour
@@ -205,15 +225,18 @@ def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
                 continue
             contour = silhouette_contour(silhouette, num_contour)
             vectors[t] = np.asarray(make_hybrid(contour, blobs.hands, blobs.head, skeleton[t]))
-        observations, status = None, ()
-        if keep_observations:
+        observations, status, scene = None, (), None
+        if keep_observations or keep_images:
             scene = _background_of(rendered, camera.image_size)
+        if keep_observations:
             observations, status = observe(rendered.images, scene, skin_reference=reference)
             status = tuple(status)
         sequences.append(HybridSequence(
             name=f"{source.short_name}_{camera.name}", clip=source.short_name,
             vectors=vectors, valid=np.all(np.isfinite(vectors), axis=1), skeleton=skeleton,
-            observations=observations, status=status))
+            observations=observations, status=status,
+            images=rendered.images if keep_images else None,
+            background=scene if keep_images else None))
     return sequences
 
 
@@ -318,13 +341,20 @@ def run_method(method: str, trained: TrainedLinearCombinations, observations: Co
 
     model = trained.model
     if method == "nearest-neighbour":
+        import equinox as eqx
+
+        vectors = jnp.asarray(trained.vectors, jnp.float32)
+        # compiled ahead of time, so that the run time per frame excludes compilation
         tick = time.perf_counter()
-        picks = np.asarray(nearest_neighbour(jnp.asarray(trained.vectors, jnp.float32),
-                                             model.layout, observations, fitness))
+        compiled = eqx.filter_jit(nearest_neighbour).lower(vectors, model.layout, observations,
+                                                           fitness).compile()
+        compile_seconds = time.perf_counter() - tick
+        tick = time.perf_counter()
+        picks = np.asarray(compiled(vectors, model.layout, observations, fitness))
         seconds = time.perf_counter() - tick
         skeleton = np.asarray(split_hybrid(trained.vectors[picks], model.layout).skeleton_3d)
         return {"skeleton": skeleton, "found": np.asarray(observations.found),
-                "seconds_per_frame": seconds / len(picks), "compile_seconds": float("nan"),
+                "seconds_per_frame": seconds / len(picks), "compile_seconds": compile_seconds,
                 "options": {"method": method}}
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -352,7 +382,8 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
 
     Returns a JSON-able dict: per sequence and method the mean 3-D error (metres; of the
     best-fitness particle, the paper's estimate, and of the weighted mean where there is one),
-    frames observed, run time per frame; and per method the mean over sequences. Written to
+    the error per frame (``errors_m``), frames observed, run time per frame and compile time
+    apart; and per method the mean over sequences. Written to
     ``output`` (JSON, atomically) when given. The clips must not share a subject with the
     training clips (``jaxtrack.data.splits.check_disjoint``).
     """
@@ -379,7 +410,9 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
                                  jump_spread=jump_spread, brownian_step=step)
                 errors = skeleton_error(run["skeleton"], sequence.skeleton)
                 entry[method] = {"error_m": float(errors.mean()),
-                                 "seconds_per_frame": float(run["seconds_per_frame"])}
+                                 "errors_m": [round(float(e), 6) for e in errors],
+                                 "seconds_per_frame": float(run["seconds_per_frame"]),
+                                 "compile_seconds": float(run["compile_seconds"])}
                 if "mean_skeleton" in run:
                     entry[method]["mean_error_m"] = float(
                         skeleton_error(run["mean_skeleton"], sequence.skeleton).mean())

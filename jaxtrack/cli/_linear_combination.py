@@ -1,0 +1,760 @@
+"""``jaxtrack train|evaluate|track --method linear-combination``: Ong & Gong's (2002) tracker.
+
+- ``train``: real clips rendered through the Pose2Sim cameras (``--cameras``), hybrid vectors,
+  global PCA, clusters and their transition matrix, saved as one ``.npz``
+  (:func:`jaxtrack.experiments.linear_combination.train`).
+- ``evaluate``: the model trained on training subjects (cached beside ``--json`` as
+  ``lc_cache.npz``), the tracker and its two baselines on held-out subjects' clips, 3-D
+  skeleton error (:func:`jaxtrack.experiments.linear_combination.evaluate`).
+- ``track``: one video per calibrated camera. Each is decoded at the scale the model was
+  trained at (the calibrated image scaled by ``CAMERA_SCALE``), at the model's frame rate, and
+  cut to ``CROP_SIZE`` around the subject; its empty scene is the video's median (a static
+  camera); skin is the fixed chroma box or ``--skin``. With several views, each frame is read
+  from the view of greatest fitness × 1/ambiguity (§5.5–5.7). Writes ``overlay.mp4`` and,
+  last, ``track.json``. The model fixes the tracking scale, so ``--max-size`` and the latent
+  tracker's options are not used. Why these choices: ``docs/linear-combination.md``.
+
+Every argument is checked before any work; a bad one raises :class:`UserError` (one line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jaxtrack.cli._common import (
+    UserError,
+    check_clips,
+    check_seed,
+    load_clip_sources,
+    output_folder,
+)
+
+__all__ = ["CACHE_NAME", "evaluate", "track", "train"]
+
+CACHE_NAME = "lc_cache.npz"
+"""The model ``evaluate`` trains is cached beside ``--json`` under this name."""
+
+_NUM_CAMERAS = 4  # the Pose2Sim calibration the models are trained through
+_PARTICLES, _ITERATIONS, _CLUSTERS = 300, 5, 20
+_ZOOM = 2  # overlay panels are drawn at twice the tracking resolution
+_BAR = 18  # height (overlay pixels) of the ambiguity bar under each view
+_SELECTED = (255, 224, 0)
+_OTHER_FILES = {"jaxtrack.gplvm": "a GPLVM pose prior (the latent tracker's)",
+                "jaxtrack.postures": "a posture model (the mixed-state tracker's)",
+                "jaxtrack.sequence": "a rendered sequence"}
+"""Other jaxtrack files, by the format name in their metadata."""
+
+
+def _one_line(error) -> str:
+    return " ".join(str(error).split())
+
+
+def _positive(value, option: str, default: int, minimum: int = 1) -> int:
+    value = default if value is None else value
+    if value < minimum:
+        raise UserError(f"{option} must be at least {minimum}, got {value}")
+    return value
+
+
+def _max_frames(value) -> int | None:
+    if value is not None and value < 2:
+        raise UserError(f"--max-frames must be at least 2, got {value}")
+    return value
+
+
+def _cameras(cameras) -> tuple[int, ...]:
+    if cameras is None:
+        return tuple(range(_NUM_CAMERAS))
+    bad = [camera for camera in cameras if not 0 <= camera < _NUM_CAMERAS]
+    if bad:
+        raise UserError(f"--cameras must be Pose2Sim camera indices 0-{_NUM_CAMERAS - 1}, got "
+                        f"{', '.join(map(str, bad))}")
+    if len(set(cameras)) != len(cameras):
+        raise UserError(f"--cameras names a camera twice: {' '.join(map(str, cameras))}")
+    return tuple(cameras)
+
+
+def _refuse_asf(args) -> None:
+    if getattr(args, "asf", None) is not None:
+        raise UserError("--asf is not used by --method linear-combination: give catalogue clips, "
+                        ".bvh files, or .amc files with their .asf beside them")
+
+
+def _training_clips(names, option: str) -> list:
+    """Resolve clips to train on and refuse test subjects (``jaxtrack.data.splits``)."""
+    from jaxtrack.data.splits import UnknownSubjectError, split_of, subject_of
+
+    sources = check_clips(names, option)
+    for name in names:
+        try:
+            split = split_of(name)
+        except UnknownSubjectError:
+            continue  # a user's own file: its subject is theirs to know
+        if split == "test":
+            raise UserError(f"{option} {name}: subject {subject_of(name)} is a test subject "
+                            f"(jaxtrack.data.splits); train on training subjects")
+    load_clip_sources(sources, option)
+    return sources
+
+
+def _load(path: Path, what: str, remedy: str):
+    """A linear-combination model file, or a one-line :class:`UserError`."""
+    from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.priors.linear_combinations import LinearCombinationFormatError
+
+    if path.exists() and not path.is_file():
+        raise UserError(f"{what} {path} is a folder, not a model file; {remedy}")
+    if not path.is_file():
+        raise UserError(f"{what} {path}: no such file; {remedy}")
+    try:
+        return lc.load(path)
+    except (LinearCombinationFormatError, ValueError, OSError) as error:
+        reason = _one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
+        for kind, name in _OTHER_FILES.items():
+            if f"'{kind}'" in reason:
+                reason = f"{name}, not a linear-combination model"
+        raise UserError(f"{what} {path}: {reason}; {remedy}") from None
+
+
+@contextlib.contextmanager
+def _outputs(*folders: Path):
+    """Create ``folders``; if the body fails, remove the files it recorded in the yielded list
+    and the folders created here (when left empty), so a failure writes nothing."""
+    created, written = [], []
+    for folder in folders:
+        missing, existing = [], folder
+        while not existing.exists():
+            missing.append(existing)
+            existing = existing.parent
+        folder.mkdir(parents=True, exist_ok=True)
+        created.extend(missing)
+    created.sort(key=lambda folder: len(folder.parts), reverse=True)  # deepest first
+    try:
+        yield written
+    except BaseException:
+        for path in written:
+            Path(path).unlink(missing_ok=True)
+        for folder in created:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
+
+
+# ----------------------------------------------------------------------------------- train
+
+
+def train(args: argparse.Namespace) -> int:
+    """``jaxtrack train --method linear-combination``."""
+    from jaxtrack.experiments import linear_combination as lc
+
+    started = time.perf_counter()
+    _refuse_asf(args)
+    names = list(lc.TRAIN_CLIPS if args.clips is None else args.clips)
+    if args.out.suffix != ".npz":
+        raise UserError(f"--out {args.out}: must be a .npz path")
+    folder = output_folder(args.out, "--out")
+    check_seed(args.seed)
+    cameras = _cameras(args.cameras)
+    clusters = _positive(args.clusters, "--clusters", _CLUSTERS, minimum=2)
+    max_frames = _max_frames(args.max_frames)
+    if max_frames is not None and len(names) * len(cameras) * max_frames < clusters:
+        raise UserError(f"--clusters {clusters}: more clusters than the at most "
+                        f"{len(names) * len(cameras) * max_frames} training frames "
+                        f"(--clips x --cameras x --max-frames)")
+    if args.out.is_file():  # only a model of this kind is replaced
+        _load(args.out, "--out", "delete it or choose another --out")
+    _training_clips(names, "--clips")
+    with _outputs(folder):
+        try:
+            trained = lc.train(names, views=cameras, num_clusters=clusters,
+                               max_frames=max_frames, seed=args.seed, output=args.out)
+        except ValueError as error:
+            option = "--clusters" if "num_clusters" in str(error) else "--clips"
+            raise UserError(f"{option}: {_one_line(error)}") from None
+    model, description = trained.model, trained.description
+    print(f"linear-combination model: {description['frames']} hybrid vectors from "
+          f"{len(names)} clip(s) x {len(cameras)} camera(s), {model.num_components} components "
+          f"({description['explained_variance']:.0%} of the variance), {model.num_clusters} "
+          f"clusters -> {args.out} ({time.perf_counter() - started:.0f} s)")
+    return 0
+
+
+# -------------------------------------------------------------------------------- evaluate
+
+
+def _cached_model(cache: Path, clips: list[str], cameras: tuple[int, ...], seed: int):
+    """The model cached beside ``--json`` if it was trained on these clips, cameras and seed
+    (its clusters and frames are its own: ``jaxtrack train --out`` may have made it); None
+    when there is none or it was trained on other data. A damaged cache is refused."""
+    if not cache.exists():
+        return None
+    trained = _load(cache, "the model cached beside --json:",
+                    "delete it (it is retrained) or write --json elsewhere")
+    description = trained.description
+    same = (list(description.get("clips", [])) == list(clips)
+            and list(description.get("views", [])) == list(cameras)
+            and description.get("seed") == seed)
+    return trained if same else None
+
+
+def evaluate(args: argparse.Namespace) -> int:
+    """``jaxtrack evaluate --method linear-combination``."""
+    from jaxtrack._files import write_json_atomically
+    from jaxtrack.data.splits import check_disjoint
+    from jaxtrack.experiments import linear_combination as lc
+
+    started = time.perf_counter()
+    _refuse_asf(args)
+    if args.allow_same_subject:
+        raise UserError("--allow-same-subject is not available with --method "
+                        "linear-combination: it scores held-out subjects only")
+    train_clips = list(lc.TRAIN_CLIPS if args.train is None else args.train)
+    test_clips = list(lc.TEST_CLIPS if args.test is None else args.test)
+    train_sources = _training_clips(train_clips, "--train")
+    test_sources = check_clips(test_clips, "--test")
+    trained_files = {source.file.resolve() for source in train_sources}
+    overlap = [source.spec for source in test_sources if source.file.resolve() in trained_files]
+    if overlap:
+        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
+                        f"--train")
+    try:
+        check_disjoint(train_clips, test_clips)
+    except ValueError as error:
+        raise UserError(f"--test: {_one_line(error)}") from None
+    particles = _positive(args.particles, "--particles", _PARTICLES)
+    iterations = _positive(args.iterations, "--iterations", _ITERATIONS)
+    max_frames = _max_frames(args.max_frames)
+    check_seed(args.seed)
+    cameras = _cameras(args.cameras)
+    if args.json.suffix != ".json":
+        raise UserError(f"--json {args.json}: must be a .json path")
+    folder = output_folder(args.json, "--json")
+    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
+        raise UserError(f"--plots {args.plots} is a file, not a folder")
+    cache = folder / CACHE_NAME
+    trained = _cached_model(cache, train_clips, cameras, args.seed)
+    load_clip_sources(test_sources, "--test")
+    folders = (folder,) if args.plots is None else (folder, args.plots)
+    with _outputs(*folders) as written:
+        if trained is None:
+            print(f"training on {len(train_clips)} clip(s) through camera(s) "
+                  f"{' '.join(map(str, cameras))} -> {cache}", flush=True)
+            trained = lc.train(train_clips, views=cameras, num_clusters=_CLUSTERS,
+                               seed=args.seed, output=cache)
+        else:
+            print(f"reusing {cache} ({trained.model.num_clusters} clusters, "
+                  f"{len(trained.vectors)} training vectors)", flush=True)
+        results = lc.evaluate(trained, test_clips, views=cameras, particles=particles,
+                              iterations=iterations, max_frames=max_frames, seed=args.seed)
+        if args.plots is not None:
+            _evaluation_plots(args.plots, written, results, trained, test_clips[0], cameras[0],
+                              particles, iterations, max_frames, args.seed)
+        summary = _summary(results)
+        write_json_atomically(args.json, {
+            "method": "linear-combination", "device": _device(), "train": train_clips,
+            "test": test_clips,
+            "cameras": list(cameras), "particles": particles, "iterations": iterations,
+            "max_frames": max_frames, "seed": args.seed, "model_cache": str(cache),
+            "summary": summary, "results": _finite_json(results),
+            "seconds": round(time.perf_counter() - started, 2)})
+    print(_table(summary))
+    print(f"{len(test_clips)} test clip(s) x {len(cameras)} camera(s), {particles} particles x "
+          f"{iterations} iterations, on {_device()}; wrote {args.json} "
+          f"({time.perf_counter() - started:.0f} s)")
+    return 0
+
+
+def _device() -> str:
+    import jax
+
+    device = jax.devices()[0]
+    return f"{device.platform} ({device.device_kind})"
+
+
+def _finite_json(value):
+    """``value`` with every non-finite float replaced by None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {key: _finite_json(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite_json(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _summary(results: dict) -> list[dict]:
+    """Per method: mean and worst 3-D error over sequences, frames, run and compile time."""
+    rows = []
+    for method in results["methods"]:
+        entries = [sequence[method] for sequence in results["sequences"].values()]
+        frames = [len(entry["errors_m"]) for entry in entries]
+        compile_seconds = [entry["compile_seconds"] for entry in entries]
+        rows.append({
+            "method": method, "error_mm": 1e3 * float(np.mean([e["error_m"] for e in entries])),
+            "worst_sequence_mm": 1e3 * float(np.max([e["error_m"] for e in entries])),
+            "sequences": len(entries), "frames": int(sum(frames)),
+            "ms_per_frame": 1e3 * float(np.average([e["seconds_per_frame"] for e in entries],
+                                                   weights=frames)),
+            "compile_seconds": (float(np.sum(compile_seconds))
+                                if all(math.isfinite(c) for c in compile_seconds) else None)})
+    return rows
+
+
+def _table(rows: list[dict]) -> str:
+    lines = ["| method | 3-D error (mm) | worst sequence (mm) | sequences | frames | ms/frame "
+             "| compile (s) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for row in rows:
+        compiled = "-" if row["compile_seconds"] is None else f"{row['compile_seconds']:.1f}"
+        lines.append(f"| {row['method']} | {row['error_mm']:.1f} | "
+                     f"{row['worst_sequence_mm']:.1f} | {row['sequences']} | {row['frames']} | "
+                     f"{row['ms_per_frame']:.2f} | {compiled} |")
+    return "\n".join(lines)
+
+
+def _evaluation_plots(folder: Path, written: list, results: dict, trained, clip: str,
+                      camera: int, particles: int, iterations: int, max_frames, seed: int
+                      ) -> None:
+    """Per sequence the 3-D error per frame of each method (PNG), and the tracker's estimate
+    over one sequence (the first test clip through the first camera, as evaluated); each file
+    is added to ``written`` once written."""
+    import jax.random as jr
+
+    from jaxtrack._plotting import new_figure, save_figure
+    from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.trackers import Engine
+    from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
+    from jaxtrack.vision import write_frames
+
+    fps = float(trained.description.get("fps", 30.0))
+    for name, entry in results["sequences"].items():
+        figure, axes = new_figure(7.0, 3.5)
+        for method in results["methods"]:
+            errors = 1e3 * np.asarray(entry[method]["errors_m"])
+            axes.plot(np.arange(len(errors)) / fps, errors, label=method, linewidth=1.2)
+        axes.set_xlabel("time (s)")
+        axes.set_ylabel("3-D skeleton error (mm)")
+        axes.set_ylim(bottom=0)
+        axes.grid(True, alpha=0.3)
+        axes.legend(fontsize="small")
+        axes.set_title(name)
+        written.append(save_figure(figure, folder / f"{name}_errors.png", dpi=120))
+    # the same render and tracker settings as lc.evaluate: the overlay shows what was scored
+    sequence = lc.render_hybrid_sequences(
+        clip, views=(camera,), num_contour=trained.model.layout.num_contour, fps=fps,
+        max_frames=max_frames, seed=seed + 7, keep_observations=True, keep_images=True)[0]
+    tracker = linear_combination_tracker(trained.model, engine=Engine(particles),
+                                         iterations=iterations)
+    estimates = track_observations(tracker, jr.PRNGKey(seed), sequence.observations).estimates
+    panels = [_panel(sequence.images[t], np.asarray(estimates.contour[t]),
+                     np.asarray(estimates.best_markers[t]), "linear-combination",
+                     f"{t + 1}/{len(sequence.images)} {_short(sequence.status[t])}".strip(), 0)
+              for t in range(len(sequence.images))]
+    height, width = panels[0].shape[:2]
+    written.append(write_frames(panels, folder / f"{sequence.name}_linear-combination.mp4", fps,
+                                (width, height)))
+
+
+# ----------------------------------------------------------------------------------- track
+
+
+def _skin(text: str | None):
+    if text is None:
+        return None
+    try:
+        values = [int(value) for value in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(0 <= value <= 255 for value in values):
+        raise UserError(f"--skin must be R,G,B (three numbers 0-255), got {text!r}")
+    return tuple(values)
+
+
+def _calibrated_cameras(args, count: int) -> list | None:
+    """The cameras of ``--calibration`` (those of ``--cameras``), one per video, or None."""
+    from jaxtrack.body import read_qca
+
+    if args.calibration is None:
+        if args.cameras is not None:
+            raise UserError("--cameras picks cameras of --calibration; give --calibration")
+        return None
+    if not args.calibration.is_file():
+        raise UserError(f"--calibration {args.calibration}: no such file")
+    try:
+        cameras = read_qca(args.calibration, world_up="y")
+    except (ValueError, OSError, KeyError) as error:
+        raise UserError(f"--calibration {args.calibration}: "
+                        f"{_one_line(error).removeprefix(str(args.calibration))}") from None
+    chosen = list(range(len(cameras))) if args.cameras is None else list(args.cameras)
+    bad = [index for index in chosen if not 0 <= index < len(cameras)]
+    if bad or len(set(chosen)) != len(chosen):
+        raise UserError(f"--cameras must be distinct indices 0-{len(cameras) - 1} of the "
+                        f"{len(cameras)} cameras of --calibration, got "
+                        f"{' '.join(map(str, args.cameras))}")
+    if len(chosen) != count:
+        raise UserError(f"--video: {count} video(s) but {len(chosen)} camera(s) "
+                        f"({', '.join(cameras[i].name for i in chosen)}) of --calibration "
+                        f"{args.calibration}; give one video per camera, in order (or pick "
+                        f"the cameras with --cameras)")
+    return [cameras[index] for index in chosen]
+
+
+def _probe_videos(args, cameras, start: int) -> list[tuple[float, tuple[int, int], float]]:
+    """Per video (checked on its first frame): the factor that brings it to the model's
+    training scale (its calibrated camera's image scaled by ``CAMERA_SCALE``; without a
+    calibration the video must already be a ``CROP_SIZE`` clip at that scale), its size
+    ``(width, height)`` and its frame rate."""
+    from jaxtrack.experiments.linear_combination import CAMERA_SCALE, CROP_SIZE
+    from jaxtrack.vision import VideoError, read_video
+
+    probes = []
+    for index, path in enumerate(args.video):
+        try:
+            probe = read_video(path, start=start, max_frames=1)
+        except VideoError as error:
+            raise UserError(f"--video: {_one_line(error)}") from None
+        height, width = probe.frames.shape[1:3]
+        size, fps = (width, height), probe.source_fps
+        if cameras is None:
+            if (width, height) != tuple(CROP_SIZE):
+                raise UserError(
+                    f"--calibration is required for --video {path} ({width}x{height}): the "
+                    f"model was trained on calibrated cameras scaled by {CAMERA_SCALE:.3g} and "
+                    f"cut to {CROP_SIZE[0]}x{CROP_SIZE[1]}; without a calibration a video must "
+                    f"already be such a {CROP_SIZE[0]}x{CROP_SIZE[1]} clip")
+            probes.append((1.0, size, fps))
+            continue
+        camera_width, camera_height = cameras[index].image_size
+        if abs(width / height - camera_width / camera_height) > 0.02 * camera_width / camera_height:
+            raise UserError(f"--video {path} is {width}x{height} but camera "
+                            f"{cameras[index].name} of --calibration is {camera_width}x"
+                            f"{camera_height} (another shape): give the videos in the order of "
+                            f"the calibration's cameras")
+        probes.append((CAMERA_SCALE * max(camera_width, camera_height) / max(width, height),
+                       size, fps))
+    return probes
+
+
+def _subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarray, int]:
+    """Where training would centre its crop (the middle of the upper body's extent over the
+    clip), from silhouettes of up to 32 frames: horizontally the middle of the silhouettes'
+    extent, vertically a third of the figure's height below its top (on rendered figures the
+    crop's centre lies 0.29–0.36 of the way down; a figure whose feet are not segmented comes
+    out short, and its crop too high). Returns ``(centre (x, y), frames with a person)``."""
+    from jaxtrack.vision.foreground import foreground_mask, largest_component
+
+    boxes = []
+    for frame in frames[np.unique(np.linspace(0, len(frames) - 1, 32).round().astype(int))]:
+        rows, columns = np.nonzero(largest_component(foreground_mask(frame, background)))
+        if rows.size:
+            boxes.append((columns.min(), rows.min(), columns.max(), rows.max()))
+    if not boxes:
+        return np.array([frames.shape[2], frames.shape[1]]) / 2, 0
+    left, top, right, bottom = np.asarray(boxes, np.float64).T
+    x = 0.5 * (np.percentile(left, 10) + np.percentile(right, 90))
+    y = np.median(top) + 0.33 * np.percentile(bottom - top, 90)
+    return np.array([x, y]), len(boxes)
+
+
+def _cut(images: np.ndarray, origin: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``images[..., y0:y0+h, x0:x0+w, :]``, the image's edge repeated where the window leaves
+    it (the same for every frame and the background, so it is never foreground)."""
+    x0, y0 = (int(v) for v in origin)
+    width, height = size
+    full_height, full_width = images.shape[-3:-1]
+    pad = [(0, 0)] * (images.ndim - 3) + [(max(0, -y0), max(0, y0 + height - full_height)),
+                                          (max(0, -x0), max(0, x0 + width - full_width)), (0, 0)]
+    padded = np.pad(images, pad, mode="edge")
+    x0, y0 = x0 + pad[-2][0], y0 + pad[-3][0]
+    return np.ascontiguousarray(padded[..., y0:y0 + height, x0:x0 + width, :])
+
+
+def track(args: argparse.Namespace) -> int:
+    """``jaxtrack track --method linear-combination``."""
+    import jax.random as jr
+
+    from jaxtrack.cli.track import _frame_range
+    from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.trackers import Engine
+    from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
+    from jaxtrack.vision import VideoError, median_background, read_video
+
+    started = time.perf_counter()
+    particles = _positive(args.particles, "--particles", _PARTICLES)
+    iterations = _positive(args.iterations, "--iterations", _ITERATIONS)
+    check_seed(args.seed)
+    if args.init != "face":
+        raise UserError("--init is not used by --method linear-combination (it starts from the "
+                        "model's clusters)")
+    skin = _skin(args.skin)
+    start, stop = _frame_range(args.frames)
+    if args.out.exists() and not args.out.is_dir():
+        raise UserError(f"--out {args.out} is a file; give a folder")
+    output_folder(args.out / "track.json", "--out")
+    for path in args.video:
+        if not path.is_file():
+            raise UserError(f"--video {path}: no such file")
+    trained = _load(args.model, "--model", "make one with jaxtrack train --method "
+                    "linear-combination")
+    joints = trained.description.get("skeleton", [])
+    if len(joints) != trained.model.layout.num_skeleton:
+        raise UserError(f"--model {args.model}: its description names {len(joints)} skeleton "
+                        f"joints for {trained.model.layout.num_skeleton} vertices; make one with "
+                        f"jaxtrack train --method linear-combination")
+    cameras = _calibrated_cameras(args, len(args.video))
+    probes = _probe_videos(args, cameras, start)
+    fps_model = float(trained.description.get("fps", 30.0))
+
+    # every argument checked: decode (at the model's scale and frame rate), observe, track
+    tick = time.perf_counter()
+    videos, strides = [], []
+    for path, (scale, _, fps) in zip(args.video, probes, strict=True):
+        strides.append(max(1, round(fps / fps_model)) if math.isfinite(fps) else 1)
+        try:
+            videos.append(read_video(path, start=start, stride=strides[-1], scale=scale,
+                                     max_frames=None if stop is None else
+                                     -(-(stop - start) // strides[-1])))
+        except VideoError as error:
+            raise UserError(f"--video: {_one_line(error)}") from None
+    count = min(video.num_frames for video in videos)
+    if count < 3:
+        raise UserError(f"--video: {count} frame(s) to track; the median background needs at "
+                        f"least 3")
+    decode_seconds = time.perf_counter() - tick
+    tick = time.perf_counter()
+    views = []
+    for index, video in enumerate(videos):
+        frames = video.frames[:count]
+        background = median_background(frames)
+        origin, people = np.zeros(2), count
+        if cameras is not None:
+            centre, people = _subject_centre(frames, background)
+            origin = np.round(centre - np.asarray(lc.CROP_SIZE) / 2)
+            frames = _cut(frames, origin, lc.CROP_SIZE)
+            background = _cut(background, origin, lc.CROP_SIZE)
+        observations, status = lc.observe(frames, background, skin_reference=skin)
+        height, width = video.frames.shape[1:3]
+        size = probes[index][1]
+        views.append({"frames": frames, "observations": observations, "status": status,
+                      "origin": origin, "people": people, "video": video,
+                      "stride": strides[index], "size": size,
+                      # per axis: the decoder rounds the scaled size
+                      "scale": np.array([width / size[0], height / size[1]]),
+                      "name": cameras[index].name if cameras else f"view{index}"})
+    observe_seconds = time.perf_counter() - tick
+    tracker = linear_combination_tracker(trained.model, engine=Engine(particles),
+                                         iterations=iterations)
+    for view in views:
+        # the same key for every view: views differ by what they see, not by their noise
+        view["run"] = track_observations(tracker, jr.PRNGKey(args.seed), view["observations"])
+    tick = time.perf_counter()
+    chosen, ambiguity = _select_views(trained, [view["run"].estimates for view in views])
+    selection_seconds = time.perf_counter() - tick
+    for view in views:
+        estimates = view["run"].estimates
+        if not (np.all(np.isfinite(estimates.best_skeleton_3d))
+                and np.all(np.isfinite(estimates.log_fitness))):
+            raise UserError(f"tracking --video {view['video'].path} produced non-finite "
+                            f"skeletons; nothing written")
+    record = _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, skin)
+    with _outputs(args.out) as written:
+        fps = videos[0].fps if math.isfinite(videos[0].fps) else fps_model
+        try:
+            written.append(_write_overlay(args.out / "overlay.mp4", views, chosen, ambiguity,
+                                          fps))
+        except OSError as error:
+            raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
+        record["seconds"] = {
+            "decode": round(decode_seconds, 3), "observe": round(observe_seconds, 3),
+            "view_selection": round(selection_seconds, 3),
+            "per_view": [{"compile": round(view["run"].compile_seconds, 3),
+                          "ms_per_frame": round(1e3 * view["run"].seconds_per_frame, 3)}
+                         for view in views],
+            "total": round(time.perf_counter() - started, 3)}
+        json_path = _write_json(args.out / "track.json", record)
+    observed = sum(int(np.sum(view["observations"].found)) for view in views)
+    speeds = ", ".join(f"{1e3 * view['run'].seconds_per_frame:.1f}" for view in views)
+    compile_seconds = sum(view["run"].compile_seconds for view in views)
+    print(f"tracked {count} frames in {len(views)} view(s) ({observed} view-frames observed; "
+          f"{speeds} ms/frame, compile {compile_seconds:.1f} s); total "
+          f"{time.perf_counter() - started:.1f} s")
+    print(f"  wrote {args.out / 'overlay.mp4'}\n  wrote {json_path}")
+    return 0
+
+
+def _write_json(path: Path, record: dict) -> Path:
+    from jaxtrack._files import write_json_atomically
+
+    return write_json_atomically(path, _finite_json(record))
+
+
+def _select_views(trained, estimates: list) -> tuple[list, np.ndarray | None]:
+    """Ong & Gong §5.7 on the tracked views: per frame the view of greatest fitness ×
+    1/ambiguity (eq. 10–14 on the training vectors' ambiguities), None where no view observed
+    the frame. Returns the choices and the ``(time, views)`` ambiguities (None: one view)."""
+    from jaxtrack.body.hybrid import make_hybrid
+    from jaxtrack.priors.linear_combinations import (
+        nearest_ambiguity,
+        select_views,
+        training_ambiguity,
+    )
+
+    if len(estimates) == 1:
+        return [0 if found else None for found in np.asarray(estimates[0].found)], None
+    layout = trained.model.layout
+    ambiguities = training_ambiguity(trained.vectors, layout, chunk=256)
+    count = len(estimates[0].found)
+    ambiguity = np.full((count, len(estimates)), np.nan)
+    seen = np.zeros((count, len(estimates)), bool)
+    for index, estimate in enumerate(estimates):
+        markers = np.asarray(estimate.best_markers)
+        vectors = np.asarray(make_hybrid(estimate.contour, markers[:, 1:], markers[:, 0],
+                                         estimate.best_skeleton_3d))
+        seen[:, index] = np.asarray(estimate.found) & np.all(np.isfinite(vectors), axis=1)
+        if seen[:, index].any():
+            ambiguity[seen[:, index], index] = nearest_ambiguity(
+                vectors[seen[:, index]], trained.vectors, ambiguities, layout)
+    log_fitness = np.stack([np.asarray(e.log_fitness, np.float64) for e in estimates], axis=1)
+    chosen = select_views(log_fitness, np.where(seen, ambiguity, 0.0), seen)
+    return [int(view) if seen[t].any() else None for t, view in enumerate(chosen)], ambiguity
+
+
+def _to_video(points: np.ndarray, view: dict) -> np.ndarray:
+    """Tracking pixels (inside the crop) -> the video's own pixels (pixel centres at
+    integers, as ``scale_camera``)."""
+    return (points + view["origin"] + 0.5) / view["scale"] - 0.5
+
+
+def _rounded(values, digits: int):
+    values = np.asarray(values, np.float64)
+    if not np.all(np.isfinite(values)):
+        return None
+    return np.round(values, digits).tolist()
+
+
+def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, skin) -> dict:
+
+    joints = list(trained.description["skeleton"])
+    frames = []
+    for t in range(len(chosen)):
+        entries = []
+        for index, view in enumerate(views):
+            estimate = view["run"].estimates
+            found = bool(estimate.found[t])
+            markers = np.asarray(estimate.best_markers[t], np.float64)
+            video_markers = _to_video(markers, view) if found else None
+            skeleton = np.asarray(estimate.best_skeleton_3d[t], np.float64)
+            entry = {
+                "status": view["status"][t] or "observed", "observed": found,
+                "log_fitness": round(float(estimate.log_fitness[t]), 4),
+                "ambiguity": None if ambiguity is None else _rounded(ambiguity[t, index], 5),
+                "cluster": int(estimate.cluster[t]), "ess": round(float(estimate.ess[t]), 2),
+                "head": None if video_markers is None else _rounded(video_markers[0], 2),
+                "hands": None if video_markers is None else _rounded(video_markers[1:], 2),
+                "skeleton_m": dict(zip(joints, np.round(skeleton, 4).tolist(), strict=True))}
+            if cameras is not None:  # neck-relative in the calibration's world axes (Y up)
+                world = skeleton @ np.asarray(cameras[index].rotation, np.float64)
+                entry["skeleton_world_m"] = dict(zip(joints, np.round(world, 4).tolist(),
+                                                     strict=True))
+            entries.append(entry)
+        video = views[0]["video"]
+        index = int(video.frame_indices[t])
+        frames.append({"frame": index, "time_s": (round(index / video.source_fps, 4)
+                                                  if math.isfinite(video.source_fps) else None),
+                       "views": entries, "selected_view": chosen[t],
+                       "selected": None if chosen[t] is None else views[chosen[t]]["name"]})
+    return {
+        "method": "linear-combination", "model": str(args.model),
+        "trained_on": {key: trained.description.get(key) for key in
+                       ("clips", "views", "fps", "num_clusters", "frames")},
+        "calibration": None if args.calibration is None else str(args.calibration),
+        "views": [{"video": str(view["video"].path), "camera": view["name"],
+                   "size": list(view["size"]), "fps": _rounded(view["video"].source_fps, 3),
+                   "stride": view["stride"],
+                   "scale": np.round(view["scale"], 5).tolist(),
+                   "crop_origin": np.round(view["origin"], 1).tolist(),
+                   "crop_from_silhouettes": view["people"],
+                   "background": "median of the video's frames"} for view in views],
+        "tracked_size": list(views[0]["frames"].shape[2:0:-1]),
+        "skin": "fixed chroma box" if skin is None else list(skin),
+        "particles": tracker.num_particles, "iterations": tracker.iterations,
+        "seed": args.seed, "tracker": views[0]["run"].options, "joints": joints,
+        "coordinates": "head and hands in the video's own pixels (hands ordered left to right "
+                       "in the image); skeleton_m in the camera's frame, metres, relative to "
+                       "the neck",
+        "frames": frames}
+
+
+# --------------------------------------------------------------------------------- overlay
+
+
+def _short(status: str) -> str:
+    """``"no skin blobs: 4 skin pixels, ..."`` -> ``"no skin blobs"`` (a frame's label)."""
+    return status.split(":")[0].split("(")[0].strip()
+
+
+def _polyline(image: np.ndarray, points: np.ndarray, colour) -> None:
+    """Draw a closed polyline of ``points`` (x, y) into ``image`` (two pixels wide)."""
+    points = np.asarray(points, np.float64)
+    if points.ndim != 2 or not np.all(np.isfinite(points)):
+        return
+    following = np.roll(points, -1, axis=0)
+    steps = int(np.ceil(np.abs(following - points).max(initial=0))) + 1
+    fractions = np.linspace(0.0, 1.0, steps)[:, None, None]
+    samples = (points + fractions * (following - points)).reshape(-1, 2).round().astype(int)
+    height, width = image.shape[:2]
+    for dx, dy in ((0, 0), (1, 0), (0, 1)):
+        x, y = samples[:, 0] + dx, samples[:, 1] + dy
+        inside = (x >= 0) & (x < width) & (y >= 0) & (y < height)
+        image[y[inside], x[inside]] = colour
+
+
+def _panel(image, contour, markers, name: str, label: str, colour_index: int) -> np.ndarray:
+    """One view's frame at ``_ZOOM`` × the tracking resolution with the estimated contour and
+    head and hands drawn."""
+    from jaxtrack.vision import METHOD_COLOURS, draw_tracks
+
+    colour = METHOD_COLOURS[colour_index % len(METHOD_COLOURS)]
+    panel = np.repeat(np.repeat(np.asarray(image, np.uint8), _ZOOM, axis=0), _ZOOM, axis=1)
+    _polyline(panel, (np.asarray(contour) + 0.5) * _ZOOM - 0.5, colour)
+    return draw_tracks(panel, {name: (np.asarray(markers) + 0.5) * _ZOOM - 0.5},
+                       ("head", "hand", "other_hand"), label=label, colours={name: colour})
+
+
+def _write_overlay(path: Path, views: list[dict], chosen, ambiguity, fps: float) -> Path:
+    """The views side by side; with several, an ambiguity bar under each (longer: more
+    ambiguous, scaled to the largest over the clip) and the selected view framed (the paper's
+    Fig. 17)."""
+    from jaxtrack.vision import write_frames
+
+    several = len(views) > 1
+    finite = ambiguity[np.isfinite(ambiguity)] if several else np.zeros(0)
+    largest = max(float(finite.max(initial=0.0)), 1e-9)
+
+    def frame(t: int) -> np.ndarray:
+        columns = []
+        for index, view in enumerate(views):
+            estimate = view["run"].estimates
+            status = view["status"][t]
+            label = f"{t + 1}/{len(chosen)} {_short(status)}".strip()
+            panel = _panel(view["frames"][t], estimate.contour[t], estimate.best_markers[t],
+                           view["name"], label, index)
+            if several:
+                bar = np.zeros((_BAR, panel.shape[1], 3), np.uint8)
+                value = ambiguity[t, index]
+                if np.isfinite(value):
+                    bar[3:-3, :max(1, round(panel.shape[1] * value / largest))] = (200, 80, 80)
+                panel = np.concatenate([panel, bar])
+                if chosen[t] == index:
+                    panel[:4], panel[-4:], panel[:, :4], panel[:, -4:] = (_SELECTED,) * 4
+            columns.append(panel)
+        return np.concatenate(columns, axis=1)
+
+    first = frame(0)
+    frames = (first if t == 0 else frame(t) for t in range(len(chosen)))
+    return write_frames(frames, path, fps, (first.shape[1], first.shape[0]))

@@ -1,0 +1,248 @@
+"""``jaxtrack train|track|evaluate --method linear-combination``: a tiny model trained from the
+command line tracks rendered video written to mp4 (one calibrated full-frame view; two views
+with view selection), is evaluated on a held-out subject, and bad input is refused in one line
+with nothing written.
+
+Bundled clips only (no ``../shared``); tiny settings (30 training frames, 3 clusters, 20
+particles, 2 iterations, 11-frame videos) so that every tracker shares one compiled scan.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from jaxtrack.body import UPPER_BODY_12, Camera, render_motion
+from jaxtrack.cli import main
+from jaxtrack.data import path as data_path
+from jaxtrack.data import resolve_clip
+from jaxtrack.experiments import linear_combination as lc
+from jaxtrack.vision import median_background, read_video, write_frames
+
+TRAIN = "animateddrawings/fair1_wave_hello"
+TEST = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_1"
+EMPTY, PERSON = 6, 5  # frames of empty scene, then of the person: the median is the scene
+FULL_SIZE = (724, 1280)  # a Pose2Sim camera's 1088 x 1920 image at 2/3 (twice the model's)
+SHIFT = np.array([-120.0, 100.0])  # the figure's upper body is this far from the frame's centre
+TINY = ("--particles", "20", "--iterations", "2")
+
+
+def _strict_json(path):
+    def refuse(constant):
+        raise AssertionError(f"{path} holds {constant}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def _with_empty_scene(images, background):
+    return np.concatenate([np.repeat(background[None], EMPTY, axis=0), images])
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    return tmp_path_factory.mktemp("linear_combination")
+
+
+@pytest.fixture(scope="module")
+def model(folder):
+    path = folder / "model.npz"
+    code = main(["train", "--method", "linear-combination", "--clips", TRAIN, "--cameras", "0",
+                 "1", "--clusters", "3", "--max-frames", "30", "--out", str(path)])
+    assert code == 0 and path.is_file()
+    trained = lc.load(path)
+    assert trained.model.num_clusters == 3 and trained.description["views"] == [0, 1]
+    return path
+
+
+@pytest.fixture(scope="module")
+def crop_videos(folder):
+    """The test subject through cameras 0 and 1, rendered at the model's scale and crop."""
+    sequences = lc.render_hybrid_sequences(TEST, views=(0, 1), max_frames=PERSON, seed=3,
+                                           keep_images=True)
+    return [write_frames(_with_empty_scene(s.images, s.background), folder / f"{s.name}.mp4",
+                         30.0, lc.CROP_SIZE) for s in sequences]
+
+
+@pytest.fixture(scope="module")
+def full_video(folder):
+    """The test subject in a whole frame of Pose2Sim camera 2 at twice the model's scale, off
+    its centre."""
+    motion = resolve_clip(TEST).load().resample(30.0).select(0, PERSON)
+    staged, cameras = lc.pose2sim_cameras(motion, scale=2 * lc.CAMERA_SCALE, crop=FULL_SIZE)
+    camera = cameras[2]
+    camera = Camera(camera.focal_length, camera.principal_point + SHIFT, camera.rotation,
+                    camera.translation, camera.distortion, camera.image_size, name=camera.name)
+    rendered = render_motion(staged, camera, background="photo", markers=UPPER_BODY_12,
+                             seed=5, progress=False)
+    background = lc._background_of(rendered, camera.image_size)
+    return write_frames(_with_empty_scene(rendered.images, background), folder / "full.mp4",
+                        30.0, FULL_SIZE)
+
+
+def _track(out, model, *videos, extra=()):
+    return main(["track", "--method", "linear-combination", "--model", str(model), "--video",
+                 *map(str, videos), "--out", str(out), *TINY, *extra])
+
+
+def test_track_one_calibrated_view_in_video_pixels(folder, model, full_video):
+    video = full_video
+    out = folder / "one"
+    assert _track(out, model, video, extra=("--calibration", str(data_path(
+        "pose2sim/Calib.qca.txt")), "--cameras", "2")) == 0
+    record = _strict_json(out / "track.json")
+    frames = record["frames"]
+    assert len(frames) == EMPTY + PERSON == read_video(out / "overlay.mp4").num_frames
+    # decoded at the model's scale (half this video's), cut near where training puts its
+    # window, around the upper body's middle (SHIFT from the frame's centre); estimated from
+    # silhouettes, whose legs the floor partly hides
+    view = record["views"][0]
+    assert view["camera"] == "cam03" and view["size"] == list(FULL_SIZE)
+    assert view["scale"] == [0.5, 0.5]
+    expected = (np.asarray(FULL_SIZE) / 2 + SHIFT) / 2 - np.asarray(lc.CROP_SIZE) / 2
+    assert np.abs(np.asarray(view["crop_origin"]) - expected).max() < 32, view["crop_origin"]
+    # the head the tracker saw in its window, back in the video's own pixels
+    frames_half = read_video(video, scale=0.5).frames
+    x0, y0 = (int(v) for v in view["crop_origin"])
+    window = np.s_[..., y0:y0 + lc.CROP_SIZE[1], x0:x0 + lc.CROP_SIZE[0], :]
+    seen, _ = lc.observe(frames_half[window], median_background(frames_half)[window])
+    for t, frame in enumerate(frames):
+        entry = frame["views"][0]
+        if t < EMPTY:
+            assert entry["status"].startswith("no silhouette") and entry["head"] is None
+            assert frame["selected_view"] is None
+            continue
+        assert entry["observed"] and frame["selected_view"] == 0
+        head = (seen.head[t] + (x0, y0) + 0.5) / 0.5 - 0.5
+        np.testing.assert_allclose(entry["head"], head, atol=0.01)
+        hands = (np.asarray(entry["hands"]) + 0.5) * 0.5 - 0.5 - (x0, y0)
+        assert np.all((hands >= 0) & (hands < lc.CROP_SIZE)), hands
+        skeleton = np.array([entry["skeleton_m"][joint] for joint in UPPER_BODY_12])
+        world = np.array([entry["skeleton_world_m"][joint] for joint in UPPER_BODY_12])
+        assert np.all(np.abs(skeleton) < 2.0) and skeleton[1].tolist() == [0.0, 0.0, 0.0]
+        # a rotation: the same distances from the neck in the world's axes
+        np.testing.assert_allclose(np.linalg.norm(world, axis=1),
+                                   np.linalg.norm(skeleton, axis=1), atol=2e-4)
+
+
+def test_track_two_views_selects_by_fitness_over_ambiguity(folder, model, crop_videos):
+    out = folder / "two"
+    assert _track(out, model, *crop_videos) == 0
+    record = _strict_json(out / "track.json")
+    selected = []
+    for frame in record["frames"]:
+        views = frame["views"]
+        if not any(view["observed"] for view in views):
+            assert frame["selected_view"] is None
+            continue
+        # Ong & Gong §5.7 from the file's own numbers (select_views' floor 1e-3)
+        score = [view["log_fitness"] - math.log(view["ambiguity"] + 1e-3)
+                 if view["observed"] else -math.inf for view in views]
+        assert frame["selected_view"] == int(np.argmax(score))
+        assert frame["selected"] == record["views"][frame["selected_view"]]["camera"]
+        selected.append(frame["selected_view"])
+    assert len(selected) == PERSON
+    overlay = read_video(out / "overlay.mp4").frames
+    width, height = 2 * np.asarray(lc.CROP_SIZE)
+    assert overlay.shape[1:3] == (height + 18, 2 * width)
+    # the selected view is framed in yellow
+    t = EMPTY + 2
+    border = overlay[t, 1, selected[2] * width + 20: (selected[2] + 1) * width - 20]
+    other = overlay[t, 1, (1 - selected[2]) * width + 20: (2 - selected[2]) * width - 20]
+    assert np.abs(border.mean(axis=0) - (255, 224, 0)).max() < 40
+    assert np.abs(other.mean(axis=0) - (255, 224, 0)).max() > 60
+
+
+def test_evaluate_scores_three_methods_with_the_cached_model(folder, model, capsys):
+    out = folder / "evaluation"
+    out.mkdir()
+    cache = out / "lc_cache.npz"
+    cache.write_bytes(model.read_bytes())  # trained on TRAIN through cameras 0 1: reused
+    before = cache.stat().st_mtime_ns
+    capsys.readouterr()
+    code = main(["evaluate", "--method", "linear-combination", "--train", TRAIN, "--test", TEST,
+                 "--cameras", "0", "1", "--max-frames", str(EMPTY + PERSON), *TINY,
+                 "--json", str(out / "metrics.json"), "--plots", str(out / "plots")])
+    printed = capsys.readouterr().out
+    assert code == 0 and "reusing" in printed and cache.stat().st_mtime_ns == before
+    assert "| method | 3-D error (mm) |" in printed
+    record = _strict_json(out / "metrics.json")
+    assert [row["method"] for row in record["summary"]] == list(lc.METHODS)
+    sequences = record["results"]["sequences"]
+    assert len(sequences) == 2
+    for row in record["summary"]:
+        assert 0 < row["error_mm"] <= row["worst_sequence_mm"] < 2000
+        assert row["frames"] == 2 * (EMPTY + PERSON) and row["compile_seconds"] >= 0
+        assert f"| {row['method']} | {row['error_mm']:.1f} |" in printed
+    for entry in sequences.values():
+        for method in lc.METHODS:
+            errors = entry[method]["errors_m"]
+            assert len(errors) == EMPTY + PERSON
+            assert np.mean(errors) == pytest.approx(entry[method]["error_m"], abs=1e-5)
+    plots = sorted(path.name for path in (out / "plots").iterdir())
+    assert plots == sorted([f"{name}_errors.png" for name in sequences]
+                           + [f"{next(iter(sequences))}_linear-combination.mp4"])
+
+
+def _fake_model(path, kind):
+    from jaxtrack._files import write_npz_atomically
+
+    write_npz_atomically(path, {"x": np.zeros(2)}, {"format": kind, "format_version": 1})
+    return path
+
+
+CALIBRATION = str(data_path("pose2sim/Calib.qca.txt"))
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["track", "--model", "{gplvm}", "--video", "{crop}"],
+     "--model {gplvm}: a GPLVM pose prior (the latent tracker's), not a linear-combination"),
+    (["track", "--model", "{postures}", "--video", "{crop}"],
+     "--model {postures}: a posture model (the mixed-state tracker's), not a linear-combination"),
+    (["track", "--model", "{model}", "--video", "{crop}", "--calibration", CALIBRATION],
+     "--video: 1 video(s) but 4 camera(s) (cam01, cam02, cam03, cam04) of --calibration"),
+    (["track", "--model", "{model}", "--video", "{crop}", "{crop}", "--calibration",
+      CALIBRATION, "--cameras", "1", "7"], "--cameras must be distinct indices 0-3"),
+    (["track", "--model", "{model}", "--video", "{crop}", "--calibration", "{inputs}/no.txt"],
+     "--calibration {inputs}/no.txt: no such file"),
+    (["track", "--model", "{model}", "--video", "{full}"],
+     "--calibration is required for --video {full} (724x1280)"),
+    (["track", "--model", "{model}", "--video", "{crop}", "--skin", "300,1,1"],
+     "--skin must be R,G,B"),
+    (["track", "--model", "{model}", "--video", "{inputs}/none.mp4"],
+     "--video {inputs}/none.mp4: no such file"),
+    (["train", "--clips", TEST], "--clips " + TEST + ": subject animateddrawings:cmu_1006 is a "
+     "test subject"),
+    (["train", "--clips", TRAIN, "--cameras", "0", "4"], "--cameras must be Pose2Sim camera "
+     "indices 0-3, got 4"),
+    (["train", "--clips", TRAIN, "--cameras", "1", "1"], "--cameras names a camera twice"),
+    (["train", "--clips", TRAIN, "--clusters", "1"], "--clusters must be at least 2"),
+    (["train", "--clips", TRAIN, "--out", "{gplvm}"], "--out {gplvm}: a GPLVM pose prior"),
+    (["evaluate", "--train", "cmu_amc/07_01", "--test", "cmu_amc/07_02"],
+     "--test: subject cmu:07 is in both the training clips"),
+    (["evaluate", "--train", TRAIN, "--test", TEST, "--cameras", "5"],
+     "--cameras must be Pose2Sim camera indices 0-3, got 5"),
+    (["evaluate", "--train", TRAIN, "--test", TEST, "--json", "{inputs}/damaged/out.json"],
+     "the model cached beside --json: {inputs}/damaged/lc_cache.npz: damaged or truncated"),
+])
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, model, crop_videos,
+                                                         full_video, arguments, message):
+    inputs = tmp_path / "inputs"
+    (inputs / "damaged").mkdir(parents=True)
+    (inputs / "damaged" / "lc_cache.npz").write_bytes(model.read_bytes()[:500])
+    names = {"gplvm": _fake_model(inputs / "gplvm.npz", "jaxtrack.gplvm"),
+             "postures": _fake_model(inputs / "postures.npz", "jaxtrack.postures"),
+             "model": model, "crop": crop_videos[0], "full": full_video, "inputs": inputs}
+    contents = sorted(inputs.rglob("*"))
+    command, *rest = arguments
+    defaults = {"track": ["--out", str(tmp_path / "out")],
+                "train": ["--out", str(tmp_path / "out" / "model.npz")],
+                "evaluate": ["--json", str(tmp_path / "out" / "metrics.json")]}[command]
+    rest = [argument.format(**names) for argument in rest]
+    if rest.count("--out") or rest.count("--json"):
+        defaults = []
+    code = main([command, "--method", "linear-combination", *rest, *defaults])
+    error = capsys.readouterr().err
+    assert code == 2, error
+    assert error.count("\n") == 1 and message.format(**names) in error, error
+    assert sorted(inputs.rglob("*")) == contents and not (tmp_path / "out").exists()

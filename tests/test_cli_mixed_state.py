@@ -1,0 +1,258 @@
+"""`jaxtrack train | track | evaluate --method mixed-state`: a posture model trained from the
+shared posture clips, a rendered walk tracked from its own video (parts back in the video's
+pixels, on the walker), Table 1 from one held-out clip, and bad input refused in one line with
+nothing written.
+
+Tiny settings throughout (160x120 images, a few frames, tens of particles): these check the
+commands, not the tracker's accuracy (tests/mixed_state/ and `jaxtrack evaluate` do that)."""
+
+import json
+import math
+import shutil
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxtrack.cli import main
+from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES, PostureModel
+
+SIZE = (160, 120)
+TRAIN = ("--max-frames", "30", "--size", "160x120", "--azimuths", "90", "-90")
+ESTIMATES = ("instantaneous", "filtered", "smoothed", "fixed_lag")
+
+
+def run(capsys, *arguments):
+    code = main([str(argument) for argument in arguments])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _needs_posture_clips():
+    from jaxtrack.data import list_clips
+
+    if "cmu_posture_bvh/75_20" not in list_clips():
+        pytest.skip("the posture clips are in the project's shared data, not found here")
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A posture model from the default training clips, 30 frames each, two profile views."""
+    pytest.importorskip("cv2")
+    _needs_posture_clips()
+    path = tmp_path_factory.mktemp("trained") / "postures.npz"
+    assert main(["train", "--method", "mixed-state", "--out", str(path), *TRAIN]) == 0
+    return path
+
+
+@pytest.fixture(scope="module")
+def walk(tmp_path_factory):
+    """A 30-frame side view of a real walk (CMU 07_01, bundled) as an mp4, and its true
+    markers: the walker crosses the image, so the median background is the empty scene."""
+    pytest.importorskip("cv2")
+    from jaxtrack.body._backgrounds import make_background
+    from jaxtrack.body._staging import frontal_camera
+    from jaxtrack.body.markers import HUMANEVA_15
+    from jaxtrack.body.render import render_motion
+    from jaxtrack.data import load_clip
+    from jaxtrack.vision import write_frames
+
+    motion = load_clip("cmu_amc/07_01").resample(30.0)
+    motion = motion.select(0, 30)
+    camera = frontal_camera(motion, SIZE, azimuth=np.pi / 2, elevation=0.1)
+    scene, _ = make_background("photo", SIZE, np.random.default_rng(0))
+    rendered = render_motion(motion, camera, image_size=SIZE, background=scene,
+                             markers=HUMANEVA_15, seed=0, progress=False)
+    path = write_frames(rendered.images, tmp_path_factory.mktemp("walk") / "walk.mp4", 30.0,
+                        SIZE)
+    return path, np.asarray(rendered.markers_2d)
+
+
+@pytest.fixture
+def posture_file(tmp_path):
+    """A hand-made posture model (no shared data needed): checks that fail before tracking."""
+    from jaxtrack.priors.postures import save_posture_model
+
+    dimension = 2 * 4 + 1
+    model = PostureModel(jnp.zeros((NUM_POSTURES, dimension)),
+                         jnp.broadcast_to(jnp.eye(dimension), (NUM_POSTURES, dimension,
+                                                               dimension)),
+                         jnp.zeros(NUM_POSTURES),
+                         jnp.full((NUM_POSTURES, NUM_POSTURES), -math.log(NUM_POSTURES)),
+                         jnp.full(NUM_POSTURES, -math.log(NUM_POSTURES)), jnp.asarray(20.0))
+    return save_posture_model(tmp_path / "postures.npz", model)
+
+
+def test_train_reuses_a_model_of_the_same_settings(trained, capsys, tmp_path):
+    from jaxtrack.priors.postures import load_posture_model
+
+    saved = load_posture_model(trained)
+    counts = saved.description["label_counts"]
+    assert saved.model.num_features == 33 and all(counts[name] >= 2 for name in POSTURE_NAMES)
+    assert saved.description["frames"] == sum(counts.values()) <= 6 * 2 * 30
+    copy = shutil.copy(trained, tmp_path / "copy.npz")
+    before = (tmp_path / "copy.npz").stat().st_mtime_ns
+    code, out, _ = run(capsys, "train", "--method", "mixed-state", "--out", copy, *TRAIN)
+    assert code == 0 and out.count("\n") == 1 and "(reused)" in out
+    assert (tmp_path / "copy.npz").stat().st_mtime_ns == before
+
+
+def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp_path, capsys):
+    from jaxtrack.vision import read_video
+
+    video, markers = walk
+    out = tmp_path / "out"
+    # tracked at 80x60: every position must come back in the 160x120 video's pixels
+    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
+                              "--video", video, "--out", out, "--particles", 64, "--max-size",
+                              80, "--seed", 3)
+    assert code == 0, error
+    assert "tracked 30 frames (30 with a silhouette)" in stdout
+    assert sorted(path.name for path in out.iterdir()) == ["overlay.mp4", "track.json"]
+    overlay = read_video(out / "overlay.mp4")
+    assert overlay.frames.shape == (30, 60, 80, 3)
+    record = json.loads((out / "track.json").read_text())
+    assert record["size"] == [160, 120] and record["tracked_size"] == [80, 60]
+    assert record["particles"] == 64 and record["num_bins"] == 16
+    assert record["seconds"]["compile"] > 0 and record["seconds"]["filter_and_smooth"] > 0
+    assert len(record["frames"]) == 30
+    low, high = markers.min(axis=1) - 12, markers.max(axis=1) + 12  # the walker, in video px
+    for t, frame in enumerate(record["frames"]):
+        assert frame["frame"] == t and frame["status"] == "ok"
+        assert 1.0 - 1e-3 <= frame["ess"] <= 64.0 + 1e-3
+        for kind in ("instantaneous", "filtered", "smoothed"):
+            assert frame["posture"][kind] in POSTURE_NAMES
+            parts = np.array(list(frame["parts"][kind].values()))
+            assert parts.shape == (5, 2) and np.all(np.isfinite(parts))
+            # projected into the silhouette: on the walker, not in the 80x60 tracking frame
+            assert np.all((parts >= low[t]) & (parts <= high[t])), (t, kind, parts)
+        for kind in ("filtered", "smoothed"):
+            assert 0.0 < frame["posture_probability"][kind] <= 1.0
+    assert max(np.array(list(frame["parts"]["smoothed"].values()))[:, 0].max()
+               for frame in record["frames"]) > 80
+
+
+def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, capsys):
+    folder = tmp_path / "evaluation"
+    folder.mkdir()
+    shutil.copy(trained, folder / "posture_cache.npz")  # the same settings: reused
+    code, out, error = run(capsys, "evaluate", "--method", "mixed-state", "--test",
+                           "cmu_posture_bvh/75_20", "--max-frames", 12, "--train-max-frames",
+                           30, "--size", "160x120", "--azimuths", 90, -90, "--backgrounds",
+                           "plain", "--particles", 32, "--lag", 3, "--json",
+                           folder / "metrics.json", "--plots", tmp_path / "plots")
+    assert code == 0, error
+    assert "reused" in out.splitlines()[0]
+    rows = [line for line in out.splitlines() if line.startswith("| ")]
+    assert [row.split(" | ")[0] for row in rows] == [
+        "| estimate", "| instantaneous (extended Ghost)", "| filtered",
+        "| smoothed (whole sequence)", "| fixed-lag (3 frames)"]
+    record = json.loads((folder / "metrics.json").read_text())
+    assert record["train"][0] == "cmu_posture_bvh/75_17"
+    assert record["test"] == ["cmu_posture_bvh/75_20"] and record["lag"] == 3
+    assert len(record["sequences"]) == 2
+    for kind in ESTIMATES:
+        score = record["overall"][kind]
+        assert score["frames"] == 24
+        assert set(score["mse"]) == {"head", "hands", "feet", "all"}
+        assert all(value >= 0 and math.isfinite(value) for value in score["mse"].values())
+        assert 0 <= score["posture_error"] <= 1 and score["max_head_error"] >= 0
+        assert set(score["within"]["head"]) == {"10", "20", "30", "50"}
+    assert np.sum(record["smoothed_confusion"]) == 24
+    assert sorted(path.name for path in (tmp_path / "plots").iterdir()) == [
+        "fraction_within.png", "posture_confusion.png"]
+    assert sorted(path.name for path in folder.iterdir()) == ["metrics.json",
+                                                              "posture_cache.npz"]
+
+
+def _gplvm_file(path):
+    from jaxtrack.priors.gplvm import GPLVM, save_gplvm
+    from jaxtrack.priors.gplvm._kernel import KernelParameters
+
+    latents = np.linspace(-1, 1, 8)[:, None] * [1.0, 0.5]
+    model = GPLVM.from_active_set(KernelParameters.create(1.0, 100.0, 1.0), np.sin(latents),
+                                  np.zeros(2), latents, np.arange(4))
+    return save_gplvm(path, model)
+
+
+@pytest.mark.parametrize("case, message", [
+    ("gplvm", "--model {tmp}/gplvm.npz: a GPLVM pose prior (for --method latent), not a posture "
+              "model; --method mixed-state needs a posture model from jaxtrack train --method "
+              "mixed-state"),
+    ("plain npz", "--model {tmp}/plain.npz: not a jaxtrack posture-model file (no metadata)"),
+    ("two videos", "--video: --method mixed-state tracks one video, got 2"),
+    ("missing video", "--video {tmp}/missing.mp4: no such video file"),
+    ("not a video", "--video: {tmp}/v.mp4: OpenCV cannot open it as a video"),
+    ("manual init", "--init does not apply to --method mixed-state"),
+    ("no particles", "--particles must be at least 1, got 0"),
+    ("out is a file", "--out {tmp}/v.mp4 is a file; give a folder"),
+])
+def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, case, message):
+    (tmp_path / "v.mp4").write_text("not a video")
+    model, videos, extra, out = posture_file, [tmp_path / "v.mp4"], [], tmp_path / "out"
+    if case == "gplvm":
+        model = _gplvm_file(tmp_path / "gplvm.npz")
+    elif case == "plain npz":
+        model = tmp_path / "plain.npz"
+        np.savez(model, means=np.zeros(3))
+    elif case == "two videos":
+        videos = videos * 2
+    elif case == "missing video":
+        videos = [tmp_path / "missing.mp4"]
+    elif case == "manual init":
+        extra = ["--init", "manual:" + ",".join(["1"] * 24)]
+    elif case == "no particles":
+        extra = ["--particles", "0"]
+    elif case == "out is a file":
+        out = tmp_path / "v.mp4"
+    before = sorted(tmp_path.iterdir())
+    code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", model,
+                         "--video", *videos, "--out", out, *extra)
+    assert code == 2 and error.count("\n") == 1
+    assert message.format(tmp=tmp_path) in error
+    assert "Traceback" not in error
+    assert sorted(tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/model.txt"],
+     "--out {tmp}/model.txt: must be a .npz path"),
+    (["train", "--clips", "cmu_bvh/131_01", "--out", "{tmp}/m.npz"],
+     "--clips cmu_bvh/131_01: subject cmu:131 is a test subject (jaxtrack.data.splits)"),
+    (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--size", "10x10"],
+     "--size must be WIDTHxHEIGHT with each side from 32 to 4096 pixels, got '10x10'"),
+    (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--azimuths", "nan"],
+     "--azimuths must be degrees from -180 to 180, got nan"),
+    (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--max-frames", "1"],
+     "--max-frames must be at least 2, got 1"),
+    (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--views", "3"],
+     "--views does not apply to --method mixed-state (use --azimuths)"),
+    (["evaluate", "--train", "cmu_amc/07_01", "--test", "cmu_amc/07_01", "--json",
+      "{tmp}/out.json"], "--test clips must be held out, but cmu_amc/07_01 is also in --train"),
+    (["evaluate", "--train", "cmu_bvh/131_01", "--test", "cmu_amc/07_01", "--json",
+      "{tmp}/out.json"], "--train cmu_bvh/131_01: subject cmu:131 is a test subject"),
+    (["evaluate", "--train", "cmu_amc/07_01", "--test", "cmu_amc/07_02", "--json",
+      "{tmp}/out.json", "--lag", "-1"], "--lag must be at least 0, got -1"),
+    (["evaluate", "--train", "cmu_amc/07_01", "--test", "cmu_amc/07_02", "--json",
+      "{tmp}/out.txt"], "--json {tmp}/out.txt: must be a .json path"),
+])
+def test_train_and_evaluate_refuse_bad_input_in_one_line(tmp_path, capsys, arguments, message):
+    arguments = [arguments[0], "--method", "mixed-state", *arguments[1:]]
+    code, _, error = run(capsys, *(argument.format(tmp=tmp_path) for argument in arguments))
+    assert code == 2 and error.count("\n") == 1
+    assert message.format(tmp=tmp_path) in error
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_evaluate_names_a_damaged_cache_and_leaves_it(tmp_path, capsys):
+    cache = tmp_path / "posture_cache.npz"
+    cache.write_bytes(b"PK\x03\x04 cut short")
+    code, _, error = run(capsys, "evaluate", "--method", "mixed-state", "--train",
+                         "cmu_amc/07_01", "--test", "cmu_amc/07_02", "--json",
+                         tmp_path / "out.json")
+    assert code == 2 and error.count("\n") == 1
+    assert (f"the posture model cached beside --json: {cache} is damaged or not a posture model "
+            f"(damaged or truncated posture-model file") in error
+    assert "delete it (it is retrained and rewritten) or write --json elsewhere" in error
+    assert list(tmp_path.iterdir()) == [cache]
+    assert cache.read_bytes() == b"PK\x03\x04 cut short"
