@@ -42,17 +42,21 @@ from jaxtrack.trackers.mixed_state import (
     smooth_fixed_lag,
 )
 
-__all__ = ["EPSILONS", "TEST_CLIPS", "TRAINING_CLIPS", "VIEW_AZIMUTHS", "PostureSequence",
+__all__ = ["EPSILONS", "TEST_CLIPS", "TRAINING_CLIPS", "VALIDATION_CLIPS", "VIEW_AZIMUTHS",
+           "PostureSequence",
            "evaluate", "render_posture_sequence", "score", "track", "train"]
 
 TRAINING_CLIPS = ("cmu_posture_bvh/75_17", "cmu_posture_bvh/75_19", "cmu_posture_bvh/64_26",
                   "deepmimic_getup_bvh/getup_facedown", "deepmimic_getup_bvh/crawl",
                   "cmu_amc/07_01")
 """Sitting (subject 75), stooping (64), getting up and crawling (DeepMimic), walking (07)."""
-TEST_CLIPS = ("cmu_posture_bvh/139_16", "cmu_posture_bvh/77_07", "cmu_posture_bvh/75_20",
-              "deepmimic_getup_bvh/roll")
-"""Lying → all fours → kneel → stand (subject 139), half-crouch (77), low sit (a held-out clip
-of subject 75: the only subject who sits), forward roll (a held-out DeepMimic clip)."""
+VALIDATION_CLIPS = ("cmu_posture_bvh/77_07", "cmu_amc/02_01")
+"""Half-crouch (subject 77) and a walk (subject 02): validation subjects of
+``jaxtrack.data.splits``, where the tracker's settings are chosen
+(``python -m benchmarks.mixed_state_evaluation``)."""
+TEST_CLIPS = ("cmu_posture_bvh/139_16", "cmu_posture_bvh/75_20", "cmu_bvh/131_01")
+"""Lying → all fours → kneel → stand (subject 139), stylised walk (131): test subjects; low sit
+(a held-out clip of subject 75, the only subject who sits, so held out by clip)."""
 VIEW_AZIMUTHS = (np.pi / 2, -np.pi / 2, np.pi / 4, -np.pi / 4, 0.0)
 """Camera azimuths (radians from the subject's mean facing direction): both profiles (lying
 facing left and right), two obliques, frontal."""
@@ -67,7 +71,10 @@ class PostureSequence:
     Attributes:
         name: ``<clip>_az<degrees>_<background>``.
         masks: ``(time, height, width)`` bool silhouettes from background subtraction.
-        parts: ``(time, 5, 2)`` true head, left/right wrist, left/right ankle (pixels).
+        parts: ``(time, 5, 2)`` the true extremities of head, left/right hand, left/right foot
+            (pixels): the top of the head, the hand tips, the toes of the drawn figure
+            (:func:`extremities`), where a silhouette shows each part.
+        joints: ``(time, 5, 2)`` the true head, left/right wrist, left/right ankle joints.
         labels: ``(time,)`` true postures.
         image_size: ``(width, height)``.
     """
@@ -77,6 +84,35 @@ class PostureSequence:
     parts: np.ndarray
     labels: np.ndarray
     image_size: tuple[int, int]
+    joints: np.ndarray | None = None
+
+
+def extremities(joints_3d: np.ndarray) -> np.ndarray:
+    """``(time, 5, 3)`` top of the head, left and right hand tips and toes of the figure the
+    renderer draws (``jaxtrack.body._figure``) from its ``(time, 16, 3)`` joints
+    (``FIGURE_MARKERS``): the points of each part farthest along its limb, where a silhouette
+    shows it and Ghost's heuristics look for it."""
+    from jaxtrack.body import _figure
+
+    scale = _figure.body_scale(joints_3d)
+    points, index, _ = _figure.figure_points(
+        joints_3d, scale, _figure.random_appearance(np.random.default_rng(0)))
+
+    def beyond(tip, base, distance):  # ``distance`` metres past ``tip`` along base → tip
+        direction = points[:, index[tip]] - points[:, index[base]]
+        direction /= np.maximum(np.linalg.norm(direction, axis=-1, keepdims=True), 1e-9)
+        return points[:, index[tip]] + distance * scale * direction
+
+    # the head ellipse's semi-axis (0.115 m) and the hand capsules' end radius (0.03 m)
+    head = beyond("head_centre", "head", _HEAD_SEMI_AXIS)
+    hands = [beyond(f"{side}_hand_tip", f"{side}_wrist", _HAND_TIP_RADIUS)
+             for side in ("left", "right")]
+    toes = [points[:, index[f"{side}_toe"]] for side in ("left", "right")]
+    return np.stack([head, *hands, *toes], axis=1)
+
+
+_HEAD_SEMI_AXIS = 0.115
+_HAND_TIP_RADIUS = 0.03
 
 
 def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int, int] = (640, 480),
@@ -86,8 +122,8 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
     and take its silhouettes by background subtraction
     (:func:`jaxtrack.vision.histograms.silhouettes`)."""
     from jaxtrack.body._backgrounds import make_background
-    from jaxtrack.body._staging import frontal_camera
-    from jaxtrack.body.markers import HUMANEVA_15
+    from jaxtrack.body._figure import FIGURE_MARKERS
+    from jaxtrack.body._staging import frontal_camera, project_numpy
     from jaxtrack.body.render import render_motion
     from jaxtrack.data import load_clip
     from jaxtrack.vision.histograms import silhouettes
@@ -100,14 +136,15 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
     camera = frontal_camera(motion, tuple(image_size), azimuth=azimuth, elevation=0.1)
     scene, _ = make_background(background, tuple(image_size), np.random.default_rng(seed))
     rendered = render_motion(motion, camera, image_size=tuple(image_size), background=scene,
-                             markers=HUMANEVA_15, seed=seed, progress=False)
+                             markers=FIGURE_MARKERS, seed=seed, progress=False)
     names = list(rendered.marker_names)
-    truth = rendered.markers_2d[:, [names.index(name) for name in PART_TRUTH_MARKERS]]
+    joints = rendered.markers_2d[:, [names.index(name) for name in PART_TRUTH_MARKERS]]
+    truth, _ = project_numpy(rendered.camera, extremities(rendered.joints_3d))
     labels = posture_labels(rendered.joints_3d, rendered.markers_2d, names)
     masks = silhouettes(rendered.images, scene)
     return PostureSequence(f"{clip.split('/')[-1]}_az{round(np.degrees(azimuth))}_{background}",
                            masks, np.asarray(truth, np.float64), labels,
-                           rendered.image_size)
+                           rendered.image_size, np.asarray(joints, np.float64))
 
 
 def _render_all(clips, azimuths, backgrounds, image_size, max_frames, seed):
@@ -228,9 +265,12 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
              seed: int = 1, **model_options) -> dict:
     """Render the test clips, track each view, and score every estimate.
 
-    Returns ``{"sequences": {name: {estimate: score}}, "overall": {estimate: score}}``, the
-    overall scores over all frames of all sequences pooled, estimates being ``instantaneous``
-    (extended Ghost), ``filtered``, ``smoothed`` and ``fixed_lag``.
+    Returns ``{"sequences": {name: {estimate: score}}, "overall": {estimate: score},
+    "overall_joints": {estimate: score}}``, the overall scores over all frames of all sequences
+    pooled, estimates being ``instantaneous`` (extended Ghost), ``filtered``, ``smoothed`` and
+    ``fixed_lag``; ``overall`` against the parts' extremities (top of the head, hand tips, toes:
+    where silhouette hypotheses locate them), ``overall_joints`` against the head, wrist and
+    ankle joints.
     """
     from jaxtrack.vision.histograms import FRAME_OK
 
@@ -241,7 +281,7 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
     sequences = _render_all(clips, azimuths, backgrounds, image_size, max_frames, seed)
     kinds = ("instantaneous", "filtered", "smoothed", "fixed_lag")
     pooled = {kind: {"posture": [], "parts": []} for kind in kinds}
-    truth_parts, truth_labels, valid_all, per_sequence = [], [], [], {}
+    truth_parts, truth_joints, truth_labels, valid_all, per_sequence = [], [], [], [], {}
     key = jr.PRNGKey(seed)
     for sequence in sequences:
         observations = observations_from_silhouettes(sequence.masks, num_bins=num_bins)
@@ -251,22 +291,30 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
         per_sequence[sequence.name] = {
             kind: score(estimates[kind]["parts"], estimates[kind]["posture"], sequence.parts,
                         sequence.labels, valid) for kind in kinds}
+        per_sequence[sequence.name]["joints"] = {
+            kind: score(estimates[kind]["parts"], estimates[kind]["posture"], sequence.joints,
+                        sequence.labels, valid)["mse"] for kind in kinds}
         per_sequence[sequence.name]["seconds"] = estimates["seconds"]
         for kind in kinds:
             for field_name in ("posture", "parts"):
                 pooled[kind][field_name].append(estimates[kind][field_name])
         truth_parts.append(sequence.parts)
+        truth_joints.append(sequence.joints)
         truth_labels.append(sequence.labels)
         valid_all.append(valid)
     truth_parts, truth_labels = np.concatenate(truth_parts), np.concatenate(truth_labels)
+    truth_joints = np.concatenate(truth_joints)
     valid_all = np.concatenate(valid_all)
     overall = {kind: score(np.concatenate(pooled[kind]["parts"]),
                            np.concatenate(pooled[kind]["posture"]), truth_parts, truth_labels,
                            valid_all) for kind in kinds}
+    overall_joints = {kind: score(np.concatenate(pooled[kind]["parts"]),
+                                  np.concatenate(pooled[kind]["posture"]), truth_joints,
+                                  truth_labels, valid_all) for kind in kinds}
     confusion = np.zeros((NUM_POSTURES, NUM_POSTURES), int)
     np.add.at(confusion, (truth_labels[valid_all],
                           np.concatenate(pooled["smoothed"]["posture"])[valid_all]), 1)
-    return {"sequences": per_sequence, "overall": overall,
+    return {"sequences": per_sequence, "overall": overall, "overall_joints": overall_joints,
             "smoothed_confusion": confusion.tolist(),
             "settings": {"clips": list(clips), "azimuths": [float(a) for a in azimuths],
                          "backgrounds": list(backgrounds), "image_size": list(image_size),

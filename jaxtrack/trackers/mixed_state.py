@@ -89,8 +89,12 @@ class MixedStateModel(eqx.Module):
         part_likelihood: eq. 4–7.
         position_std: σ_x, pixels per frame.
         velocity_std: σ_v, pixels per frame per frame.
-        initial_std: σ_init, the spread of the first parts about z_1^q (pixels).
+        initial_std: σ_init, the spread of the first parts about z_1^q (pixels), and of
+            parts re-drawn about a frame's hypotheses (``redetect_probability``).
         initial_velocity_std: σ_v,init.
+        redetect_probability: per particle and frame, the chance that its parts are re-drawn
+            about its own posture's hypotheses (velocity zero): the way back for parts that
+            drifted beyond the likelihood's cutoff δ, where nothing pulls them back.
     """
 
     postures: PostureModel
@@ -99,16 +103,22 @@ class MixedStateModel(eqx.Module):
     velocity_std: Float[Array, ""]
     initial_std: Float[Array, ""]
     initial_velocity_std: Float[Array, ""]
+    redetect_probability: Float[Array, ""]
 
     def __init__(self, postures: PostureModel, part_likelihood: PartDistances | None = None, *,
                  position_std: float = 3.0, velocity_std: float = 2.0,
-                 initial_std: float = 20.0, initial_velocity_std: float = 2.0):
+                 initial_std: float = 20.0, initial_velocity_std: float = 2.0,
+                 redetect_probability: float = 0.05):
         values = dict(position_std=position_std, velocity_std=velocity_std,
                       initial_std=initial_std, initial_velocity_std=initial_velocity_std)
         for name, value in values.items():
             if not (np.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a non-negative finite number of pixels, got "
                                  f"{value}")
+        if not 0.0 <= redetect_probability <= 1.0:
+            raise ValueError(f"redetect_probability must be in [0, 1], got "
+                             f"{redetect_probability}")
+        self.redetect_probability = jnp.asarray(float(redetect_probability))
         self.postures = postures
         self.part_likelihood = PartDistances() if part_likelihood is None else part_likelihood
         for name, value in values.items():
@@ -189,7 +199,8 @@ def _initial(key, model: MixedStateModel, frame: MixedStateFrame, num_particles:
 def _step(key, model: MixedStateModel, postures, parts, velocities, log_weights,
           frame: MixedStateFrame):
     """One frame: resample, sample posture from F (eq. 8–9), predict, project, weigh."""
-    key_resample, key_posture, key_velocity, key_position = jr.split(key, 4)
+    key_resample, key_posture, key_velocity, key_position, key_redraw, key_redetect = jr.split(
+        key, 6)
     dtype = parts.dtype
     num = postures.shape[0]
     ancestors = systematic_ancestors(key_resample, log_weights)
@@ -208,9 +219,15 @@ def _step(key, model: MixedStateModel, postures, parts, velocities, log_weights,
         key_velocity, velocities.shape, dtype)
     predicted = parts + velocities + model.position_std.astype(dtype) * smc.fast_normal(
         key_position, parts.shape, dtype)
+    # a few particles' parts re-drawn about their posture's hypotheses (recovery)
+    redraw = jr.uniform(key_redetect, (num,), dtype) < model.redetect_probability.astype(dtype)
+    redraw = redraw & ok
+    fresh = frame.hypotheses.astype(dtype)[children] + model.initial_std.astype(
+        dtype) * smc.fast_normal(key_redraw, parts.shape, dtype)
+    predicted = jnp.where(redraw[:, None, None], fresh, predicted)
     projected = jax.vmap(_project, in_axes=(0, None))(predicted, frame.nearest)
     predicted = jnp.where(ok, projected, predicted)
-    velocities = predicted - parts
+    velocities = jnp.where(redraw[:, None, None], 0.0, predicted - parts)
     log_likelihoods = jax.vmap(model.part_likelihood.log_likelihood, in_axes=(0, 0, None))(
         children, predicted, frame.hypotheses.astype(dtype))
     unnormalised = jnp.where(ok, log_likelihoods + log_rows[postures].astype(dtype), 0.0)
@@ -398,6 +415,7 @@ class MixedStateTracker(Tracker):
                 "velocity_std": float(model.velocity_std),
                 "initial_std": float(model.initial_std),
                 "initial_velocity_std": float(model.initial_velocity_std),
+                "redetect_probability": float(model.redetect_probability),
                 "part_cutoff": float(model.part_likelihood.cutoff),
                 "posture_cutoff": float(model.postures.cutoff)}
 
