@@ -46,6 +46,9 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, default=500)
     parser.add_argument("--redetect", type=float, nargs="+", default=[0.0, 0.02, 0.05, 0.2])
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
+                        help="views of the validation and test clips (default: the five of "
+                        "experiments.mixed_state.VIEW_AZIMUTHS; 90 -90: the paper's side views)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_evaluation.json"))
     args = parser.parse_args(argv)
     from jaxtrack.experiments import mixed_state as ms
@@ -59,9 +62,14 @@ def main(argv=None) -> int:
         posture_model, description = ms.train(max_frames=None)
         save_posture_model(cache, posture_model, description=description)
     train_seconds = time.perf_counter() - begin
+    import numpy as np
+
+    azimuths = ms.VIEW_AZIMUTHS if args.azimuths is None else tuple(
+        float(np.radians(value)) for value in args.azimuths)
     validation = {}
     for value in args.redetect:
-        result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, backgrounds=("clutter",),
+        result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, azimuths=azimuths,
+                             backgrounds=("clutter",),
                              num_particles=args.particles, max_frames=args.frames,
                              seed=args.seed, redetect_probability=value)
         validation[value] = result["overall"]
@@ -69,7 +77,7 @@ def main(argv=None) -> int:
               f"{result['overall']['smoothed']['mse']['all']:.1f}")
     chosen = min(validation, key=lambda value: validation[value]["smoothed"]["mse"]["all"])
     begin = time.perf_counter()
-    test = ms.evaluate(posture_model, ms.TEST_CLIPS, backgrounds=("clutter",),
+    test = ms.evaluate(posture_model, ms.TEST_CLIPS, azimuths=azimuths, backgrounds=("clutter",),
                        num_particles=args.particles, max_frames=args.frames, seed=args.seed,
                        redetect_probability=chosen)
     test_seconds = time.perf_counter() - begin
@@ -82,7 +90,8 @@ def main(argv=None) -> int:
                 [("redetect", "redetect", "g"), ("mse", "smoothed MSE all", ".1f"),
                  ("posture_error", "posture error %", ".1f")])
     print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, redetect {chosen:g}, "
-          f"{args.particles} particles, {args.frames} frames per clip, 5 views, clutter; "
+          f"{args.particles} particles, {args.frames} frames per clip, {len(azimuths)} views, "
+          f"clutter; "
           f"{test_seconds:.0f} s")
     print_table(_rows(test["overall"]), _COLUMNS)
     write_json(args.out, {"benchmark": "mixed_state_evaluation", "device": device_description(),

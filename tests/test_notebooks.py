@@ -12,6 +12,10 @@ kernel: ``$JAXTRACK_DATA`` is unset, ``JAXTRACK_NO_SHARED=1`` stops the catalogu
 above the package or the working directory, and a first cell (not part of the notebook) installs
 a Python audit hook that refuses to open any file inside the collection, so a notebook that needs
 more than the files bundled with jaxtrack fails here as it would on a user's machine.
+
+The mixed-state notebook's posture clips are in the shared collection only: hidden, it shows a
+bundled clip's frame and skips the rest, so it also runs once with the collection in view
+(skipped where there is none) to check its Table 1.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import re
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 jupytext = pytest.importorskip("jupytext")
@@ -55,8 +60,10 @@ assert jaxtrack.data.shared_folder() is None  # JAXTRACK_NO_SHARED=1 reached the
 """
 
 
-def _execute(text: str, folder: Path, monkeypatch) -> tuple[str | None, str]:
-    """Run a py:percent notebook in smoke mode without the shared data, in ``folder``.
+def _execute(text: str, folder: Path, monkeypatch, *, hide_shared: bool = True
+             ) -> tuple[str | None, str]:
+    """Run a py:percent notebook in smoke mode without the shared data (with it, named by
+    ``$JAXTRACK_DATA``, when ``hide_shared`` is false), in ``folder``.
 
     Returns the error of the first failing cell (None if every cell ran) and the text every
     cell printed."""
@@ -65,14 +72,18 @@ def _execute(text: str, folder: Path, monkeypatch) -> tuple[str | None, str]:
     monkeypatch.delenv("JAXTRACK_DATA", raising=False)
     monkeypatch.delenv("JAXTRACK_NO_SHARED", raising=False)
     shared = shared_folder()
-    monkeypatch.setenv("JAXTRACK_NO_SHARED", "1")  # no shared/data nor tests/data
+    if hide_shared:
+        monkeypatch.setenv("JAXTRACK_NO_SHARED", "1")  # no shared/data nor tests/data
+    elif shared is not None:
+        monkeypatch.setenv("JAXTRACK_DATA", str(shared))
     monkeypatch.setenv("JAXTRACK_SMOKE", "1")
     monkeypatch.setenv("MPLBACKEND", "Agg")
     # compile time dominates at smoke sizes; XLA's cheap mode about halves it (measured on the
     # latent-tracker notebook: 349 s against 560 s of wall time on 2 busy cores)
     monkeypatch.setenv("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
     document = jupytext.reads(text, fmt="py:percent")
-    document.cells.insert(0, nbformat.v4.new_code_cell(_hide_shared_data(shared)))
+    if hide_shared:
+        document.cells.insert(0, nbformat.v4.new_code_cell(_hide_shared_data(shared)))
     client = nbclient.NotebookClient(document, timeout=CELL_TIMEOUT, kernel_name="python3",
                                      resources={"metadata": {"path": str(folder)}})
     try:
@@ -107,6 +118,33 @@ def test_notebook_runs_in_smoke_mode_without_shared_data(notebook, tmp_path, mon
         pairs = re.findall(r"PF\s+(\S+)\s+Kalman\s+(\S+)", printed)
         assert len(pairs) >= 2
         assert all(abs(float(pf) - float(kalman)) < 3.0 for pf, kalman in pairs), printed
+
+
+def test_the_mixed_state_notebook_reproduces_table_1_from_the_shared_posture_clips(
+        tmp_path, monkeypatch):
+    """03 without the posture clips shows a bundled frame only; with them (the shared data,
+    skipped where there is none) it trains, prints Table 1 with every estimate's row finite,
+    and re-tracks one sequence to the scores ``evaluate`` gave it (checked in the notebook)."""
+    from jaxtrack.data import list_clips
+
+    monkeypatch.delenv("JAXTRACK_NO_SHARED", raising=False)
+    if "cmu_posture_bvh/139_16" not in list_clips():
+        pytest.skip("the posture clips are in the project's shared data, not found here")
+    notebook = NOTEBOOKS[0].with_name("03_mixed_state.py")
+    start = time.perf_counter()
+    error, printed = _execute(notebook.read_text(), tmp_path, monkeypatch, hide_shared=False)
+    if error is not None:
+        pytest.fail(f"{notebook.name} failed with the shared data:\n{error}", pytrace=False)
+    print(f"{notebook.name}: {time.perf_counter() - start:.0f} s in smoke mode, shared data")
+    rows = re.findall(r"^\| (instantaneous|filtered|smoothed|fixed-lag)[^|\n]*((?:\|[^|\n]*)+)\|$",
+                      printed, flags=re.MULTILINE)
+    assert [name for name, _ in rows] == ["instantaneous", "filtered", "smoothed",
+                                          "fixed-lag"] * 2, printed
+    for _, cells in rows:
+        values = [np.nan if cell.strip() == "n/a" else float(cell)
+                  for cell in cells.strip("|").split("|")]
+        assert len(values) == 6 and all(np.isfinite(values)) and min(values) >= 0, printed
+    assert "(evaluate: " in printed, printed
 
 
 def test_the_smoke_runs_cannot_read_the_shared_data(tmp_path, monkeypatch):

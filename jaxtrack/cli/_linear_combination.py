@@ -43,8 +43,7 @@ CACHE_NAME = "lc_cache.npz"
 _NUM_CAMERAS = 4  # the Pose2Sim calibration the models are trained through
 _PARTICLES, _ITERATIONS, _CLUSTERS = 300, 5, 20
 _ZOOM = 2  # overlay panels are drawn at twice the tracking resolution
-_BAR = 18  # height (overlay pixels) of the ambiguity bar under each view
-_SELECTED = (255, 224, 0)
+_MARKERS = ("head", "hand", "other_hand")
 _OTHER_FILES = {"jaxtrack.gplvm": "a GPLVM pose prior (the latent tracker's)",
                 "jaxtrack.postures": "a posture model (the mixed-state tracker's)",
                 "jaxtrack.sequence": "a rendered sequence"}
@@ -207,6 +206,7 @@ def evaluate(args: argparse.Namespace) -> int:
     """``jaxtrack evaluate --method linear-combination``."""
     from jaxtrack._files import write_json_atomically
     from jaxtrack.data.splits import check_disjoint
+    from jaxtrack.evaluation import skeleton_error_table, summarise_skeleton_errors
     from jaxtrack.experiments import linear_combination as lc
 
     started = time.perf_counter()
@@ -255,7 +255,7 @@ def evaluate(args: argparse.Namespace) -> int:
         if args.plots is not None:
             _evaluation_plots(args.plots, written, results, trained, test_clips[0], cameras[0],
                               particles, iterations, max_frames, args.seed)
-        summary = _summary(results)
+        summary = summarise_skeleton_errors(results)
         write_json_atomically(args.json, {
             "method": "linear-combination", "device": _device(), "train": train_clips,
             "test": test_clips,
@@ -263,7 +263,7 @@ def evaluate(args: argparse.Namespace) -> int:
             "max_frames": max_frames, "seed": args.seed, "model_cache": str(cache),
             "summary": summary, "results": _finite_json(results),
             "seconds": round(time.perf_counter() - started, 2)})
-    print(_table(summary))
+    print(skeleton_error_table(summary))
     print(f"{len(test_clips)} test clip(s) x {len(cameras)} camera(s), {particles} particles x "
           f"{iterations} iterations, on {_device()}; wrote {args.json} "
           f"({time.perf_counter() - started:.0f} s)")
@@ -288,35 +288,6 @@ def _finite_json(value):
     return value
 
 
-def _summary(results: dict) -> list[dict]:
-    """Per method: mean and worst 3-D error over sequences, frames, run and compile time."""
-    rows = []
-    for method in results["methods"]:
-        entries = [sequence[method] for sequence in results["sequences"].values()]
-        frames = [len(entry["errors_m"]) for entry in entries]
-        compile_seconds = [entry["compile_seconds"] for entry in entries]
-        rows.append({
-            "method": method, "error_mm": 1e3 * float(np.mean([e["error_m"] for e in entries])),
-            "worst_sequence_mm": 1e3 * float(np.max([e["error_m"] for e in entries])),
-            "sequences": len(entries), "frames": int(sum(frames)),
-            "ms_per_frame": 1e3 * float(np.average([e["seconds_per_frame"] for e in entries],
-                                                   weights=frames)),
-            "compile_seconds": (float(np.sum(compile_seconds))
-                                if all(math.isfinite(c) for c in compile_seconds) else None)})
-    return rows
-
-
-def _table(rows: list[dict]) -> str:
-    lines = ["| method | 3-D error (mm) | worst sequence (mm) | sequences | frames | ms/frame "
-             "| compile (s) |", "|---|---:|---:|---:|---:|---:|---:|"]
-    for row in rows:
-        compiled = "-" if row["compile_seconds"] is None else f"{row['compile_seconds']:.1f}"
-        lines.append(f"| {row['method']} | {row['error_mm']:.1f} | "
-                     f"{row['worst_sequence_mm']:.1f} | {row['sequences']} | {row['frames']} | "
-                     f"{row['ms_per_frame']:.2f} | {compiled} |")
-    return "\n".join(lines)
-
-
 def _evaluation_plots(folder: Path, written: list, results: dict, trained, clip: str,
                       camera: int, particles: int, iterations: int, max_frames, seed: int
                       ) -> None:
@@ -325,25 +296,19 @@ def _evaluation_plots(folder: Path, written: list, results: dict, trained, clip:
     is added to ``written`` once written."""
     import jax.random as jr
 
-    from jaxtrack._plotting import new_figure, save_figure
+    from jaxtrack.evaluation import plot_errors_over_time
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers import Engine
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
-    from jaxtrack.vision import write_frames
+    from jaxtrack.vision import write_views_video
 
     fps = float(trained.description.get("fps", 30.0))
     for name, entry in results["sequences"].items():
-        figure, axes = new_figure(7.0, 3.5)
-        for method in results["methods"]:
-            errors = 1e3 * np.asarray(entry[method]["errors_m"])
-            axes.plot(np.arange(len(errors)) / fps, errors, label=method, linewidth=1.2)
-        axes.set_xlabel("time (s)")
-        axes.set_ylabel("3-D skeleton error (mm)")
-        axes.set_ylim(bottom=0)
-        axes.grid(True, alpha=0.3)
-        axes.legend(fontsize="small")
-        axes.set_title(name)
-        written.append(save_figure(figure, folder / f"{name}_errors.png", dpi=120))
+        errors_mm = {method: 1e3 * np.asarray(entry[method]["errors_m"])
+                     for method in results["methods"]}
+        written.append(plot_errors_over_time(errors_mm, folder / f"{name}_errors.png",
+                                             title=name, fps=fps, failure_threshold=None,
+                                             ylabel="3-D skeleton error (mm)"))
     # the same render and tracker settings as lc.evaluate: the overlay shows what was scored
     sequence = lc.render_hybrid_sequences(
         clip, views=(camera,), num_contour=trained.model.layout.num_contour, fps=fps,
@@ -351,13 +316,11 @@ def _evaluation_plots(folder: Path, written: list, results: dict, trained, clip:
     tracker = linear_combination_tracker(trained.model, engine=Engine(particles),
                                          iterations=iterations)
     estimates = track_observations(tracker, jr.PRNGKey(seed), sequence.observations).estimates
-    panels = [_panel(sequence.images[t], np.asarray(estimates.contour[t]),
-                     np.asarray(estimates.best_markers[t]), "linear-combination",
-                     f"{t + 1}/{len(sequence.images)} {_short(sequence.status[t])}".strip(), 0)
-              for t in range(len(sequence.images))]
-    height, width = panels[0].shape[:2]
-    written.append(write_frames(panels, folder / f"{sequence.name}_linear-combination.mp4", fps,
-                                (width, height)))
+    written.append(write_views_video(
+        [sequence.images], [estimates.contour], [estimates.best_markers],
+        folder / f"{sequence.name}_linear-combination.mp4", fps=fps,
+        names=["linear-combination"], marker_names=_MARKERS,
+        labels=[_labels(sequence.status)], zoom=_ZOOM))
 
 
 # ----------------------------------------------------------------------------------- track
@@ -440,40 +403,6 @@ def _probe_videos(args, cameras, start: int) -> list[tuple[float, tuple[int, int
     return probes
 
 
-def _subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarray, int]:
-    """Where training would centre its crop (the middle of the upper body's extent over the
-    clip), from silhouettes of up to 32 frames: horizontally the middle of the silhouettes'
-    extent, vertically a third of the figure's height below its top (on rendered figures the
-    crop's centre lies 0.29–0.36 of the way down; a figure whose feet are not segmented comes
-    out short, and its crop too high). Returns ``(centre (x, y), frames with a person)``."""
-    from jaxtrack.vision.foreground import foreground_mask, largest_component
-
-    boxes = []
-    for frame in frames[np.unique(np.linspace(0, len(frames) - 1, 32).round().astype(int))]:
-        rows, columns = np.nonzero(largest_component(foreground_mask(frame, background)))
-        if rows.size:
-            boxes.append((columns.min(), rows.min(), columns.max(), rows.max()))
-    if not boxes:
-        return np.array([frames.shape[2], frames.shape[1]]) / 2, 0
-    left, top, right, bottom = np.asarray(boxes, np.float64).T
-    x = 0.5 * (np.percentile(left, 10) + np.percentile(right, 90))
-    y = np.median(top) + 0.33 * np.percentile(bottom - top, 90)
-    return np.array([x, y]), len(boxes)
-
-
-def _cut(images: np.ndarray, origin: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """``images[..., y0:y0+h, x0:x0+w, :]``, the image's edge repeated where the window leaves
-    it (the same for every frame and the background, so it is never foreground)."""
-    x0, y0 = (int(v) for v in origin)
-    width, height = size
-    full_height, full_width = images.shape[-3:-1]
-    pad = [(0, 0)] * (images.ndim - 3) + [(max(0, -y0), max(0, y0 + height - full_height)),
-                                          (max(0, -x0), max(0, x0 + width - full_width)), (0, 0)]
-    padded = np.pad(images, pad, mode="edge")
-    x0, y0 = x0 + pad[-2][0], y0 + pad[-3][0]
-    return np.ascontiguousarray(padded[..., y0:y0 + height, x0:x0 + width, :])
-
-
 def track(args: argparse.Namespace) -> int:
     """``jaxtrack track --method linear-combination``."""
     import jax.random as jr
@@ -482,7 +411,7 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers import Engine
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
-    from jaxtrack.vision import VideoError, median_background, read_video
+    from jaxtrack.vision import VideoError, median_background, read_video, write_views_video
 
     started = time.perf_counter()
     particles = _positive(args.particles, "--particles", _PARTICLES)
@@ -533,10 +462,10 @@ def track(args: argparse.Namespace) -> int:
         background = median_background(frames)
         origin, people = np.zeros(2), count
         if cameras is not None:
-            centre, people = _subject_centre(frames, background)
+            centre, people = lc.subject_centre(frames, background)
             origin = np.round(centre - np.asarray(lc.CROP_SIZE) / 2)
-            frames = _cut(frames, origin, lc.CROP_SIZE)
-            background = _cut(background, origin, lc.CROP_SIZE)
+            frames = lc.cut_window(frames, origin, lc.CROP_SIZE)
+            background = lc.cut_window(background, origin, lc.CROP_SIZE)
         observations, status = lc.observe(frames, background, skin_reference=skin)
         height, width = video.frames.shape[1:3]
         size = probes[index][1]
@@ -553,7 +482,8 @@ def track(args: argparse.Namespace) -> int:
         # the same key for every view: views differ by what they see, not by their noise
         view["run"] = track_observations(tracker, jr.PRNGKey(args.seed), view["observations"])
     tick = time.perf_counter()
-    chosen, ambiguity = _select_views(trained, [view["run"].estimates for view in views])
+    chosen, ambiguity = lc.select_tracked_views(trained,
+                                                [view["run"].estimates for view in views])
     selection_seconds = time.perf_counter() - tick
     for view in views:
         estimates = view["run"].estimates
@@ -564,9 +494,15 @@ def track(args: argparse.Namespace) -> int:
     record = _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, skin)
     with _outputs(args.out) as written:
         fps = videos[0].fps if math.isfinite(videos[0].fps) else fps_model
-        try:
-            written.append(_write_overlay(args.out / "overlay.mp4", views, chosen, ambiguity,
-                                          fps))
+        try:  # with several views: ambiguity bars, the selected view framed (Fig. 17)
+            written.append(write_views_video(
+                [view["frames"] for view in views],
+                [view["run"].estimates.contour for view in views],
+                [view["run"].estimates.best_markers for view in views],
+                args.out / "overlay.mp4", fps=fps, names=[view["name"] for view in views],
+                marker_names=_MARKERS, labels=[_labels(view["status"]) for view in views],
+                ambiguity=ambiguity, selected=None if ambiguity is None else chosen,
+                zoom=_ZOOM))
         except OSError as error:
             raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
         record["seconds"] = {
@@ -591,37 +527,6 @@ def _write_json(path: Path, record: dict) -> Path:
     from jaxtrack._files import write_json_atomically
 
     return write_json_atomically(path, _finite_json(record))
-
-
-def _select_views(trained, estimates: list) -> tuple[list, np.ndarray | None]:
-    """Ong & Gong §5.7 on the tracked views: per frame the view of greatest fitness ×
-    1/ambiguity (eq. 10–14 on the training vectors' ambiguities), None where no view observed
-    the frame. Returns the choices and the ``(time, views)`` ambiguities (None: one view)."""
-    from jaxtrack.body.hybrid import make_hybrid
-    from jaxtrack.priors.linear_combinations import (
-        nearest_ambiguity,
-        select_views,
-        training_ambiguity,
-    )
-
-    if len(estimates) == 1:
-        return [0 if found else None for found in np.asarray(estimates[0].found)], None
-    layout = trained.model.layout
-    ambiguities = training_ambiguity(trained.vectors, layout, chunk=256)
-    count = len(estimates[0].found)
-    ambiguity = np.full((count, len(estimates)), np.nan)
-    seen = np.zeros((count, len(estimates)), bool)
-    for index, estimate in enumerate(estimates):
-        markers = np.asarray(estimate.best_markers)
-        vectors = np.asarray(make_hybrid(estimate.contour, markers[:, 1:], markers[:, 0],
-                                         estimate.best_skeleton_3d))
-        seen[:, index] = np.asarray(estimate.found) & np.all(np.isfinite(vectors), axis=1)
-        if seen[:, index].any():
-            ambiguity[seen[:, index], index] = nearest_ambiguity(
-                vectors[seen[:, index]], trained.vectors, ambiguities, layout)
-    log_fitness = np.stack([np.asarray(e.log_fitness, np.float64) for e in estimates], axis=1)
-    chosen = select_views(log_fitness, np.where(seen, ambiguity, 0.0), seen)
-    return [int(view) if seen[t].any() else None for t, view in enumerate(chosen)], ambiguity
 
 
 def _to_video(points: np.ndarray, view: dict) -> np.ndarray:
@@ -690,71 +595,8 @@ def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, ski
         "frames": frames}
 
 
-# --------------------------------------------------------------------------------- overlay
-
-
-def _short(status: str) -> str:
-    """``"no skin blobs: 4 skin pixels, ..."`` -> ``"no skin blobs"`` (a frame's label)."""
-    return status.split(":")[0].split("(")[0].strip()
-
-
-def _polyline(image: np.ndarray, points: np.ndarray, colour) -> None:
-    """Draw a closed polyline of ``points`` (x, y) into ``image`` (two pixels wide)."""
-    points = np.asarray(points, np.float64)
-    if points.ndim != 2 or not np.all(np.isfinite(points)):
-        return
-    following = np.roll(points, -1, axis=0)
-    steps = int(np.ceil(np.abs(following - points).max(initial=0))) + 1
-    fractions = np.linspace(0.0, 1.0, steps)[:, None, None]
-    samples = (points + fractions * (following - points)).reshape(-1, 2).round().astype(int)
-    height, width = image.shape[:2]
-    for dx, dy in ((0, 0), (1, 0), (0, 1)):
-        x, y = samples[:, 0] + dx, samples[:, 1] + dy
-        inside = (x >= 0) & (x < width) & (y >= 0) & (y < height)
-        image[y[inside], x[inside]] = colour
-
-
-def _panel(image, contour, markers, name: str, label: str, colour_index: int) -> np.ndarray:
-    """One view's frame at ``_ZOOM`` × the tracking resolution with the estimated contour and
-    head and hands drawn."""
-    from jaxtrack.vision import METHOD_COLOURS, draw_tracks
-
-    colour = METHOD_COLOURS[colour_index % len(METHOD_COLOURS)]
-    panel = np.repeat(np.repeat(np.asarray(image, np.uint8), _ZOOM, axis=0), _ZOOM, axis=1)
-    _polyline(panel, (np.asarray(contour) + 0.5) * _ZOOM - 0.5, colour)
-    return draw_tracks(panel, {name: (np.asarray(markers) + 0.5) * _ZOOM - 0.5},
-                       ("head", "hand", "other_hand"), label=label, colours={name: colour})
-
-
-def _write_overlay(path: Path, views: list[dict], chosen, ambiguity, fps: float) -> Path:
-    """The views side by side; with several, an ambiguity bar under each (longer: more
-    ambiguous, scaled to the largest over the clip) and the selected view framed (the paper's
-    Fig. 17)."""
-    from jaxtrack.vision import write_frames
-
-    several = len(views) > 1
-    finite = ambiguity[np.isfinite(ambiguity)] if several else np.zeros(0)
-    largest = max(float(finite.max(initial=0.0)), 1e-9)
-
-    def frame(t: int) -> np.ndarray:
-        columns = []
-        for index, view in enumerate(views):
-            estimate = view["run"].estimates
-            status = view["status"][t]
-            label = f"{t + 1}/{len(chosen)} {_short(status)}".strip()
-            panel = _panel(view["frames"][t], estimate.contour[t], estimate.best_markers[t],
-                           view["name"], label, index)
-            if several:
-                bar = np.zeros((_BAR, panel.shape[1], 3), np.uint8)
-                value = ambiguity[t, index]
-                if np.isfinite(value):
-                    bar[3:-3, :max(1, round(panel.shape[1] * value / largest))] = (200, 80, 80)
-                panel = np.concatenate([panel, bar])
-                if chosen[t] == index:
-                    panel[:4], panel[-4:], panel[:, :4], panel[:, -4:] = (_SELECTED,) * 4
-            columns.append(panel)
-        return np.concatenate(columns, axis=1)
-
-    first = frame(0)
-    frames = (first if t == 0 else frame(t) for t in range(len(chosen)))
-    return write_frames(frames, path, fps, (first.shape[1], first.shape[0]))
+def _labels(status: list[str]) -> list[str]:
+    """Per frame ``"3/40 no skin blobs"``: the frame's number and why it was not observed
+    (the first words of its status)."""
+    return [f"{t + 1}/{len(status)} {text.split(':')[0].split('(')[0].strip()}".strip()
+            for t, text in enumerate(status)]

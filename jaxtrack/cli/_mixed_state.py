@@ -41,10 +41,6 @@ DEFAULT_BINS = 16
 DEFAULT_SIZE = (640, 480)
 TRAINING_BACKGROUNDS = ("photo",)
 CACHE_NAME = "posture_cache.npz"
-ESTIMATES = ("instantaneous", "filtered", "smoothed", "fixed_lag")
-_ROW_NAMES = {"instantaneous": "instantaneous (extended Ghost)", "filtered": "filtered",
-              "smoothed": "smoothed (whole sequence)", "fixed_lag": "fixed-lag ({lag} frames)"}
-_PART_GROUPS = ("head", "hands", "feet", "all")
 _BASE_BYTES = 1.0e9  # JAX, XLA and the compiled scans
 _HISTORY_BYTES = 3 * 8 * 13
 """Per particle and frame: posture, five parts (x, y), log-weight and ancestor (13 numbers of
@@ -269,76 +265,28 @@ def _finite(value):
     return value
 
 
-def _cell(value, form: str) -> str:
-    return "n/a" if value is None or not math.isfinite(value) else format(value, form)
+def _plots(folder: Path, overall: dict, confusion, lag: int, title: str, frames: int
+           ) -> list[Path]:
+    """Fig. 2/4 (the fraction of frames within ε pixels per part, one curve per estimate) and
+    the smoothed posture's confusion matrix, in ``folder``."""
+    from jaxtrack.evaluation import (
+        MIXED_STATE_ESTIMATES,
+        MIXED_STATE_PARTS,
+        mixed_state_label,
+        plot_confusion,
+        plot_fraction_within_per_part,
+    )
 
-
-def results_table(overall: dict, lag: int) -> str:
-    """The paper's Table 1 as markdown: MSE per part (px²), posture error, largest head error."""
-    header = ("estimate", "MSE head", "MSE hands", "MSE feet", "MSE all", "posture error %",
-              "max head error px")
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(
-        ["---"] + ["---:"] * (len(header) - 1)) + "|"]
-    for kind in ESTIMATES:
-        if kind not in overall:
-            continue
-        row = overall[kind]
-        cells = [_ROW_NAMES[kind].format(lag=lag)]
-        cells += [_cell(row["mse"][group], ".1f") for group in _PART_GROUPS]
-        error = row["posture_error"]
-        cells += [_cell(None if error is None else 100 * error, ".1f"),
-                  _cell(row["max_head_error"], ".1f")]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-def _plot_within(overall: dict, path: Path, lag: int, title: str) -> Path:
-    """Fig. 2/4: the fraction of frames within ε pixels, per part, one curve per estimate."""
-    from jaxtrack._plotting import new_figure, save_figure
-
-    figure, axes = new_figure(13.0, 3.6, columns=len(_PART_GROUPS))
-    for axis, group in zip(axes, _PART_GROUPS, strict=True):
-        for kind in ESTIMATES:
-            within = overall[kind]["within"][group]
-            epsilons = sorted(within, key=float)
-            fractions = [within[eps] for eps in epsilons]
-            axis.plot([float(eps) for eps in epsilons],
-                      [math.nan if value is None else value for value in fractions],
-                      marker="o", markersize=3, label=_ROW_NAMES[kind].format(lag=lag))
-        axis.set_title(group)
-        axis.set_xlabel("ε (pixels)")
-        axis.set_xlim(left=0)
-        axis.set_ylim(0, 1.02)
-        axis.grid(True, alpha=0.3)
-    axes[0].set_ylabel("fraction of frames within ε")
-    axes[-1].legend(fontsize="small", loc="lower right")
-    figure.suptitle(title)
-    return save_figure(figure, path, dpi=120)
-
-
-def _plot_confusion(confusion: list[list[int]], path: Path, title: str) -> Path:
-    """The smoothed posture's confusion matrix: rows true, columns estimated, shaded by the
-    fraction of each true posture's frames, annotated with counts."""
-    import numpy as np
-
-    from jaxtrack._plotting import new_figure, save_figure
-    from jaxtrack.priors.postures import POSTURE_NAMES
-
-    counts = np.asarray(confusion, float)
-    rows = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
-    figure, axis = new_figure(6.0, 5.0)
-    image = axis.imshow(rows, cmap="Blues", vmin=0, vmax=1)
-    figure.colorbar(image, ax=axis, label="fraction of the true posture's frames")
-    names = [name.replace("_", " ") for name in POSTURE_NAMES]
-    axis.set_xticks(range(len(names)), names, rotation=30, ha="right")
-    axis.set_yticks(range(len(names)), names)
-    axis.set_xlabel("smoothed estimate")
-    axis.set_ylabel("true posture")
-    for (row, column), count in np.ndenumerate(counts):
-        axis.text(column, row, f"{int(count)}", ha="center", va="center",
-                  color="white" if rows[row, column] > 0.5 else "black", fontsize="small")
-    axis.set_title(title)
-    return save_figure(figure, path, dpi=120)
+    folder.mkdir(parents=True, exist_ok=True)
+    curves = {mixed_state_label(kind, lag): overall[kind]["within"]
+              for kind in MIXED_STATE_ESTIMATES}
+    names = [name.replace("_", " ") for name in _posture_names()]
+    return [plot_fraction_within_per_part(curves, folder / "fraction_within.png",
+                                          parts=MIXED_STATE_PARTS, title=title),
+            plot_confusion(confusion, names, folder / "posture_confusion.png",
+                           xlabel="smoothed estimate", ylabel="true posture",
+                           colour_label="fraction of the true posture's frames",
+                           title=f"smoothed posture, {frames} frames")]
 
 
 def evaluate(args: argparse.Namespace) -> int:
@@ -384,6 +332,7 @@ def evaluate(args: argparse.Namespace) -> int:
     settings = _training_settings(train_clips, train_sources, azimuths, size, bins,
                                   train_max_frames, args.seed)
     # every argument checked: only now is anything computed or written
+    from jaxtrack.evaluation import mixed_state_table
     from jaxtrack.experiments.mixed_state import evaluate as evaluate_model
     from jaxtrack.priors.postures import save_posture_model
 
@@ -406,11 +355,7 @@ def evaluate(args: argparse.Namespace) -> int:
              f"{size[0]}x{size[1]}, N={particles}")
     plots = []
     if args.plots is not None:
-        args.plots.mkdir(parents=True, exist_ok=True)
-        plots = [_plot_within(overall, args.plots / "fraction_within.png", lag, title),
-                 _plot_confusion(results["smoothed_confusion"],
-                                 args.plots / "posture_confusion.png",
-                                 f"smoothed posture, {frames} frames")]
+        plots = _plots(args.plots, overall, results["smoothed_confusion"], lag, title, frames)
     record = _finite({
         "method": "mixed-state", "train": train_clips, "test": test_clips,
         "particles": particles, "lag": lag, "seed": args.seed, "max_frames": max_frames,
@@ -420,7 +365,7 @@ def evaluate(args: argparse.Namespace) -> int:
         "seconds": {"evaluate": evaluate_seconds, "total": time.perf_counter() - started}})
     json_path = _write_json(args.json, record)
     print(f"{title}; MSE in px² at {size[0]}x{size[1]}")
-    print(results_table(overall, lag))
+    print(mixed_state_table(overall, lag))
     for path in (*plots, json_path):
         print(f"wrote {path}")
     return 0
@@ -525,7 +470,7 @@ def track(args: argparse.Namespace) -> int:
         instantaneous_estimates,
         observations_from_silhouettes,
     )
-    from jaxtrack.vision import VideoError, median_background, read_video
+    from jaxtrack.vision import VideoError, median_background, read_video, write_overlay_video
     from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES, silhouettes
     from jaxtrack.vision.parts import PART_NAMES
 
@@ -611,8 +556,13 @@ def track(args: argparse.Namespace) -> int:
     folder_existed = args.out.is_dir()
     args.out.mkdir(parents=True, exist_ok=True)
     overlay_path = args.out / "overlay.mp4"
-    try:
-        overlay = _write_overlay(frames, estimates["smoothed"], overlay_path, fps or 30.0)
+    smoothed_posture, smoothed_parts, _ = estimates["smoothed"]
+    try:  # the smoothed parts, labelled with the smoothed posture
+        overlay = write_overlay_video(
+            frames, {"smoothed": smoothed_parts}, overlay_path, fps=fps or 30.0,
+            marker_names=PART_NAMES, labels=[f"{POSTURE_NAMES[int(posture)].replace('_', ' ')}"
+                                             f"  {t + 1}/{num_frames}"
+                                             for t, posture in enumerate(smoothed_posture)])
     except OSError as error:
         _remove_new([], args.out, not folder_existed)
         raise UserError(f"cannot write {overlay_path}: {_one_line(error)}") from None
@@ -653,18 +603,3 @@ def _tracker_options(model) -> dict:
             "redetect_probability": float(model.redetect_probability),
             "part_cutoff": float(model.part_likelihood.cutoff),
             "posture_cutoff": float(model.postures.cutoff)}
-
-
-def _write_overlay(frames, smoothed, path: Path, fps: float) -> Path:
-    """Each frame with the smoothed parts drawn and the smoothed posture as its label."""
-    from jaxtrack.priors.postures import POSTURE_NAMES
-    from jaxtrack.vision import draw_tracks, write_frames
-    from jaxtrack.vision.parts import PART_NAMES
-
-    posture, parts, _ = smoothed
-    num_frames, height, width = frames.shape[:3]
-    drawn = (draw_tracks(frames[t], {"smoothed": parts[t]}, PART_NAMES,
-                         label=f"{POSTURE_NAMES[int(posture[t])].replace('_', ' ')}  "
-                               f"{t + 1}/{num_frames}")
-             for t in range(num_frames))
-    return write_frames(drawn, path, fps, (width, height))

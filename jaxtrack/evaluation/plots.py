@@ -1,4 +1,5 @@
-"""Figures of tracking results: error over time, fraction of frames within ε, particle sweeps.
+"""Figures of tracking results: error over time, fraction of frames within ε (per method, or per
+part and estimate), particle sweeps, a confusion matrix.
 
 matplotlib is imported inside the functions, so `import jaxtrack` works without it. Figures are
 built with the object-oriented API on an Agg canvas — no pyplot, so no global backend switch and
@@ -18,7 +19,8 @@ import numpy as np
 from jaxtrack._plotting import new_figure as _figure
 from jaxtrack._plotting import save_figure as _save
 
-__all__ = ["plot_errors_over_time", "plot_fraction_within", "plot_particle_sweep"]
+__all__ = ["plot_confusion", "plot_errors_over_time", "plot_fraction_within",
+           "plot_fraction_within_per_part", "plot_particle_sweep"]
 
 
 def _check_methods(name: str, values: Mapping) -> None:
@@ -28,15 +30,19 @@ def _check_methods(name: str, values: Mapping) -> None:
 
 def plot_errors_over_time(errors_torso: Mapping[str, Sequence[float]], path: str | os.PathLike,
                           *, title: str | None = None, fps: float | None = None,
-                          failure_threshold: float = 0.25, dpi: int = 120) -> Path:
+                          failure_threshold: float | None = 0.25,
+                          ylabel: str = "error / torso length", dpi: int = 120) -> Path:
     """Error per frame, as a fraction of the torso length, one line per method.
 
     Args:
-        errors_torso: method -> `(time,)` errors (`evaluate_track(...)['errors_torso']`).
+        errors_torso: method -> `(time,)` errors (`evaluate_track(...)['errors_torso']`), or
+            errors in other units named by `ylabel` (3-D skeleton errors in mm).
         path: the image file (format from its suffix; `.png` if none).
         title: figure title.
         fps: label the x axis in seconds at this frame rate instead of frames.
-        failure_threshold: drawn as a dashed line (the failure criterion's threshold).
+        failure_threshold: drawn as a dashed line (the failure criterion's threshold); None:
+            no line.
+        ylabel: the y axis' label.
 
     Returns:
         The path.
@@ -56,10 +62,11 @@ def plot_errors_over_time(errors_torso: Mapping[str, Sequence[float]], path: str
     for method, errors in curves.items():
         time = np.arange(errors.size) / (1.0 if fps is None else float(fps))
         axes.plot(time, errors, label=method, linewidth=1.2)
-    axes.axhline(failure_threshold, color="black", linestyle="--", linewidth=1,
-                 label=f"failure ({failure_threshold:.0%} torso)")
+    if failure_threshold is not None:
+        axes.axhline(failure_threshold, color="black", linestyle="--", linewidth=1,
+                     label=f"failure ({failure_threshold:.0%} torso)")
     axes.set_xlabel("time (s)" if fps is not None else "frame")
-    axes.set_ylabel("error / torso length")
+    axes.set_ylabel(ylabel)
     axes.set_ylim(bottom=0)
     axes.grid(True, alpha=0.3)
     axes.legend(fontsize="small")
@@ -108,6 +115,91 @@ def plot_fraction_within(curves: Mapping[str, Mapping], path: str | os.PathLike,
     axes.legend(fontsize="small", loc="lower right")
     if title:
         axes.set_title(title)
+    return _save(figure, path, dpi)
+
+
+def plot_fraction_within_per_part(curves: Mapping[str, Mapping[str, Mapping]],
+                                  path: str | os.PathLike, *, parts: Sequence[str] | None = None,
+                                  xlabel: str = "ε (pixels)", title: str | None = None,
+                                  dpi: int = 120) -> Path:
+    """The fraction of frames within ε against ε: one panel per part, one curve per estimate
+    (Kwatra et al. 2002, Fig. 2/4).
+
+    Args:
+        curves: estimate -> part -> {ε: fraction or None} (keys may be numeric strings; None,
+            a fraction with no frames, is left out of the line).
+        path: the image file.
+        parts: the panels, in order (None: the parts of the first estimate).
+        xlabel: the x axis' label (ε's unit).
+        title: figure title.
+
+    Returns:
+        The path.
+    """
+    _check_methods("curves", curves)
+    parts = list(next(iter(curves.values())) if parts is None else parts)
+    if not parts:
+        raise ValueError("parts is empty; give at least one part")
+    for estimate, per_part in curves.items():
+        missing = [part for part in parts if part not in per_part]
+        if missing:
+            raise ValueError(f"curves[{estimate!r}] has no curve for {missing}")
+    figure, axes = _figure(3.25 * len(parts), 3.6, columns=len(parts))
+    axes = np.atleast_1d(axes)
+    for axis, part in zip(axes, parts, strict=True):
+        for estimate, per_part in curves.items():
+            within = per_part[part]
+            epsilons = sorted(within, key=float)
+            fractions = [within[eps] for eps in epsilons]
+            axis.plot([float(eps) for eps in epsilons],
+                      [np.nan if value is None else value for value in fractions],
+                      marker="o", markersize=3, label=str(estimate))
+        axis.set_title(part)
+        axis.set_xlabel(xlabel)
+        axis.set_xlim(left=0)
+        axis.set_ylim(0, 1.02)
+        axis.grid(True, alpha=0.3)
+    axes[0].set_ylabel("fraction of frames within ε")
+    axes[-1].legend(fontsize="small", loc="lower right")
+    if title:
+        figure.suptitle(title)
+    return _save(figure, path, dpi)
+
+
+def plot_confusion(counts: Sequence[Sequence[int]], names: Sequence[str],
+                   path: str | os.PathLike, *, xlabel: str = "estimate", ylabel: str = "truth",
+                   colour_label: str = "fraction of the true class's frames",
+                   title: str | None = None, dpi: int = 120) -> Path:
+    """A confusion matrix: rows true, columns estimated, shaded by the fraction of each true
+    class's frames, annotated with the counts.
+
+    Args:
+        counts: `(classes, classes)` frame counts, `counts[true][estimated]`.
+        names: `(classes,)` class names, the ticks of both axes.
+        path: the image file.
+        xlabel, ylabel, colour_label: the axes' and the colour bar's labels.
+        title: figure title.
+
+    Returns:
+        The path.
+    """
+    counts = np.asarray(counts, float)
+    if counts.ndim != 2 or counts.shape != (len(names), len(names)):
+        raise ValueError(f"counts must be ({len(names)}, {len(names)}) for {len(names)} names, "
+                         f"got shape {counts.shape}")
+    rows = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+    figure, axis = _figure(6.0, 5.0)
+    image = axis.imshow(rows, cmap="Blues", vmin=0, vmax=1)
+    figure.colorbar(image, ax=axis, label=colour_label)
+    axis.set_xticks(range(len(names)), names, rotation=30, ha="right")
+    axis.set_yticks(range(len(names)), names)
+    axis.set_xlabel(xlabel)
+    axis.set_ylabel(ylabel)
+    for (row, column), count in np.ndenumerate(counts):
+        axis.text(column, row, f"{int(count)}", ha="center", va="center",
+                  color="white" if rows[row, column] > 0.5 else "black", fontsize="small")
+    if title:
+        axis.set_title(title)
     return _save(figure, path, dpi)
 
 

@@ -42,9 +42,9 @@ from jaxtrack.priors.linear_combinations import (
 from jaxtrack.trackers._options import Engine
 
 __all__ = ["CAMERA_SCALE", "CROP_SIZE", "METHODS", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
-           "HybridSequence", "TrainedLinearCombinations", "evaluate", "load", "multi_view",
-           "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
-           "skeleton_error", "track", "train"]
+           "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
+           "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
+           "select_tracked_views", "skeleton_error", "subject_centre", "track", "train"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -183,6 +183,49 @@ def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
         head[t], hands[t], found[t] = blobs.head, blobs.hands, True
         status.append("")
     return ContourObservation(gradient, head, hands, found), status
+
+
+def subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarray, int]:
+    """Where training would centre its :data:`CROP_SIZE` window on a video of a static camera
+    (the middle of the upper body's extent over the clip), from silhouettes of up to 32 frames:
+    horizontally the middle of the silhouettes' extent, vertically a third of the figure's height
+    below its top (on rendered figures the crop's centre lies 0.29–0.36 of the way down; a figure
+    whose feet are not segmented comes out short, and its crop too high).
+
+    Args:
+        frames: ``(time, height, width, 3)`` uint8 RGB.
+        background: ``(height, width, 3)`` uint8 RGB, the empty scene.
+
+    Returns:
+        ``(centre (x, y), frames with a person)``; the image's centre when no frame has one.
+    """
+    from jaxtrack.vision.foreground import foreground_mask, largest_component
+
+    boxes = []
+    for frame in frames[np.unique(np.linspace(0, len(frames) - 1, 32).round().astype(int))]:
+        rows, columns = np.nonzero(largest_component(foreground_mask(frame, background)))
+        if rows.size:
+            boxes.append((columns.min(), rows.min(), columns.max(), rows.max()))
+    if not boxes:
+        return np.array([frames.shape[2], frames.shape[1]]) / 2, 0
+    left, top, right, bottom = np.asarray(boxes, np.float64).T
+    x = 0.5 * (np.percentile(left, 10) + np.percentile(right, 90))
+    y = np.median(top) + 0.33 * np.percentile(bottom - top, 90)
+    return np.array([x, y]), len(boxes)
+
+
+def cut_window(images: np.ndarray, origin: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``images[..., y0:y0+h, x0:x0+w, :]`` for ``origin`` ``(x0, y0)`` and ``size``
+    ``(w, h)``, the image's edge repeated where the window leaves it (the same for every frame
+    and the background, so it is never foreground)."""
+    x0, y0 = (int(v) for v in origin)
+    width, height = size
+    full_height, full_width = images.shape[-3:-1]
+    pad = [(0, 0)] * (images.ndim - 3) + [(max(0, -y0), max(0, y0 + height - full_height)),
+                                          (max(0, -x0), max(0, x0 + width - full_width)), (0, 0)]
+    padded = np.pad(images, pad, mode="edge")
+    x0, y0 = x0 + pad[-2][0], y0 + pad[-3][0]
+    return np.ascontiguousarray(padded[..., y0:y0 + height, x0:x0 + width, :])
 
 
 def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
@@ -491,6 +534,47 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
             "selected_is_best": float(np.mean(chosen == errors.argmin(axis=1))),
             "chosen": chosen.tolist(), "errors_m": errors.tolist(),
             "ambiguity": np.where(np.isfinite(ambiguity), ambiguity, -1.0).tolist()}
+
+
+def select_tracked_views(trained: TrainedLinearCombinations, estimates: list
+                         ) -> tuple[list[int | None], np.ndarray | None]:
+    """Ong & Gong §5.7 on views tracked one by one: per frame the view of greatest fitness ×
+    1/ambiguity (eq. 14 on the training vectors' ambiguities, eq. 10–13).
+
+    Args:
+        trained: the model and its training vectors.
+        estimates: per view the tracker's estimates (``track_observations(...).estimates``),
+            all of one length.
+
+    Returns:
+        ``(chosen, ambiguity)``: per frame the chosen view, None where no view observed the
+        frame; and the ``(time, views)`` ambiguities, NaN where a view did not observe the frame
+        (None for one view, which is always chosen where it observed).
+    """
+    from jaxtrack.priors.linear_combinations import (
+        nearest_ambiguity,
+        select_views,
+        training_ambiguity,
+    )
+
+    if len(estimates) == 1:
+        return [0 if found else None for found in np.asarray(estimates[0].found)], None
+    layout = trained.model.layout
+    ambiguities = training_ambiguity(trained.vectors, layout)
+    count = len(estimates[0].found)
+    ambiguity = np.full((count, len(estimates)), np.nan)
+    seen = np.zeros((count, len(estimates)), bool)
+    for index, estimate in enumerate(estimates):
+        markers = np.asarray(estimate.best_markers)
+        vectors = np.asarray(make_hybrid(estimate.contour, markers[:, 1:], markers[:, 0],
+                                         estimate.best_skeleton_3d))
+        seen[:, index] = np.asarray(estimate.found) & np.all(np.isfinite(vectors), axis=1)
+        if seen[:, index].any():
+            ambiguity[seen[:, index], index] = nearest_ambiguity(
+                vectors[seen[:, index]], trained.vectors, ambiguities, layout)
+    log_fitness = np.stack([np.asarray(e.log_fitness, np.float64) for e in estimates], axis=1)
+    chosen = select_views(log_fitness, np.where(seen, ambiguity, 0.0), seen)
+    return [int(view) if seen[t].any() else None for t, view in enumerate(chosen)], ambiguity
 
 
 def _track_run(trained, observations, *, particles, iterations, seed, fitness, step,

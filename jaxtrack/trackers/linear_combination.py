@@ -267,20 +267,41 @@ def _scan(tracker: LinearCombinationTracker, state: LinearCombinationState, keys
     return jax.lax.scan(body, state, (keys, jnp.arange(keys.shape[0])))
 
 
+@eqx.filter_jit
+def _begin(tracker: LinearCombinationTracker, key: PRNGKeyArray, first: ContourObservation):
+    """Frame 0 of :func:`track_observations`: the key split for frame 0 and the others, then
+    ``tracker.start`` on the first observation and its estimate."""
+    key_start, key_frames = jr.split(key)
+    state = _start(tracker, key_start, first)
+    return state, tracker.first_estimate(state), key_frames
+
+
+@eqx.filter_jit
+def _continue(tracker: LinearCombinationTracker, state: LinearCombinationState, key,
+              observations: ContourObservation):
+    """The frames after frame 0 of :func:`track_observations`, one key each: ``_scan``."""
+    keys = jr.split(key, observations.found.shape[0] - 1)
+    return _scan(tracker, state, keys, jax.tree.map(lambda leaf: leaf[1:], observations))
+
+
 _COMPILED: dict = {}
 
 
-def _compiled_scan(tracker, state, keys, observations):
-    """``_scan`` compiled ahead of time (so that compilation is timed apart), kept per
-    structure and shapes: sequences of one length and settings given as JAX scalars reuse it."""
-    leaves, structure = jax.tree.flatten((tracker, state, keys, observations))
-    signature = (structure, tuple((leaf.shape, str(leaf.dtype)) if eqx.is_array(leaf) else leaf
-                                  for leaf in leaves))
-    if signature not in _COMPILED:
-        if len(_COMPILED) > 16:  # a sweep over shapes should not hold every executable
-            _COMPILED.clear()
-        _COMPILED[signature] = _scan.lower(tracker, state, keys, observations).compile()
-    return _COMPILED[signature]
+def _compiled(function, *args):
+    """``function`` (``_begin`` or ``_continue``) compiled ahead of time for
+    ``args``, so that compilation is timed apart; kept per function, structure and shapes:
+    sequences of one length and settings given as JAX scalars reuse it. Returns
+    ``(executable, seconds spent compiling)`` (0 when reused)."""
+    leaves, structure = jax.tree.flatten(args)
+    signature = (function, structure, tuple((leaf.shape, str(leaf.dtype)) if eqx.is_array(leaf)
+                                            else leaf for leaf in leaves))
+    if signature in _COMPILED:
+        return _COMPILED[signature], 0.0
+    if len(_COMPILED) > 48:  # a sweep over shapes should not hold every executable
+        _COMPILED.clear()
+    tick = _time.perf_counter()
+    _COMPILED[signature] = function.lower(*args).compile()
+    return _COMPILED[signature], _time.perf_counter() - tick
 
 
 class LinearCombinationTrack(eqx.Module):
@@ -290,7 +311,8 @@ class LinearCombinationTrack(eqx.Module):
     Attributes:
         estimates: per-frame estimates, frame 0 included.
         seconds_per_frame: run time per frame after frame 0, compilation excluded.
-        compile_seconds: time to compile the scan (0 when a compiled one was reused).
+        compile_seconds: time to compile everything the run executes: frame 0's start and
+            estimate and the scan over the other frames (0 for what a compiled one was reused).
         options: the tracker's ``options()``.
     """
 
@@ -303,7 +325,9 @@ class LinearCombinationTrack(eqx.Module):
 def track_observations(tracker: LinearCombinationTracker, key: PRNGKeyArray,
                        observations: ContourObservation) -> LinearCombinationTrack:
     """Track a sequence of observations (every leaf with a leading ``time`` axis): start on
-    frame 0, then one compiled ``lax.scan`` of ``update`` over the others."""
+    frame 0, then one compiled ``lax.scan`` of ``update`` over the others. Each is compiled
+    ahead of time and the compiles are timed apart from the run (``compile_seconds``,
+    ``seconds_per_frame``)."""
     if not isinstance(observations, ContourObservation):
         raise TypeError(f"observations must be a ContourObservation with a time axis, got "
                         f"{type(observations).__name__}")
@@ -311,34 +335,30 @@ def track_observations(tracker: LinearCombinationTracker, key: PRNGKeyArray,
     if num_frames < 1:
         raise ValueError("observations hold no frame (found must have a leading time axis)")
     dtype = tracker.model.mean.dtype
-    observations = ContourObservation(
-        jnp.asarray(observations.gradient, dtype), jnp.asarray(observations.head, dtype),
-        jnp.asarray(observations.hands, dtype), jnp.asarray(observations.found, bool))
-    key_start, key_frames = jr.split(key)
-    first = jax.tree.map(lambda leaf: leaf[0], observations)
-    state = tracker.start(key_start, first)
-    outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None],
-                            _first(tracker, state))]
-    compile_seconds, run_seconds = 0.0, 0.0
+    leaves = (observations.gradient, observations.head, observations.hands, observations.found)
+    dtypes = (dtype, dtype, dtype, bool)
+    # frame 0 cut before conversion (on the host for NumPy observations: nothing to compile),
+    # so that its executable serves sequences of every length; the key splits and the
+    # other frames' slices are compiled with the work, so compile_seconds holds them too
+    first = ContourObservation(*(jnp.asarray(leaf[0], kind)
+                                 for leaf, kind in zip(leaves, dtypes, strict=True)))
+    observations = ContourObservation(*(jnp.asarray(leaf, kind)
+                                        for leaf, kind in zip(leaves, dtypes, strict=True)))
+    begin, compile_seconds = _compiled(_begin, tracker, key, first)
+    state, estimate, key_frames = begin(tracker, key, first)
+    outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], estimate)]
+    run_seconds = 0.0
     if num_frames > 1:
-        rest = jax.tree.map(lambda leaf: leaf[1:], observations)
-        keys = jr.split(key_frames, num_frames - 1)
+        scan, seconds = _compiled(_continue, tracker, state, key_frames, observations)
+        compile_seconds += seconds
         tick = _time.perf_counter()
-        compiled = _compiled_scan(tracker, state, keys, rest)
-        compile_seconds = _time.perf_counter() - tick
-        tick = _time.perf_counter()
-        _, estimates = compiled(tracker, state, keys, rest)
+        _, estimates = scan(tracker, state, key_frames, observations)
         estimates = jax.block_until_ready(estimates)
         run_seconds = _time.perf_counter() - tick
         outputs.append(jax.tree.map(np.asarray, estimates))
     merged = jax.tree.map(lambda *leaves: np.concatenate(leaves), *outputs)
     return LinearCombinationTrack(merged, run_seconds / max(num_frames - 1, 1), compile_seconds,
                                   tracker.options())
-
-
-@eqx.filter_jit
-def _first(tracker, state):
-    return tracker.first_estimate(state)
 
 
 def linear_combination_tracker(

@@ -27,6 +27,7 @@ from jaxtrack.vision.overlay import (
     write_overlay_video,
     write_video,
 )
+from jaxtrack.vision.panels import compose_views, contour_panel, draw_contour, write_views_video
 from jaxtrack.vision.video import (
     VideoError,
     VideoFrames,
@@ -38,10 +39,10 @@ from jaxtrack.vision.video import (
 
 __all__ = [
     "METHOD_COLOURS", "TRUTH_COLOUR",
-    "FaceDetectorUnavailableError", "VideoError", "VideoFrames", "detect_face", "detect_faces",
-    "draw_tracks", "edge_distance_maps", "edge_observations",
-    "face_candidates", "face_detector_available", "foreground_mask", "head_boxes",
-    "iter_video_chunks", "median_background", "median_grey_background", "read_video",
-    "resample_closed_curve", "signed_area", "silhouette_contour", "to_grey", "write_frames",
-    "write_overlay_video", "write_video",
+    "FaceDetectorUnavailableError", "VideoError", "VideoFrames", "compose_views", "contour_panel",
+    "detect_face", "detect_faces", "draw_contour", "draw_tracks", "edge_distance_maps",
+    "edge_observations", "face_candidates", "face_detector_available", "foreground_mask",
+    "head_boxes", "iter_video_chunks", "median_background", "median_grey_background",
+    "read_video", "resample_closed_curve", "signed_area", "silhouette_contour", "to_grey",
+    "write_frames", "write_overlay_video", "write_video", "write_views_video",
 ]

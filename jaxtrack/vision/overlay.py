@@ -135,7 +135,8 @@ def draw_tracks(image: np.ndarray, tracks: Mapping[str, np.ndarray], marker_name
 def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
                         path: str | os.PathLike, *, fps: float, marker_names: Sequence[str],
                         truth: np.ndarray | None = None,
-                        colours: Mapping[str, tuple[int, int, int]] | None = None) -> Path:
+                        colours: Mapping[str, tuple[int, int, int]] | None = None,
+                        labels: Sequence[str] | None = None) -> Path:
     """Write an `.mp4` (OpenCV `mp4v`) of the frames with every method's estimate drawn on top.
 
     Args:
@@ -146,13 +147,15 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
         marker_names: `(markers,)` names.
         truth: optional `(time, markers, 2)` true markers, drawn thin and white on top.
         colours: method -> RGB; defaults to :data:`METHOD_COLOURS`.
+        labels: `(time,)` texts for each frame's bottom-left corner; defaults to
+            `"frame t/time"`.
 
     Returns:
         The path.
 
     Raises:
-        ValueError: no tracks, or shapes that disagree (frames, markers); the message names the
-            argument.
+        ValueError: no tracks, or shapes that disagree (frames, markers, labels); the message
+            names the argument.
         OSError: OpenCV cannot open a writer for the file.
     """
 
@@ -180,9 +183,13 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
         truth = np.asarray(truth, dtype=np.float64)
         if truth.shape != expected:
             raise ValueError(f"truth has shape {truth.shape}, expected {expected}")
+    if labels is None:
+        labels = [f"frame {t + 1}/{num_frames}" for t in range(num_frames)]
+    elif len(labels) != num_frames:
+        raise ValueError(f"labels has {len(labels)} texts for {num_frames} frames")
     frames = (draw_tracks(images[t], {m: track[t] for m, track in arrays.items()},
                           marker_names, truth=None if truth is None else truth[t],
-                          label=f"frame {t + 1}/{num_frames}", colours=colours)
+                          label=labels[t], colours=colours)
               for t in range(num_frames))
     return write_frames(frames, path, fps, (width, height))
 

@@ -1,5 +1,6 @@
 """The one overlay drawer and the videos made with it: per-method colours, hidden truth markers
-hollow, frame count read back, refused input; a rendered sequence as video."""
+hollow, frame count read back, refused input; a rendered sequence as video; the multi-view
+panels (a contour drawn where it lies, ambiguity bars, the selected view framed)."""
 
 from functools import cache
 
@@ -11,10 +12,16 @@ from jaxtrack.data import load_clip
 from jaxtrack.vision import (
     METHOD_COLOURS,
     TRUTH_COLOUR,
+    compose_views,
+    contour_panel,
+    draw_contour,
     draw_tracks,
+    read_video,
     write_overlay_video,
     write_video,
+    write_views_video,
 )
+from jaxtrack.vision.panels import AMBIGUITY_COLOUR, SELECTED_COLOUR
 
 cv2 = pytest.importorskip("cv2")
 
@@ -152,3 +159,104 @@ def test_truth_stays_visible_where_an_estimate_lies_on_it():
     method = (np.abs(skeleton - METHOD_COLOURS[1]).max(axis=-1) <= 10).sum()
     assert white > 300  # the truth's limbs show along their length (about 400 px of limbs)
     assert method > 300  # ... and the estimate still shows beside them
+
+
+# --- panels: a contour and markers on an enlarged view, views side by side --------------------
+
+
+def _square(left, top, right, bottom):
+    return np.array([(left, top), (right, top), (right, bottom), (left, bottom)], np.float64)
+
+
+def test_draw_contour_closes_the_outline_two_pixels_wide_and_skips_a_broken_one():
+    image = np.zeros((40, 50, 3), np.uint8)
+    colour = (10, 200, 30)
+    drawn = draw_contour(image, _square(10, 8, 30, 25), colour)
+    assert image.max() == 0  # the input is untouched
+    painted = (drawn == colour).all(axis=-1)
+    # every side, the closing one (last point to first) included, one pixel right and below too
+    assert painted[8, 10:31].all() and painted[25, 10:31].all()
+    assert painted[8:26, 10].all() and painted[8:26, 30].all()
+    assert painted[9, 12:29].all() and painted[10:24, 11].all()
+    assert not painted[12:22, 14:27].any() and painted.sum() < 4 * (20 + 17) + 8
+    # outside the image: clipped; a non-finite point: nothing drawn
+    clipped = (draw_contour(image, _square(-5, 10, 80, 30), colour) == colour).all(axis=-1)
+    assert clipped[10].all() and clipped[30].all() and not clipped[:, 0].all()
+    broken = _square(10, 8, 30, 25)
+    broken[2] = np.nan
+    assert np.array_equal(draw_contour(image, broken, colour), image)
+
+
+def test_contour_panel_enlarges_the_frame_and_draws_at_its_pixel_centres():
+    image = np.zeros((60, 80, 3), np.uint8)
+    image[10, 70] = (90, 91, 92)
+    colour = METHOD_COLOURS[2]
+    markers = np.array([[60.25, 40.25], [np.nan, np.nan], [50.25, 45.25]])
+    panel = contour_panel(image, _square(20.0, 20.0, 40.0, 35.0), markers,
+                          ("head", "hand", "other_hand"), name="view", colour=colour, zoom=2)
+    assert panel.shape == (120, 160, 3)
+    assert (panel[20:22, 140:142] == (90, 91, 92)).all()  # pixel (70, 10): a 2 x 2 block
+    painted = (panel == colour).all(axis=-1)
+    # the contour's top side at y = (20 + 0.5) * 2 - 0.5 = 40.5, from x = 40.5 to 80.5
+    assert painted[40:42, 45:76].any(axis=0).all()
+    assert not painted[50:65, 50:75].any()  # inside the contour, nothing
+    # the markers at (x + 0.5) * 2 - 0.5: filled dots of the view's colour
+    assert painted[81, 121] and painted[91, 101]
+    with pytest.raises(ValueError, match="zoom"):
+        contour_panel(image, _square(1, 1, 5, 5), markers, ("head", "hand", "other_hand"),
+                      name="view", colour=colour, zoom=0)
+
+
+def test_compose_views_puts_bars_under_views_and_frames_the_selected_one():
+    rng = np.random.default_rng(0)
+    panels = [rng.integers(0, 50, (40, 50, 3), dtype=np.uint8) for _ in range(3)]
+    assert np.array_equal(compose_views(panels), np.concatenate(panels, axis=1))
+    composed = compose_views(panels, ambiguity=[1.0, np.nan, 2.0], full_scale=2.0, selected=1)
+    assert composed.shape == (40 + 18, 150, 3)
+    bars = composed[40:]
+    ambiguous = (bars == AMBIGUITY_COLOUR).all(axis=-1)
+    # view 0: half its width (1 of 2); view 1 observed nothing: no bar; view 2: all of it
+    assert ambiguous[3:15, :25].all() and not ambiguous[:, 25:50].any()
+    assert not ambiguous[3:15, 54:96].any() and ambiguous[3:15, 100:150].all()
+    assert not ambiguous[:3].any() and not ambiguous[15:].any()
+    framed = (composed == SELECTED_COLOUR).all(axis=-1)
+    assert framed[:4, 50:100].all() and framed[-4:, 50:100].all()
+    assert framed[:, 50:54].all() and framed[:, 96:100].all()
+    assert not framed[4:-4, 54:96].any() and not framed[:, :50].any()
+    assert not framed[:, 100:].any()
+    assert np.array_equal(composed[4:40, 54:96], panels[1][4:, 4:46])  # inside: the view
+    with pytest.raises(ValueError, match="one size"):
+        compose_views([panels[0], panels[1][:30]])
+    with pytest.raises(ValueError, match="2 values for 3 panels"):
+        compose_views(panels, ambiguity=[1.0, 2.0])
+    with pytest.raises(ValueError, match="selected"):
+        compose_views(panels, selected=3)
+
+
+def test_views_video_has_every_frame_side_by_side(tmp_path):
+    rng = np.random.default_rng(1)
+    images = [rng.integers(0, 60, (4, 30, 20, 3), dtype=np.uint8) for _ in range(2)]
+    contours = [np.tile(_square(5.0, 5.0, 15.0, 25.0), (4, 1, 1))] * 2
+    markers = [np.tile([[10.0, 8.0], [6.0, 20.0], [14.0, 20.0]], (4, 1, 1))] * 2
+    ambiguity = np.array([[0.1, 0.2], [np.nan, 0.3], [0.4, 0.4], [0.0, 0.1]])
+    path = write_views_video(images, contours, markers, tmp_path / "views.mp4", fps=10.0,
+                             names=["left", "right"], marker_names=("head", "hand", "other_hand"),
+                             labels=[[f"{t}" for t in range(4)]] * 2, ambiguity=ambiguity,
+                             selected=[0, 1, None, 1], zoom=2)
+    frames = read_video(path).frames
+    assert frames.shape == (4, 2 * 30 + 18, 2 * 2 * 20, 3)
+    with pytest.raises(ValueError, match="one name per view"):
+        write_views_video(images, contours, markers, tmp_path / "no.mp4", fps=10.0,
+                          names=["left"], marker_names=("head", "hand", "other_hand"))
+    assert [p.name for p in tmp_path.iterdir()] == ["views.mp4"]
+
+
+def test_overlay_video_takes_a_label_per_frame(tmp_path):
+    images, tracks, _ = frames_and_tracks()
+    with pytest.raises(ValueError, match="labels has 2 texts for 7 frames"):
+        write_overlay_video(images, tracks, tmp_path / "overlay.mp4", fps=10,
+                            marker_names=UPPER_BODY_12, labels=["a", "b"])
+    labelled = write_overlay_video(images[:1], {m: t[:1] for m, t in tracks.items()},
+                                   tmp_path / "labelled.mp4", fps=10, marker_names=UPPER_BODY_12,
+                                   labels=["sitting  1/1"])
+    assert read_video(labelled).num_frames == 1

@@ -26,6 +26,8 @@ from jaxtrack.body.hybrid import HybridLayout
 
 __all__ = ["nearest_ambiguity", "select_views", "training_ambiguity"]
 
+_MEMORY_BUDGET = 128 * 2**20  # bytes training_ambiguity's temporaries hold at most by default
+
 
 def _parts(vectors: np.ndarray, layout: HybridLayout) -> tuple[np.ndarray, np.ndarray]:
     vectors = np.asarray(vectors, np.float64)
@@ -47,8 +49,15 @@ def _observation_distances(first: np.ndarray, second: np.ndarray) -> np.ndarray:
     return np.sqrt(np.maximum(squared, 0.0) / points)
 
 
+def _pair_bytes(layout: HybridLayout) -> int:
+    """Peak bytes of temporaries per pair (i, j) of a block, as measured with tracemalloc: the
+    skeleton differences and their squares (joints × 3 float64 each), the squared and the
+    root distances per joint (joints each), and four (rows, examples) float64 arrays."""
+    return 8 * (8 * layout.num_skeleton + 4)
+
+
 def training_ambiguity(vectors: np.ndarray, layout: HybridLayout, *, sigma: float = 4.0,
-                       beta: float = 100.0, threshold: float = 0.05, chunk: int = 1024
+                       beta: float = 100.0, threshold: float = 0.05, chunk: int | None = None
                        ) -> np.ndarray:
     """Ong & Gong eq. 10–13: the ambiguity a_i of every training vector (module docstring).
 
@@ -59,7 +68,10 @@ def training_ambiguity(vectors: np.ndarray, layout: HybridLayout, *, sigma: floa
         beta: β of the sigmoid, per skeleton unit (its steepness).
         threshold: t, the skeleton distance (metres) from which two skeletons count as
             different.
-        chunk: rows per block (memory: chunk × examples).
+        chunk: rows i per block; the block's temporaries peak at chunk × examples ×
+            8 (8 joints + 4) bytes (2.4 MB per row at 3000 examples of 12 joints). None:
+            as many rows as fit in 128 MiB (at least one row, however large the set). The
+            result does not depend on it beyond rounding.
 
     Returns:
         ``(examples,)`` ambiguities, ≥ 0.
@@ -68,6 +80,10 @@ def training_ambiguity(vectors: np.ndarray, layout: HybridLayout, *, sigma: floa
         raise ValueError(f"sigma and beta must be > 0 and threshold >= 0, got {sigma}, {beta}, "
                          f"{threshold}")
     observed, skeleton = _parts(vectors, layout)
+    if chunk is None:
+        chunk = max(1, _MEMORY_BUDGET // (max(1, len(vectors)) * _pair_bytes(layout)))
+    elif not (isinstance(chunk, int | np.integer) and chunk >= 1):
+        raise ValueError(f"chunk must be a positive integer or None, got {chunk!r}")
     flat = skeleton.reshape(len(skeleton), -1)
     result = np.empty(len(vectors))
     for start in range(0, len(vectors), chunk):

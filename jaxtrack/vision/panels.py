@@ -1,0 +1,204 @@
+"""Views of one frame drawn as panels: a contour and markers over an enlarged frame, and several
+views side by side with an ambiguity bar under each and the selected one framed; and the video
+made of them (:func:`write_views_video`).
+
+They draw the linear-combination tracker's overlay (Ong & Gong 2002, Fig. 17: the views of a
+frame, their ambiguity and the view the tracker reads); the markers are drawn by the one drawer,
+:func:`jaxtrack.vision.overlay.draw_tracks`, and the video is written by
+:func:`jaxtrack.vision.video.write_frames` (atomically). Contours are drawn with NumPy (no
+OpenCV): sampled along each segment at least once per pixel, two pixels wide. Why drawing lives
+here: ``docs/layers.md``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from jaxtrack.vision.overlay import METHOD_COLOURS, draw_tracks
+from jaxtrack.vision.video import write_frames
+
+__all__ = ["AMBIGUITY_COLOUR", "SELECTED_COLOUR", "compose_views", "contour_panel",
+           "draw_contour", "write_views_video"]
+
+AMBIGUITY_COLOUR = (200, 80, 80)
+"""RGB of the ambiguity bars."""
+
+SELECTED_COLOUR = (255, 224, 0)
+"""RGB of the frame around the selected view."""
+
+# the 1-pixel offsets each sample is drawn at: a line two pixels wide in x and in y
+_PEN = ((0, 0), (1, 0), (0, 1))
+
+
+def draw_contour(image: np.ndarray, contour: np.ndarray, colour: Sequence[int]) -> np.ndarray:
+    """A copy of ``image`` with the closed polyline through ``contour`` drawn two pixels wide.
+
+    Args:
+        image: ``(height, width, 3)`` uint8 RGB.
+        contour: ``(points, 2)`` pixels ``(x, y)``, joined in order and last to first. A contour
+            with a non-finite point (a frame without one) is not drawn; points outside the
+            image are clipped.
+        colour: RGB.
+
+    Returns:
+        ``(height, width, 3)`` uint8 RGB.
+    """
+    image = np.array(image, dtype=np.uint8)
+    points = np.asarray(contour, np.float64)
+    if points.ndim != 2 or not np.all(np.isfinite(points)):
+        return image
+    following = np.roll(points, -1, axis=0)
+    steps = int(np.ceil(np.abs(following - points).max(initial=0))) + 1
+    fractions = np.linspace(0.0, 1.0, steps)[:, None, None]
+    samples = (points + fractions * (following - points)).reshape(-1, 2).round().astype(int)
+    height, width = image.shape[:2]
+    for dx, dy in _PEN:
+        x, y = samples[:, 0] + dx, samples[:, 1] + dy
+        inside = (x >= 0) & (x < width) & (y >= 0) & (y < height)
+        image[y[inside], x[inside]] = colour
+    return image
+
+
+def contour_panel(image: np.ndarray, contour: np.ndarray, markers: np.ndarray,
+                  marker_names: Sequence[str], *, name: str, colour: Sequence[int],
+                  label: str | None = None, zoom: int = 1) -> np.ndarray:
+    """One view: the frame enlarged ``zoom`` times (each pixel repeated), with the contour
+    (:func:`draw_contour`) and the markers (:func:`draw_tracks`, legend ``name``) drawn over it.
+
+    Args:
+        image: ``(height, width, 3)`` uint8 RGB.
+        contour: ``(points, 2)`` pixels of ``image`` (pixel centres at integers).
+        markers: ``(markers, 2)`` pixels of ``image``; non-finite ones are not drawn.
+        marker_names: ``(markers,)`` names (their skeleton is ``jaxtrack.body.marker_edges``).
+        name: the legend's text.
+        colour: RGB of the contour, the markers and the legend.
+        label: text for the bottom-left corner (a frame counter, a status).
+        zoom: integer enlargement (≥ 1).
+
+    Returns:
+        ``(zoom × height, zoom × width, 3)`` uint8 RGB.
+    """
+    if not (isinstance(zoom, int | np.integer) and zoom >= 1):
+        raise ValueError(f"zoom must be a positive integer, got {zoom!r}")
+    panel = np.repeat(np.repeat(np.asarray(image, np.uint8), zoom, axis=0), zoom, axis=1)
+
+    def enlarged(points):  # pixel centres stay at integers
+        return (np.asarray(points, np.float64) + 0.5) * zoom - 0.5
+
+    panel = draw_contour(panel, enlarged(contour), colour)
+    return draw_tracks(panel, {name: enlarged(markers)}, marker_names, label=label,
+                       colours={name: tuple(colour)})
+
+
+def compose_views(panels: Sequence[np.ndarray], *, ambiguity: Sequence[float] | None = None,
+                  full_scale: float = 1.0, selected: int | None = None, bar_height: int = 18,
+                  border: int = 4) -> np.ndarray:
+    """Views side by side; with ``ambiguity`` a bar under each, with ``selected`` that view
+    framed (Ong & Gong 2002, Fig. 17).
+
+    Args:
+        panels: ``(height, width, 3)`` uint8 RGB views of one size.
+        ambiguity: one value per view, drawn as a bar of ``width × value / full_scale`` pixels
+            (at least 1, at most the panel's width); a non-finite value (a view that did not
+            observe the frame) leaves its bar empty. None: no bars.
+        full_scale: the ambiguity that fills a bar (the largest over a clip keeps bars of
+            different frames comparable); > 0.
+        selected: the index of the view to frame in :data:`SELECTED_COLOUR`, or None.
+        bar_height: rows of each bar (the bar itself leaves 3 rows above and below).
+        border: width of the frame, pixels.
+
+    Returns:
+        ``(height [+ bar_height], views × width, 3)`` uint8 RGB.
+    """
+    panels = [np.asarray(panel, np.uint8) for panel in panels]
+    if not panels:
+        raise ValueError("panels is empty; give at least one view")
+    shapes = {panel.shape for panel in panels}
+    if len(shapes) != 1 or panels[0].ndim != 3 or panels[0].shape[-1] != 3:
+        raise ValueError(f"panels must be (height, width, 3) images of one size, got shapes "
+                         f"{sorted(shapes)}")
+    if ambiguity is not None and len(ambiguity) != len(panels):
+        raise ValueError(f"ambiguity has {len(ambiguity)} values for {len(panels)} panels")
+    if not full_scale > 0:
+        raise ValueError(f"full_scale must be > 0, got {full_scale}")
+    if selected is not None and not 0 <= selected < len(panels):
+        raise ValueError(f"selected must index one of the {len(panels)} panels, got {selected}")
+    if bar_height < 7 or border < 1:
+        raise ValueError(f"bar_height must be at least 7 and border at least 1, got "
+                         f"{bar_height} and {border}")
+    columns = []
+    for index, panel in enumerate(panels):
+        column = panel.copy()
+        if ambiguity is not None:
+            bar = np.zeros((bar_height, panel.shape[1], 3), np.uint8)
+            value = float(ambiguity[index])
+            if np.isfinite(value):
+                bar[3:-3, :max(1, round(panel.shape[1] * value / full_scale))] = AMBIGUITY_COLOUR
+            column = np.concatenate([column, bar])
+        if selected == index:
+            column[:border] = column[-border:] = SELECTED_COLOUR
+            column[:, :border] = column[:, -border:] = SELECTED_COLOUR
+        columns.append(column)
+    return np.concatenate(columns, axis=1)
+
+
+def write_views_video(images: Sequence[np.ndarray], contours: Sequence[np.ndarray],
+                      markers: Sequence[np.ndarray], path: str | os.PathLike, *, fps: float,
+                      names: Sequence[str], marker_names: Sequence[str],
+                      labels: Sequence[Sequence[str]] | None = None,
+                      ambiguity: np.ndarray | None = None,
+                      selected: Sequence[int | None] | None = None, zoom: int = 1) -> Path:
+    """Write an ``.mp4`` of one or several views tracked side by side: per frame each view's
+    :func:`contour_panel` (view ``v`` in ``METHOD_COLOURS[v]``) put together by
+    :func:`compose_views`, the ambiguity bars scaled to the largest finite ambiguity of the
+    clip.
+
+    Args:
+        images: per view ``(time, height, width, 3)`` uint8 RGB (one size; the first ``time``
+            frames of the shortest are written).
+        contours: per view ``(time, points, 2)`` pixels of its images.
+        markers: per view ``(time, markers, 2)`` pixels of its images.
+        path: the video file, written atomically.
+        fps: frames per second of the video.
+        names: per view its legend.
+        marker_names: ``(markers,)`` names.
+        labels: per view and frame the text of the panel's bottom-left corner, or None.
+        ambiguity: ``(time, views)`` (:func:`compose_views`), or None: no bars.
+        selected: per frame the view to frame, or None there; None: none framed.
+        zoom: integer enlargement of every panel.
+
+    Returns:
+        The path.
+
+    Raises:
+        OSError: OpenCV cannot open a writer for the file.
+    """
+    if not images or not len(images) == len(contours) == len(markers) == len(names):
+        raise ValueError(f"give one array of images, contours and markers and one name per "
+                         f"view, got {len(images)}, {len(contours)}, {len(markers)} and "
+                         f"{len(names)}")
+    count = min(len(frames) for frames in images)
+    if ambiguity is not None:
+        ambiguity = np.asarray(ambiguity, np.float64)
+        if ambiguity.shape[1:] != (len(images),) or len(ambiguity) < count:
+            raise ValueError(f"ambiguity must be (time, {len(images)}), got {ambiguity.shape}")
+    finite = np.zeros(0) if ambiguity is None else ambiguity[np.isfinite(ambiguity)]
+    largest = max(float(finite.max(initial=0.0)), 1e-9)
+
+    def frame(t: int) -> np.ndarray:
+        panels = [contour_panel(images[v][t], np.asarray(contours[v][t]),
+                                np.asarray(markers[v][t]), marker_names, name=names[v],
+                                colour=METHOD_COLOURS[v % len(METHOD_COLOURS)],
+                                label=None if labels is None else labels[v][t], zoom=zoom)
+                  for v in range(len(images))]
+        return compose_views(panels, ambiguity=None if ambiguity is None else ambiguity[t],
+                             full_scale=largest, selected=None if selected is None
+                             else selected[t])
+
+    first = frame(0)
+    frames = (first if t == 0 else frame(t) for t in range(count))
+    return write_frames(frames, path, fps, (first.shape[1], first.shape[0]))
