@@ -10,6 +10,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 __all__ = ["MAX_SEED", "UserError", "add_asf_option", "available_memory", "check_clips",
+           "check_held_out",
            "check_memory", "check_prior_file", "check_seed", "format_bytes", "load_clip_sources",
            "output_folder"]
 
@@ -85,6 +86,15 @@ def check_clips(names: Iterable[str], option: str, asf: Path | None = None) -> l
         raise UserError(f"{option}: unknown clip(s) {', '.join(unknown)} (neither a file nor a "
                         f"catalogue name); known clips: {', '.join(list_clips())}")
     return sources
+
+
+def check_held_out(train_sources: Sequence, test_sources: Sequence) -> None:
+    """No ``--test`` clip may be one of the ``--train`` clips (the same file)."""
+    trained = {source.file.resolve() for source in train_sources}
+    overlap = [source.spec for source in test_sources if source.file.resolve() in trained]
+    if overlap:
+        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
+                        f"--train")
 
 
 def check_asf(asf: Path | None, sources: Sequence) -> None:

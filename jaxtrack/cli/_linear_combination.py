@@ -30,6 +30,7 @@ import numpy as np
 from jaxtrack.cli._common import (
     UserError,
     check_clips,
+    check_held_out,
     check_seed,
     load_clip_sources,
     output_folder,
@@ -218,11 +219,7 @@ def evaluate(args: argparse.Namespace) -> int:
     test_clips = list(lc.TEST_CLIPS if args.test is None else args.test)
     train_sources = _training_clips(train_clips, "--train")
     test_sources = check_clips(test_clips, "--test")
-    trained_files = {source.file.resolve() for source in train_sources}
-    overlap = [source.spec for source in test_sources if source.file.resolve() in trained_files]
-    if overlap:
-        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
-                        f"--train")
+    check_held_out(train_sources, test_sources)
     try:
         check_disjoint(train_clips, test_clips)
     except ValueError as error:

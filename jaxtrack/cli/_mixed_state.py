@@ -28,6 +28,7 @@ from pathlib import Path
 from jaxtrack.cli._common import (
     UserError,
     check_clips,
+    check_held_out,
     check_memory,
     check_seed,
     output_folder,
@@ -299,11 +300,7 @@ def evaluate(args: argparse.Namespace) -> int:
     test_clips = list(TEST_CLIPS) if args.test is None else list(args.test)
     train_sources = check_clips(train_clips, "--train")
     test_sources = check_clips(test_clips, "--test")
-    trained_files = {source.file.resolve() for source in train_sources}
-    overlap = [source.spec for source in test_sources if source.file.resolve() in trained_files]
-    if overlap:
-        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
-                        f"--train")
+    check_held_out(train_sources, test_sources)
     _refuse_test_subjects(train_clips, train_sources, "--train")
     particles = _at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
     check_seed(args.seed)

@@ -13,6 +13,7 @@ from jaxtrack.cli._common import (
     add_asf_option,
     check_asf,
     check_clips,
+    check_held_out,
     check_memory,
     check_prior_file,
     check_seed,
@@ -161,11 +162,7 @@ def run(args: argparse.Namespace) -> int:
     train_sources = check_clips(args.train, "--train", args.asf)
     test_sources = check_clips(args.test, "--test", args.asf)
     check_asf(args.asf, train_sources + test_sources)
-    train_files = {source.file.resolve() for source in train_sources}
-    overlap = [source.spec for source in test_sources if source.file.resolve() in train_files]
-    if overlap:
-        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
-                        f"--train")
+    check_held_out(train_sources, test_sources)
     if not args.allow_same_subject:
         from jaxtrack.data.splits import check_disjoint
 
