@@ -40,7 +40,8 @@ def summarise_skeleton_errors(results: Mapping) -> list[dict]:
             "seconds_per_frame", "compile_seconds"}}}}``.
 
     Returns:
-        One row per method: ``method``, ``error_mm``, ``worst_sequence_mm``, ``sequences``,
+        One row per method: ``method``, ``error_mm``, ``worst_sequence_mm``, ``aligned_mm``
+        (after a similarity alignment per frame; None when not recorded), ``sequences``,
         ``frames``, ``ms_per_frame`` (weighted by frames), ``compile_seconds`` (summed; None
         when a sequence's is not finite).
     """
@@ -52,6 +53,8 @@ def summarise_skeleton_errors(results: Mapping) -> list[dict]:
         rows.append({
             "method": method, "error_mm": 1e3 * float(np.mean([e["error_m"] for e in entries])),
             "worst_sequence_mm": 1e3 * float(np.max([e["error_m"] for e in entries])),
+            "aligned_mm": (1e3 * float(np.mean([e["aligned_error_m"] for e in entries]))
+                           if all("aligned_error_m" in e for e in entries) else None),
             "sequences": len(entries), "frames": int(sum(frames)),
             "ms_per_frame": 1e3 * float(np.average([e["seconds_per_frame"] for e in entries],
                                                    weights=frames)),
@@ -62,12 +65,14 @@ def summarise_skeleton_errors(results: Mapping) -> list[dict]:
 
 def skeleton_error_table(rows: Sequence[Mapping]) -> str:
     """The rows of :func:`summarise_skeleton_errors` as a markdown table."""
-    lines = ["| method | 3-D error (mm) | worst sequence (mm) | sequences | frames | ms/frame "
-             "| compile (s) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| method | 3-D error (mm) | worst sequence (mm) | aligned (mm) | sequences | frames "
+             "| ms/frame | compile (s) |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for row in rows:
         compiled = "-" if row["compile_seconds"] is None else f"{row['compile_seconds']:.1f}"
+        aligned = "-" if row.get("aligned_mm") is None else f"{row['aligned_mm']:.1f}"
         lines.append(f"| {row['method']} | {row['error_mm']:.1f} | "
-                     f"{row['worst_sequence_mm']:.1f} | {row['sequences']} | {row['frames']} | "
+                     f"{row['worst_sequence_mm']:.1f} | {aligned} | {row['sequences']} | "
+                     f"{row['frames']} | "
                      f"{row['ms_per_frame']:.2f} | {compiled} |")
     return "\n".join(lines)
 

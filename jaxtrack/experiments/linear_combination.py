@@ -44,7 +44,8 @@ from jaxtrack.trackers._options import Engine
 __all__ = ["CAMERA_SCALE", "CROP_SIZE", "METHODS", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
            "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
            "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
-           "select_tracked_views", "skeleton_error", "subject_centre", "track", "train"]
+           "aligned_skeleton_error", "select_tracked_views", "skeleton_error", "subject_centre",
+           "track", "train"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -370,6 +371,28 @@ def skeleton_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return np.linalg.norm(estimate - truth, axis=-1).mean(axis=-1)
 
 
+def aligned_skeleton_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """``(time,)`` :func:`skeleton_error` after the similarity transform (rotation, uniform
+    scale, translation; Umeyama 1991) that best maps each frame's estimate onto its truth: the
+    usual score of monocular 3-D pose, blind to the subject's size and the global rotation."""
+    estimate, truth = np.asarray(estimate, np.float64), np.asarray(truth, np.float64)
+    if estimate.shape != truth.shape or estimate.shape[-1] != 3:
+        raise ValueError(f"estimate {estimate.shape} and truth {truth.shape} must be equal "
+                         "(time, joints, 3) skeletons")
+    centred_estimate = estimate - estimate.mean(axis=1, keepdims=True)
+    centred_truth = truth - truth.mean(axis=1, keepdims=True)
+    covariance = np.einsum("tji,tjk->tik", centred_truth, centred_estimate)
+    left, singular, right_t = np.linalg.svd(covariance)
+    signs = np.ones_like(singular)
+    signs[:, -1] = np.sign(np.linalg.det(left @ right_t))  # a rotation, not a reflection
+    rotation = left @ (signs[:, :, None] * right_t)
+    variance = np.sum(centred_estimate ** 2, axis=(1, 2))
+    scale = np.where(variance > 0, np.sum(singular * signs, axis=1) / np.maximum(variance, 1e-300),
+                     0.0)
+    aligned = scale[:, None, None] * np.einsum("tik,tjk->tji", rotation, centred_estimate)
+    return np.linalg.norm(aligned - centred_truth, axis=-1).mean(axis=-1)
+
+
 def run_method(method: str, trained: TrainedLinearCombinations, observations: ContourObservation,
                *, particles: int = 300, iterations: int = 5, seed: int = 0,
                fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
@@ -424,7 +447,8 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
     """3-D skeleton error of each method on held-out clips rendered through ``views``.
 
     Returns a JSON-able dict: per sequence and method the mean 3-D error (metres; of the
-    best-fitness particle, the paper's estimate, and of the weighted mean where there is one),
+    best-fitness particle, the paper's estimate, and of the weighted mean where there is one;
+    ``aligned_error_m`` after a similarity alignment, :func:`aligned_skeleton_error`),
     the error per frame (``errors_m``), frames observed, run time per frame and compile time
     apart; and per method the mean over sequences. Written to
     ``output`` (JSON, atomically) when given. The clips must not share a subject with the
@@ -452,8 +476,10 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
                                  iterations=iterations, seed=seed, fitness=fitness, step=step,
                                  jump_spread=jump_spread, brownian_step=step)
                 errors = skeleton_error(run["skeleton"], sequence.skeleton)
+                aligned = aligned_skeleton_error(run["skeleton"], sequence.skeleton)
                 entry[method] = {"error_m": float(errors.mean()),
                                  "errors_m": [round(float(e), 6) for e in errors],
+                                 "aligned_error_m": float(aligned.mean()),
                                  "seconds_per_frame": float(run["seconds_per_frame"]),
                                  "compile_seconds": float(run["compile_seconds"])}
                 if "mean_skeleton" in run:
