@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env bench-peers-env install clean
+.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env bench-mediapipe-env bench-peers-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +38,10 @@ bench: $(STAMP)
 # GPy (the GPLVM benchmark's reference) lives in its own venv so it never touches jaxtrack's
 bench-gpy-env:
 	$(PYTHON) -m venv .venv-gpy && .venv-gpy/bin/pip install -q -r benchmarks/requirements-gpy.txt
+
+# MediaPipe Pose (benchmarks/real_video.py's per-frame detector) in its own venv, never in .venv
+bench-mediapipe-env:
+	$(PYTHON) -m venv .venv-mediapipe && .venv-mediapipe/bin/pip install -q -r benchmarks/requirements-mediapipe.txt
 
 # the particle-count benchmark's peer libraries, each in its own venv (particles needs numpy<2,
 # cuthbert its own jax): benchmarks/_peers.py runs them when these exist

@@ -1,0 +1,97 @@
+"""Run MediaPipe Pose (``_mediapipe_reference.py``) in its own venv, and map its landmarks to the
+tracker's 12 markers.
+
+MediaPipe never enters the jaxtrack venv. Create its venv once with ``make bench-mediapipe-env``
+(``.venv-mediapipe``, ``benchmarks/requirements-mediapipe.txt``); ``JAXTRACK_MEDIAPIPE_PYTHON``
+may name another python that has it.
+
+The landmark map (MediaPipe's 33 pose landmarks; "left" is the person's left, as in
+``UPPER_BODY_12``): shoulders, elbows, wrists and hips are MediaPipe's own; MediaPipe has no neck
+or base of the skull, so, between the shoulders' midpoint S and the ears' midpoint E,
+``neck = S + 1/3 (E − S)`` and ``head = S + 0.9 (E − S)`` (for an adult the ears are about
+0.18 m above the shoulder line; the Pose2Sim reference's neck is 0.06 m and its head about
+0.16 m above it: ``jaxtrack.evaluation.reference``); ``pelvis`` is the hips' midpoint and
+``thorax = neck + 0.4 (pelvis − neck)``, as in the reference.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import run_in_venv
+
+ROOT = Path(__file__).resolve().parent.parent
+VENV = ROOT / ".venv-mediapipe"
+SCRIPT = Path(__file__).resolve().parent / "_mediapipe_reference.py"
+
+LANDMARKS = {"nose": 0, "left_ear": 7, "right_ear": 8, "left_shoulder": 11,
+             "right_shoulder": 12, "left_elbow": 13, "right_elbow": 14, "left_wrist": 15,
+             "right_wrist": 16, "left_hip": 23, "right_hip": 24}
+"""MediaPipe Pose landmark indices used."""
+NECK_FRACTION, HEAD_FRACTION, THORAX_FRACTION = 1 / 3, 0.9, 0.4
+
+
+def mediapipe_python() -> Path:
+    """``$JAXTRACK_MEDIAPIPE_PYTHON`` or ``.venv-mediapipe/bin/python``."""
+    override = os.environ.get("JAXTRACK_MEDIAPIPE_PYTHON")
+    return Path(override) if override else VENV / "bin" / "python"
+
+
+def to_upper_body(landmarks: np.ndarray) -> np.ndarray:
+    """``(..., 33, 2)`` MediaPipe landmarks → ``(..., 12, 2)`` markers (``UPPER_BODY_12``)."""
+    from jaxtrack.body import UPPER_BODY_12
+
+    landmarks = np.asarray(landmarks, np.float64)
+
+    def point(name):
+        return landmarks[..., LANDMARKS[name], :]
+
+    shoulders = 0.5 * (point("left_shoulder") + point("right_shoulder"))
+    ears = 0.5 * (point("left_ear") + point("right_ear"))
+    neck = shoulders + NECK_FRACTION * (ears - shoulders)
+    pelvis = 0.5 * (point("left_hip") + point("right_hip"))
+    named = {"head": shoulders + HEAD_FRACTION * (ears - shoulders), "neck": neck,
+             "thorax": neck + THORAX_FRACTION * (pelvis - neck), "pelvis": pelvis}
+    for side in ("right", "left"):
+        for part in ("shoulder", "elbow", "wrist", "hip"):
+            named[f"{side}_{part}"] = point(f"{side}_{part}")
+    return np.stack([named[name] for name in UPPER_BODY_12], axis=-2)
+
+
+def run_mediapipe(frames: np.ndarray, *, model_complexity: int = 1,
+                  timeout: float | None = 1800.0) -> dict:
+    """MediaPipe Pose on ``frames`` (time, height, width, 3) uint8 RGB, in its venv.
+
+    Returns the script's outputs (``landmarks``, ``visibility``, ``found``, ``seconds``,
+    ``first_seconds``, ``version``) plus ``markers`` (time, 12, 2) (frames without a person
+    hold the last detection, or the next one before the first: ``filled`` counts them) and
+    ``summary``, or ``{"skipped": reason}`` when its python is missing or the run fails.
+    """
+    python = mediapipe_python()
+    if not python.exists():
+        return {"skipped": f"no MediaPipe python at {python} (make bench-mediapipe-env)"}
+    inputs = {"frames": np.asarray(frames, np.uint8),
+              "model_complexity": np.int64(model_complexity)}
+    result = run_in_venv(python, SCRIPT, inputs, output="out.npz", read=_read_npz,
+                         label="MediaPipe", timeout=timeout)
+    if "skipped" in result:
+        return result
+    found = np.asarray(result["found"], bool)
+    if not found.any():
+        return {"skipped": "MediaPipe found no person in any frame", **result}
+    markers = to_upper_body(result["landmarks"])
+    index = np.where(found, np.arange(len(found)), -1)
+    index = np.maximum.accumulate(index)                      # the last detection so far
+    index = np.where(index < 0, int(np.argmax(found)), index)  # before the first: the first
+    result["markers"] = markers[index]
+    result["filled"] = int((~found).sum())
+    return result
+
+
+def _read_npz(path: Path) -> dict:
+    with np.load(path, allow_pickle=False) as data:
+        return {key: (data[key].item() if data[key].ndim == 0 else data[key])
+                for key in data.files}

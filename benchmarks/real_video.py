@@ -1,0 +1,333 @@
+"""The trackers on the four real Pose2Sim videos, scored against the triangulated reference.
+
+    python -m benchmarks.real_video                  # 4 views × 3 methods × 2 estimates × 2 inits
+    python -m benchmarks.real_video --frames 40      # the first 40 tracked frames of each view
+    python -m benchmarks.real_video --quick          # one view, 10 frames, the latent tracker
+
+Each video (``shared/data/pose2sim_demo_singleperson/videos/cam0N.mp4``, 1080 × 1920 at 60 fps,
+a man balancing on a beam) is downscaled as ``jaxtrack track`` does (longer side at most
+``--max-size``, default 960) and tracked from video frame 1 (the first frame the reference
+covers: ``.trc`` row k is video frame k + 1) by
+
+- the latent tracker (200 particles), CONDENSATION (1 000 particles, AR(2) dynamics) and MHT
+  (10 modes), all from the same prior: the GPLVM and the training poses of the wave gestures of
+  the scripted comparison's training subjects (``benchmarks.tracking.TRAINING_CLIPS``, as in the
+  demo; ``jaxtrack.data.splits``), with the default likelihood (limb strips, edges and the
+  arms' foreground against the video's median background);
+- each reporting its own estimate and with the shared refinement stage (``Refinement()``);
+- each initialised (a) from the reference's markers in the first tracked frame and (b)
+  automatically (``jaxtrack.trackers.autoinit``, as ``jaxtrack track --init face``: face and
+  blob-head boxes, the prior's poses against the foreground of the video's median background).
+
+Also scored: "static", the initial pose held still (how far the subject moves), and MediaPipe
+Pose (``benchmarks/_mediapipe.py``, a per-frame detector in its own venv, when ``make
+bench-mediapipe-env`` has made it). Every frame after the first tracked one is scored by
+:func:`jaxtrack.evaluation.evaluate_track` against the reference
+(:mod:`jaxtrack.evaluation.reference`, about 10 px median accuracy at full size, ~1-3 % of the
+torso): mean error in % of the reference torso (neck–pelvis) and the fraction of frames within
+15 % of it. Compile time and ms/frame are reported apart. Writes
+``benchmarks/results/real_video.json`` (``--out``) and prints a markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import statistics
+import time
+from pathlib import Path
+
+import jax.random as jr
+import numpy as np
+
+from benchmarks._common import device_description, peak_rss_mb
+from jaxtrack._files import write_json_atomically
+from jaxtrack.body import UPPER_BODY_12
+from jaxtrack.data.splits import split_of
+from jaxtrack.evaluation import evaluate_track, marker_errors, torso_lengths
+from jaxtrack.evaluation.reference import default_folder, load_reference
+from jaxtrack.experiments import DEFAULT_PARTICLES
+
+VIEWS = ("cam01", "cam02", "cam03", "cam04")
+METHODS = ("latent", "condensation", "mht")
+ESTIMATES = ("own", "refined")
+INITS = ("reference", "auto")
+RESULTS = Path("benchmarks/results")
+QUICK = {"views": ("cam02",), "frames": 10, "methods": ("latent",), "estimates": ("refined",)}
+SCORED = ("num_frames", "mean_error_px", "median_error_px", "mean_error_torso",
+          "fraction_within_15", "failed", "failure_frame", "ms_per_frame", "compile_seconds",
+          "errors_torso")
+
+
+class View:
+    """One camera's tracked frames (downscaled), their background and reference."""
+
+    def __init__(self, folder: Path, camera: str, frames: int | None, max_size: int, *,
+                 filtered: bool = False):
+        from jaxtrack.vision import (
+            median_background,
+            median_grey_background,
+            read_video,
+            to_grey,
+        )
+
+        path = folder / "videos" / f"{camera}.mp4"
+        probe = read_video(path, max_frames=1)
+        height, width = probe.frames.shape[1:3]
+        scale = min(1.0, max_size / max(height, width))
+        video = read_video(path, scale=scale)  # every frame: the median background needs them
+        self.name, self.fps = camera, float(video.fps)
+        self.scale = video.frames.shape[2] / width  # the decoder rounds the size
+        self.size = (width, height)
+        reference = load_reference(folder, filtered=filtered,
+                                   num_video_frames=len(video.frames))[camera]
+        covered = reference.frame_indices
+        stop = len(covered) if frames is None else min(len(covered), frames)
+        if stop < 2:
+            raise SystemExit(f"{camera}: tracking needs at least 2 frames, got {stop}")
+        indices = covered[:stop]
+        self.frame_indices = indices
+        self.truth = reference.select(indices).scaled(self.scale).markers
+        self.images = video.frames[indices]
+        self.frames = to_grey(self.images)
+        # the whole video's median, as `jaxtrack track` takes over the frames it reads
+        self.background_rgb = median_background(video.frames)
+        self.background = median_grey_background(to_grey(video.frames))
+
+
+def make_tracker(method: str, estimate: str, prior, view: View):
+    """The tracker of one configuration (the protocol's ``build_tracker``, with the whole
+    video's background)."""
+    from jaxtrack import trackers
+
+    refinement = trackers.Refinement() if estimate == "refined" else None
+    particles = DEFAULT_PARTICLES[method]
+    if method == "latent":
+        return trackers.latent_tracker(prior.model, prior.template,
+                                       engine=trackers.Engine(particles), fps=view.fps,
+                                       refinement=refinement, background=view.background)
+    states, ids = prior.training_states, prior.training_sequence_ids
+    if method == "condensation":
+        return trackers.condensation_tracker(prior.template, states,
+                                             engine=trackers.Engine(particles),
+                                             refinement=refinement, background=view.background,
+                                             sequence_ids=ids)
+    return trackers.mht_tracker(prior.template, states, num_modes=particles,
+                                refinement=refinement, background=view.background,
+                                sequence_ids=ids)
+
+
+def auto_initial_pose(prior, view: View) -> tuple[np.ndarray | None, dict]:
+    """``jaxtrack track --init face`` on the first tracked frame: markers (or None) and a
+    record (source, overlap, the pose's error against the reference)."""
+    from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
+    from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask
+
+    started = time.perf_counter()
+    foreground = foreground_mask(view.images[0], view.background_rgb)
+    try:
+        found = auto_initialise(prior.model, prior.template, view.images[0], foreground)
+    except (AutoInitError, FaceDetectorUnavailableError) as error:
+        return None, {"failed": " ".join(str(error).split())}
+    error = marker_errors(found.markers[None], view.truth[:1])[0]
+    torso = torso_lengths(view.truth[:1], UPPER_BODY_12)[0]
+    return np.asarray(found.markers), {
+        "source": found.source, "overlap": float(found.score), "error_torso": float(error / torso),
+        "seconds": time.perf_counter() - started}
+
+
+def score(markers: np.ndarray, view: View, **timing) -> dict:
+    """Every frame after the first tracked one against the reference."""
+    metrics = evaluate_track(markers[1:], view.truth[1:], UPPER_BODY_12, **timing)
+    return {key: metrics[key] for key in SCORED}
+
+
+def run_tracker(prior, view: View, method: str, estimate: str, init: str,
+                initial_pose: np.ndarray, seed: int) -> dict:
+    from jaxtrack.trackers import track
+
+    tracker = make_tracker(method, estimate, prior, view)
+    result = track(tracker, jr.PRNGKey(seed), view.frames, initial_pose, progress=False)
+    if not np.all(np.isfinite(result.markers)):
+        return {"method": method, "estimate": estimate, "init": init, "view": view.name,
+                "seed": seed, "skipped": "non-finite markers"}
+    return {"method": method, "estimate": estimate, "init": init, "view": view.name,
+            "seed": seed, "tracker": result.options,
+            **score(result.markers, view, seconds_per_frame=result.seconds_per_frame,
+                    compile_seconds=result.compile_seconds)}
+
+
+def run_mediapipe_view(view: View) -> dict:
+    from benchmarks._mediapipe import run_mediapipe
+
+    found = run_mediapipe(view.images)
+    row = {"method": "mediapipe", "estimate": "own", "init": "none", "view": view.name}
+    if "skipped" in found:
+        return {**row, "skipped": found["skipped"]}
+    return {**row, "version": found["version"], "frames_without_person": found["filled"],
+            "first_frame_seconds": found["first_seconds"],
+            **score(found["markers"], view,
+                    seconds_per_frame=float(np.median(found["seconds"])))}
+
+
+def table(runs: list[dict], views: tuple[str, ...]) -> str:
+    """Markdown: one row per (method, estimate, init); per view "error % / within 15 %"."""
+    done = [run for run in runs if "skipped" not in run]
+    key = lambda run: (run["method"], run["estimate"], run["init"])  # noqa: E731
+    order = {name: i for i, name in enumerate((*METHODS, "static", "mediapipe"))}
+    header = ["method", "estimate", "init", *views, "mean error %", "mean within 15 %",
+              "ms/frame", "compile s"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for (method, estimate, init), group in itertools.groupby(
+            sorted(done, key=lambda run: (order[run["method"]], run["estimate"],
+                                          run["init"] != "reference", run["init"])), key=key):
+        group = list(group)
+        by_view = {run["view"]: run for run in group}
+        cells = [f"{100 * by_view[v]['mean_error_torso']:.1f} / "
+                 f"{100 * by_view[v]['fraction_within_15']:.0f} %" if v in by_view else "—"
+                 for v in views]
+        ms = [run["ms_per_frame"] for run in group if run.get("ms_per_frame") is not None]
+        compile_s = [run["compile_seconds"] for run in group
+                     if run.get("compile_seconds") is not None]
+        lines.append("| " + " | ".join([
+            method, estimate, init, *cells,
+            f"{100 * statistics.mean(r['mean_error_torso'] for r in group):.1f}",
+            f"{100 * statistics.mean(r['fraction_within_15'] for r in group):.0f} %",
+            f"{statistics.median(ms):.1f}" if ms else "—",
+            f"{max(compile_s):.1f}" if compile_s else "—"]) + " |")
+    return "\n".join(lines)
+
+
+def _share_compilations() -> None:
+    """A persistent compilation cache for this run only: the runner compiles every ``track``
+    call ahead of time, and the same configuration on another view of the same size, or from
+    the other initial pose, compiles to the same program. The first compilation of each is
+    what the table reports (the largest compile time of a row)."""
+    import atexit
+    import shutil
+    import tempfile
+
+    import jax
+
+    folder = tempfile.mkdtemp(prefix="jaxtrack-real-video-xla-")
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    jax.config.update("jax_compilation_cache_dir", folder)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.real_video",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--views", nargs="+", choices=VIEWS, default=list(VIEWS))
+    parser.add_argument("--frames", type=int, default=None,
+                        help="track this many frames of each view from video frame 1 (default: "
+                             "all the reference covers, 99)")
+    parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
+    parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
+    parser.add_argument("--inits", nargs="+", choices=INITS, default=list(INITS))
+    parser.add_argument("--seeds", type=int, default=1, help="tracker seeds per configuration")
+    parser.add_argument("--max-size", type=int, default=960, metavar="PX",
+                        help="downscale so the longer side is at most PX (default 960)")
+    parser.add_argument("--filtered", action="store_true",
+                        help="score against Pose2Sim's Butterworth-filtered triangulation")
+    parser.add_argument("--no-mediapipe", action="store_true",
+                        help="do not run MediaPipe Pose even if its venv exists")
+    parser.add_argument("--quick", action="store_true",
+                        help="cam02, 10 frames, the latent tracker with refinement, both inits, "
+                             "a small prior (a smoke run)")
+    parser.add_argument("--data", type=Path, default=None,
+                        help="the pose2sim_demo_singleperson folder (default: shared data)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="JSON output (default benchmarks/results/real_video.json; "
+                             "--quick: real_video_quick.json)")
+    args = parser.parse_args(argv)
+    if args.frames is not None and args.frames < 2:
+        parser.error(f"--frames must be at least 2, got {args.frames}")
+    if args.seeds < 1:
+        parser.error(f"--seeds must be at least 1, got {args.seeds}")
+    if args.max_size < 32:
+        parser.error(f"--max-size must be at least 32, got {args.max_size}")
+    views, frames = tuple(args.views), args.frames
+    methods, estimates = tuple(args.methods), tuple(args.estimates)
+    if args.quick:
+        views, frames = QUICK["views"], QUICK["frames"]
+        methods, estimates = QUICK["methods"], QUICK["estimates"]
+    try:
+        folder = args.data or default_folder()
+    except FileNotFoundError as error:
+        parser.error(str(error))
+    out = args.out or RESULTS / ("real_video_quick.json" if args.quick else "real_video.json")
+
+    from benchmarks.tracking import QUICK_TRAINING, TRAINING_CLIPS
+    from jaxtrack.priors.train import train_prior
+
+    assert all(split_of(clip) == "training" for clip in TRAINING_CLIPS)
+    started = time.perf_counter()
+    _share_compilations()
+    training = QUICK_TRAINING if args.quick else {}
+    cache = RESULTS / "tracking" / f"prior_training_waves{'_quick' if args.quick else ''}.npz"
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    prior = train_prior(TRAINING_CLIPS, progress=False, cache=cache, **training)
+    print(f"prior: {', '.join(TRAINING_CLIPS)} ({time.perf_counter() - started:.0f} s); "
+          f"{device_description()}")
+
+    runs, inits = [], {}
+    for camera in views:
+        view = View(folder, camera, frames, args.max_size, filtered=args.filtered)
+        height, width = view.frames.shape[1:]
+        print(f"{camera}: video frames {view.frame_indices[0]}..{view.frame_indices[-1]} at "
+              f"{width}x{height}, reference torso "
+              f"{np.median(torso_lengths(view.truth, UPPER_BODY_12)):.0f} px")
+        poses = {}
+        if "reference" in args.inits:
+            poses["reference"] = view.truth[0]
+            runs.append({"method": "static", "estimate": "own", "init": "reference",
+                         "view": camera,
+                         **score(np.repeat(view.truth[:1], len(view.truth), 0), view)})
+        if "auto" in args.inits:
+            pose, record = auto_initial_pose(prior, view)
+            inits[camera] = record
+            print(f"  auto init: {record}")
+            if pose is None:
+                runs.append({"method": "all", "init": "auto", "view": camera,
+                             "skipped": record["failed"]})
+            else:
+                poses["auto"] = pose
+        for method, estimate, (init, pose), seed in itertools.product(
+                methods, estimates, poses.items(), range(args.seeds)):
+            run = run_tracker(prior, view, method, estimate, init, pose, seed)
+            runs.append(run)
+            print(f"  {method:12s} {estimate:7s} {init:9s} seed {seed}: "
+                  + (run["skipped"] if "skipped" in run else
+                     f"{100 * run['mean_error_torso']:5.1f} % torso, "
+                     f"{100 * run['fraction_within_15']:3.0f} % within 15 %, "
+                     f"{run['ms_per_frame']:.1f} ms/frame, compile {run['compile_seconds']:.1f} s"))
+        if not (args.no_mediapipe or args.quick):
+            run = run_mediapipe_view(view)
+            runs.append(run)
+            print("  mediapipe: " + (run["skipped"] if "skipped" in run else
+                                     f"{100 * run['mean_error_torso']:.1f} % torso, "
+                                     f"{100 * run['fraction_within_15']:.0f} % within 15 %, "
+                                     f"{run['ms_per_frame']:.1f} ms/frame"))
+    text = table(runs, views)
+    print(text)
+    seconds = time.perf_counter() - started
+    write_json_atomically(out, {
+        "command": "python -m benchmarks.real_video " + " ".join(argv or []),
+        "device": device_description(), "date": time.strftime("%Y-%m-%d"),
+        "seconds": seconds, "peak_rss_mb": peak_rss_mb(),
+        "data": str(folder), "views": list(views), "frames": frames, "max_size": args.max_size,
+        "methods": list(methods), "estimates": list(estimates), "inits": list(args.inits),
+        "seeds": args.seeds, "training_clips": list(TRAINING_CLIPS),
+        "prior": "quick" if args.quick else "full",
+        "reference": {"trc": "filtered" if args.filtered else "raw",
+                      "frame_alignment": "trc row k = video frame k + 1",
+                      "scored_frames": "every tracked frame after the first"},
+        "auto_init": inits, "table": text, "runs": runs})
+    print(f"wrote {out} in {seconds:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
