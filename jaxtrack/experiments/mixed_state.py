@@ -213,10 +213,14 @@ def part_squared_errors(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
 def score(parts: np.ndarray, posture: np.ndarray, truth_parts: np.ndarray,
           truth_labels: np.ndarray, valid: np.ndarray | None = None) -> dict:
     """Mean squared error per part (px²), fraction of frames within each ε in :data:`EPSILONS`
-    per part, largest head error (px) and posture error rate, over the ``valid`` frames."""
+    per part, largest head error (px) and posture error rate, over the ``valid`` frames (all
+    None, with ``frames`` 0, when no frame is valid)."""
     squared = part_squared_errors(parts, truth_parts)
     valid = np.ones(len(squared), bool) if valid is None else np.asarray(valid, bool)
     squared, posture, labels = squared[valid], np.asarray(posture)[valid], truth_labels[valid]
+    if not len(squared):  # no frame with a silhouette: nothing to score, and no NaN
+        return {"mse": None, "within": None, "max_head_error": None, "posture_error": None,
+                "frames": 0}
     groups = {"head": [0], "hands": [1, 2], "feet": [3, 4], "all": [0, 1, 2, 3, 4]}
     distance = np.sqrt(squared)
     return {
