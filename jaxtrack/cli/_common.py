@@ -10,7 +10,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 __all__ = ["MAX_SEED", "UserError", "add_asf_option", "available_memory", "check_clips",
-           "check_held_out",
+           "check_held_out", "check_json_and_plots",
            "check_memory", "check_prior_file", "check_seed", "format_bytes", "load_clip_sources",
            "output_folder"]
 
@@ -95,6 +95,17 @@ def check_held_out(train_sources: Sequence, test_sources: Sequence) -> None:
     if overlap:
         raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
                         f"--train")
+
+
+def check_json_and_plots(args: argparse.Namespace) -> Path:
+    """``--json`` must be a ``.json`` file that can be written, ``--plots`` (if given) a folder
+    or nothing yet. Returns the folder of ``--json``."""
+    if args.json.suffix != ".json":
+        raise UserError(f"--json {args.json}: must be a .json path")
+    folder = output_folder(args.json, "--json")
+    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
+        raise UserError(f"--plots {args.plots} is a file, not a folder")
+    return folder
 
 
 def check_asf(asf: Path | None, sources: Sequence) -> None:

@@ -31,6 +31,7 @@ from jaxtrack.cli._common import (
     UserError,
     check_clips,
     check_held_out,
+    check_json_and_plots,
     check_seed,
     load_clip_sources,
     output_folder,
@@ -229,11 +230,7 @@ def evaluate(args: argparse.Namespace) -> int:
     max_frames = _max_frames(args.max_frames)
     check_seed(args.seed)
     cameras = _cameras(args.cameras)
-    if args.json.suffix != ".json":
-        raise UserError(f"--json {args.json}: must be a .json path")
-    folder = output_folder(args.json, "--json")
-    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
-        raise UserError(f"--plots {args.plots} is a file, not a folder")
+    folder = check_json_and_plots(args)
     cache = folder / CACHE_NAME
     trained = _cached_model(cache, train_clips, cameras, args.seed)
     load_clip_sources(test_sources, "--test")

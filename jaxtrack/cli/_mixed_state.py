@@ -29,6 +29,7 @@ from jaxtrack.cli._common import (
     UserError,
     check_clips,
     check_held_out,
+    check_json_and_plots,
     check_memory,
     check_seed,
     output_folder,
@@ -311,11 +312,7 @@ def evaluate(args: argparse.Namespace) -> int:
     azimuths = _azimuths(args.azimuths)
     size = _image_size(args.size)
     backgrounds = list(dict.fromkeys(args.backgrounds))
-    if args.json.suffix != ".json":
-        raise UserError(f"--json {args.json}: must be a .json path")
-    folder = output_folder(args.json, "--json")
-    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
-        raise UserError(f"--plots {args.plots} is a file, not a folder")
+    folder = check_json_and_plots(args)
     cache = folder / CACHE_NAME
     saved = _read_saved_model(cache, "the posture model cached beside --json:",
                               "delete it (it is retrained and rewritten) or write --json "

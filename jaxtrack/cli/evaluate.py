@@ -14,11 +14,11 @@ from jaxtrack.cli._common import (
     check_asf,
     check_clips,
     check_held_out,
+    check_json_and_plots,
     check_memory,
     check_prior_file,
     check_seed,
     load_clip_sources,
-    output_folder,
 )
 from jaxtrack.cli._options import add_tracker_options, tracker_options
 from jaxtrack.priors.gplvm import OPTIMISERS
@@ -179,11 +179,7 @@ def run(args: argparse.Namespace) -> int:
                         f"{args.max_frames}")
     check_seed(args.seed)
     options = tracker_options(args)
-    if args.json.suffix != ".json":
-        raise UserError(f"--json {args.json}: must be a .json path")
-    folder = output_folder(args.json, "--json")
-    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
-        raise UserError(f"--plots {args.plots} is a file, not a folder")
+    folder = check_json_and_plots(args)
     cache = folder / "gplvm_cache.npz"
     check_prior_file(cache, "the GPLVM cached beside --json:",
                      "delete it (it is retrained and rewritten) or write --json elsewhere")
