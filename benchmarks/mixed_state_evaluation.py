@@ -6,8 +6,10 @@ The posture model is trained on ``experiments.mixed_state.TRAINING_CLIPS`` (cach
 per particle and frame that its parts are re-drawn about its posture's hypotheses) is chosen
 among ``--redetect`` by the smoothed estimate's mean squared error over all parts on the
 validation clips (``experiments.mixed_state.VALIDATION_CLIPS``: subject 77's half-crouch and
-subject 02's walk, validation subjects of ``jaxtrack.data.splits``); the test clips are then
-scored with it, for
+subject 02's walk, validation subjects of ``jaxtrack.data.splits``), together with whether a
+particle that changes posture keeps its parts or has them re-drawn about the new posture's
+hypotheses (``MixedStateModel.redraw_on_switch``, ``--switch``); the test clips are then
+scored with the chosen pair, for
 the instantaneous (extended Ghost), filtered, smoothed and fixed-lag estimates.
 
     python -m benchmarks.mixed_state_evaluation [--frames 150] [--particles 500]
@@ -45,6 +47,9 @@ def main(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=150, help="frames per clip (30 fps)")
     parser.add_argument("--particles", type=int, default=500)
     parser.add_argument("--redetect", type=float, nargs="+", default=[0.0, 0.02, 0.05, 0.2])
+    parser.add_argument("--switch", nargs="+", choices=("keep", "redraw"),
+                        default=["keep", "redraw"],
+                        help="what a particle that changes posture does with its parts")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
                         help="views of the validation and test clips (default: the five of "
@@ -67,37 +72,46 @@ def main(argv=None) -> int:
     azimuths = ms.VIEW_AZIMUTHS if args.azimuths is None else tuple(
         float(np.radians(value)) for value in args.azimuths)
     validation = {}
-    for value in args.redetect:
-        result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, azimuths=azimuths,
-                             backgrounds=("clutter",),
-                             num_particles=args.particles, max_frames=args.frames,
-                             seed=args.seed, redetect_probability=value)
-        validation[value] = result["overall"]
-        print(f"validation, redetect {value:g}: smoothed MSE all "
-              f"{result['overall']['smoothed']['mse']['all']:.1f}")
-    chosen = min(validation, key=lambda value: validation[value]["smoothed"]["mse"]["all"])
+    for switch in args.switch:
+        for value in args.redetect:
+            result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, azimuths=azimuths,
+                                 backgrounds=("clutter",),
+                                 num_particles=args.particles, max_frames=args.frames,
+                                 seed=args.seed, redetect_probability=value,
+                                 redraw_on_switch=switch == "redraw")
+            validation[(value, switch)] = result["overall"]
+            print(f"validation, redetect {value:g}, {switch} on a switch: smoothed MSE all "
+                  f"{result['overall']['smoothed']['mse']['all']:.1f}")
+    chosen, chosen_switch = min(validation,
+                                key=lambda pair: validation[pair]["smoothed"]["mse"]["all"])
     begin = time.perf_counter()
     test = ms.evaluate(posture_model, ms.TEST_CLIPS, azimuths=azimuths, backgrounds=("clutter",),
                        num_particles=args.particles, max_frames=args.frames, seed=args.seed,
-                       redetect_probability=chosen)
+                       redetect_probability=chosen,
+                       redraw_on_switch=chosen_switch == "redraw")
     test_seconds = time.perf_counter() - begin
     print(f"device: {device_description()}")
     print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; smoothed MSE all (px², 640 x 480) "
           f"by redetect_probability:")
-    print_table([{"redetect": value, "mse": scores["smoothed"]["mse"]["all"],
+    print_table([{"redetect": value, "switch": switch, "mse": scores["smoothed"]["mse"]["all"],
                   "posture_error": 100 * scores["smoothed"]["posture_error"]}
-                 for value, scores in validation.items()],
-                [("redetect", "redetect", "g"), ("mse", "smoothed MSE all", ".1f"),
+                 for (value, switch), scores in validation.items()],
+                [("redetect", "redetect", "g"), ("switch", "on a switch", "s"),
+                 ("mse", "smoothed MSE all", ".1f"),
                  ("posture_error", "posture error %", ".1f")])
-    print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, redetect {chosen:g}, "
+    print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, redetect {chosen:g}, {chosen_switch} on a "
+          f"switch, "
           f"{args.particles} particles, {args.frames} frames per clip, {len(azimuths)} views, "
           f"clutter; "
           f"{test_seconds:.0f} s")
     print_table(_rows(test["overall"]), _COLUMNS)
     write_json(args.out, {"benchmark": "mixed_state_evaluation", "device": device_description(),
                           "arguments": vars(args), "train_seconds": train_seconds,
-                          "validation": {str(k): v for k, v in validation.items()},
-                          "chosen_redetect_probability": chosen, "test": test,
+                          "validation": [{"redetect_probability": value, "on_switch": switch,
+                                          **scores}
+                                         for (value, switch), scores in validation.items()],
+                          "chosen_redetect_probability": chosen,
+                          "chosen_on_switch": chosen_switch, "test": test,
                           "test_seconds": test_seconds})
     return 0
 

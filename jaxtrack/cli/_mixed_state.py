@@ -595,5 +595,6 @@ def _tracker_options(model) -> dict:
             "initial_std": float(model.initial_std),
             "initial_velocity_std": float(model.initial_velocity_std),
             "redetect_probability": float(model.redetect_probability),
+            "redraw_on_switch": model.redraw_on_switch,
             "part_cutoff": float(model.part_likelihood.cutoff),
             "posture_cutoff": float(model.postures.cutoff)}

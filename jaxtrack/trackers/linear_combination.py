@@ -42,7 +42,7 @@ from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
 __all__ = ["LinearCombinationEstimate", "LinearCombinationSSM", "LinearCombinationState",
            "LinearCombinationTrack", "LinearCombinationTracker", "linear_combination_tracker",
-           "nearest_neighbour", "propagate_particle",
+           "nearest_neighbour", "propagate_particle", "release_compiled",
            "track_observations"]
 
 
@@ -302,6 +302,13 @@ def _compiled(function, *args):
     tick = _time.perf_counter()
     _COMPILED[signature] = function.lower(*args).compile()
     return _COMPILED[signature], _time.perf_counter() - tick
+
+
+def release_compiled() -> None:
+    """Forget the executables :func:`track_observations` compiled ahead of time (as
+    ``jax.clear_caches`` forgets ``jax.jit``'s): each holds memory mappings, of which a process
+    may hold a limited number."""
+    _COMPILED.clear()
 
 
 class LinearCombinationTrack(eqx.Module):

@@ -108,11 +108,12 @@ class MixedStateModel(eqx.Module):
     initial_std: Float[Array, ""]
     initial_velocity_std: Float[Array, ""]
     redetect_probability: Float[Array, ""]
+    redraw_on_switch: bool = eqx.field(static=True)
 
     def __init__(self, postures: PostureModel, part_likelihood: PartDistances | None = None, *,
                  position_std: float = 3.0, velocity_std: float = 2.0,
                  initial_std: float = 20.0, initial_velocity_std: float = 2.0,
-                 redetect_probability: float = 0.0):
+                 redetect_probability: float = 0.0, redraw_on_switch: bool = False):
         values = dict(position_std=position_std, velocity_std=velocity_std,
                       initial_std=initial_std, initial_velocity_std=initial_velocity_std)
         for name, value in values.items():
@@ -123,6 +124,9 @@ class MixedStateModel(eqx.Module):
             raise ValueError(f"redetect_probability must be in [0, 1], got "
                              f"{redetect_probability}")
         self.redetect_probability = jnp.asarray(float(redetect_probability))
+        if not isinstance(redraw_on_switch, (bool, np.bool_)):
+            raise ValueError(f"redraw_on_switch must be True or False, got {redraw_on_switch!r}")
+        self.redraw_on_switch = bool(redraw_on_switch)
         self.postures = postures
         self.part_likelihood = PartDistances() if part_likelihood is None else part_likelihood
         for name, value in values.items():
@@ -225,6 +229,8 @@ def _step(key, model: MixedStateModel, postures, parts, velocities, log_weights,
         key_position, parts.shape, dtype)
     # a few particles' parts re-drawn about their posture's hypotheses (recovery)
     redraw = jr.uniform(key_redetect, (num,), dtype) < model.redetect_probability.astype(dtype)
+    if model.redraw_on_switch:  # a new posture starts from its own hypotheses
+        redraw = redraw | (children != postures)
     redraw = redraw & ok
     fresh = frame.hypotheses.astype(dtype)[children] + model.initial_std.astype(
         dtype) * smc.fast_normal(key_redraw, parts.shape, dtype)
@@ -420,6 +426,7 @@ class MixedStateTracker(Tracker):
                 "initial_std": float(model.initial_std),
                 "initial_velocity_std": float(model.initial_velocity_std),
                 "redetect_probability": float(model.redetect_probability),
+                "redraw_on_switch": model.redraw_on_switch,
                 "part_cutoff": float(model.part_likelihood.cutoff),
                 "posture_cutoff": float(model.postures.cutoff)}
 

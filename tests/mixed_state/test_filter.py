@@ -67,6 +67,38 @@ def test_postures_are_drawn_from_the_rows_of_f():
         assert stats.chisquare(observed, expected).pvalue > 1e-3, (observed, expected)
 
 
+def test_a_particle_that_changes_posture_takes_the_new_postures_hypotheses_only_if_asked():
+    """``redraw_on_switch``: parts of a particle whose posture changed are drawn about that
+    posture's hypotheses (velocity zero); parts of one that kept its posture are predicted."""
+    rng = np.random.default_rng(1)
+    postures = _toy_postures(rng)
+    size = 40
+    grid = np.stack(np.meshgrid(np.arange(size), np.arange(size)), axis=-1).astype(np.int16)
+    hypotheses = np.full((NUM_POSTURES, 5, 2), 5.0)
+    hypotheses[2] = 30.0  # posture 2's parts are far from where every particle's parts are
+    frame = MixedStateFrame(jnp.asarray([0.3]), jnp.asarray(hypotheses), jnp.asarray(grid),
+                            jnp.asarray(0, jnp.int32))
+    num = 4000
+    parts = jnp.full((num, 5, 2), 5.0)
+    for redraw in (False, True):
+        model = MixedStateModel(postures, position_std=0.5, velocity_std=0.1, initial_std=1.0,
+                                initial_velocity_std=0.1, redraw_on_switch=redraw)
+        children, moved, velocities, *_ = eqx.filter_jit(_step)(
+            jr.PRNGKey(3), model, jnp.zeros(num, jnp.int32), parts, jnp.zeros_like(parts),
+            jnp.full(num, -np.log(num)), frame)
+        children, moved = np.asarray(children), np.asarray(moved)
+        to_two = children == 2
+        assert 50 < to_two.sum() < num - 50  # both kinds of particle are there
+        centre = moved[to_two].reshape(-1, 2).mean(axis=0)
+        np.testing.assert_allclose(centre, [30.0, 30.0] if redraw else [5.0, 5.0], atol=0.5)
+        np.testing.assert_allclose(moved[children == 0].reshape(-1, 2).mean(axis=0), 5.0,
+                                   atol=0.5)
+        if redraw:
+            assert np.all(np.asarray(velocities)[to_two] == 0.0)
+    with pytest.raises(ValueError, match="redraw_on_switch"):
+        MixedStateModel(postures, redraw_on_switch="yes")
+
+
 def jax_tree_first(frames):
     import jax
 
