@@ -1,0 +1,198 @@
+"""Ong & Gong's linear-combination tracker on the four real Pose2Sim videos with view selection,
+scored against the triangulated reference.
+
+``jaxtrack track --method linear-combination`` runs on all four calibrated cameras of
+``shared/data/pose2sim_demo_singleperson`` (a man balancing on a beam, 100 frames at 60 fps,
+taken at the model's 30 fps) with the model ``jaxtrack train --method linear-combination``
+makes from the training subjects (cached as ``benchmarks/results/lc_model.npz``; ``--model`` to
+give another). Its ``track.json`` is then scored against the reference
+(``jaxtrack.evaluation.reference``: keypoints triangulated from the four cameras):
+
+- 2-D, per view: the head and the two hands the tracker reports, in video pixels, against the
+  reference's head marker and wrists (hands under the better left/right assignment per frame),
+  as a fraction of the reference torso (neck to pelvis) in that view;
+- 3-D, per view: the mean distance over the 12 skeleton vertices after the similarity transform
+  that best maps each frame's skeleton onto the reference's
+  (``experiments.linear_combination.aligned_skeleton_error``, the usual monocular 3-D score,
+  blind to the subject's size and the global rotation), in millimetres;
+- view selection: the 3-D error of the view the tracker selected (fitness × 1/ambiguity)
+  against the best (oracle) and the worst view of each frame;
+- a baseline that never looks at the video: the mean of the model's training skeletons, held
+  constant, scored as the tracker is.
+
+    python -m benchmarks.linear_combination_real_video [--particles 300] [--iterations 5]
+
+Prints the tables and writes ``benchmarks/results/linear_combination_real_video.json``; the
+tracker's overlay video (every view's contour, head and hands, the ambiguity bars and the
+selected view) is left in ``benchmarks/results/linear_combination_real_video/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import device_description, print_table, write_json
+
+RESULTS = Path(__file__).parent / "results"
+CAMERAS = ("cam01", "cam02", "cam03", "cam04")
+
+
+def hands_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """``(time, 2)`` distances of two hands under the better left/right assignment."""
+    straight = np.linalg.norm(estimate - truth, axis=-1)
+    crossed = np.linalg.norm(estimate - truth[:, ::-1], axis=-1)
+    better = straight.sum(axis=1) <= crossed.sum(axis=1)
+    return np.where(better[:, None], straight, crossed)
+
+
+def score_track(record: dict, references: dict, world_markers: np.ndarray,
+                reference_frames: np.ndarray, mean_skeleton: np.ndarray | None = None) -> dict:
+    """Score a ``track.json`` record against the reference (see the module docstring).
+
+    Args:
+        record: the parsed ``track.json`` of a run on the cameras in ``references``' order.
+        references: camera name → :class:`jaxtrack.evaluation.reference.CameraReference`.
+        world_markers: ``(rows, 12, 3)`` the reference's 12 markers in 3-D, one row per
+            ``reference_frames`` entry.
+        reference_frames: ``(rows,)`` the video frame of each row.
+        mean_skeleton: ``(12, 3)`` a constant skeleton (``record["joints"]`` order) scored as a
+            baseline: what the 3-D error is when the video is not looked at.
+    """
+    from jaxtrack.body import UPPER_BODY_12
+    from jaxtrack.experiments.linear_combination import aligned_skeleton_error
+
+    joints = record["joints"]
+    order = [joints.index(name) for name in UPPER_BODY_12]
+    row_of = {int(frame): row for row, frame in enumerate(reference_frames)}
+    frames = [entry for entry in record["frames"] if int(entry["frame"]) in row_of]
+    if not frames:
+        raise SystemExit("no tracked frame is covered by the reference")
+    rows = np.array([row_of[int(entry["frame"])] for entry in frames])
+    names = [view["camera"] for view in record["views"]]
+    head, neck, pelvis = (UPPER_BODY_12.index(name) for name in ("head", "neck", "pelvis"))
+    wrists = [UPPER_BODY_12.index("right_wrist"), UPPER_BODY_12.index("left_wrist")]
+    per_view, errors_3d = {}, []
+    for index, name in enumerate(names):
+        reference = references[name].select([int(entry["frame"]) for entry in frames])
+        torso = np.linalg.norm(reference.markers[:, neck] - reference.markers[:, pelvis], axis=-1)
+        entries = [entry["views"][index] for entry in frames]
+        observed = np.array([entry["head"] is not None for entry in entries])
+        head_2d = np.array([entry["head"] if entry["head"] is not None else [np.nan] * 2
+                            for entry in entries], float)
+        hands_2d = np.array([entry["hands"] if entry["hands"] is not None else [[np.nan] * 2] * 2
+                             for entry in entries], float)
+        head_error = np.linalg.norm(head_2d - reference.markers[:, head], axis=-1) / torso
+        hand_error = hands_error(hands_2d, reference.markers[:, wrists]) / torso[:, None]
+        skeleton = np.array([[entry["skeleton_m"][joint] for joint in joints]
+                             for entry in entries], float)[:, order]
+        error_3d = 1e3 * aligned_skeleton_error(skeleton, world_markers[rows])
+        errors_3d.append(error_3d)
+        per_view[name] = {
+            "frames": int(len(entries)), "observed": int(observed.sum()),
+            "head_error_torso": _mean(head_error[observed]),
+            "hand_error_torso": _mean(hand_error[observed]),
+            "aligned_3d_error_mm": _mean(error_3d)}
+    errors_3d = np.stack(errors_3d, axis=1)  # (time, views)
+    chosen = np.array([-1 if entry["selected_view"] is None else entry["selected_view"]
+                       for entry in frames])
+    selected = chosen >= 0
+    chosen_error = errors_3d[np.arange(len(frames)), np.maximum(chosen, 0)]
+    selection = {
+        "frames": int(selected.sum()),
+        "selected_mm": _mean(chosen_error[selected]),
+        "oracle_mm": _mean(errors_3d[selected].min(axis=1)),
+        "worst_mm": _mean(errors_3d[selected].max(axis=1)),
+        "times_selected": {name: int(np.sum(chosen == index)) for index, name in enumerate(names)},
+    }
+    scores = {"views": per_view, "selection": selection, "frames": int(len(frames))}
+    if mean_skeleton is not None:
+        constant = np.broadcast_to(np.asarray(mean_skeleton, float)[order], (len(rows), 12, 3))
+        scores["constant_mean_skeleton_mm"] = _mean(
+            1e3 * aligned_skeleton_error(constant, world_markers[rows]))
+    return scores
+
+
+def _mean(values: np.ndarray) -> float | None:
+    values = np.asarray(values, float)
+    return float(np.mean(values)) if values.size else None
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--model", type=Path, default=RESULTS / "lc_model.npz",
+                        help="a jaxtrack train --method linear-combination model (made there "
+                             "if missing)")
+    parser.add_argument("--particles", type=int, default=300)
+    parser.add_argument("--iterations", type=int, default=5)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=RESULTS / "linear_combination_real_video.json")
+    args = parser.parse_args(argv)
+
+    from jaxtrack.cli import main as jaxtrack
+    from jaxtrack.evaluation.reference import (
+        TRC_FILES,
+        default_folder,
+        load_reference,
+        read_trc,
+        to_upper_body,
+        trc_to_world,
+    )
+
+    folder = default_folder()
+    videos = [folder / "videos" / f"{camera}.mp4" for camera in CAMERAS]
+    if not all(video.is_file() for video in videos):
+        raise SystemExit(f"{folder / 'videos'}: the Pose2Sim demo's videos are not there")
+    begin = time.perf_counter()
+    if not args.model.is_file():
+        if jaxtrack(["train", "--method", "linear-combination", "--out", str(args.model)]):
+            raise SystemExit("training the model failed")
+    tracked = args.out.with_suffix("")
+    code = jaxtrack(["track", "--method", "linear-combination", "--model", str(args.model),
+                     "--video", *map(str, videos), "--calibration",
+                     str(folder / "Calib.qca.txt"),
+                     "--particles", str(args.particles), "--iterations", str(args.iterations),
+                     "--seed", str(args.seed), "--out", str(tracked)])
+    if code:
+        raise SystemExit("tracking failed")
+    record = json.loads((tracked / "track.json").read_text())
+    references = load_reference(folder, num_video_frames=100)
+    _, positions, _ = read_trc(folder / "reference" / "pose-3d" / TRC_FILES[False])
+    world = to_upper_body(trc_to_world(positions))
+    frames = references[CAMERAS[0]].frame_indices
+    world = world[references[CAMERAS[0]].rows]
+    from jaxtrack.experiments import linear_combination as lc
+
+    trained = lc.load(args.model)
+    layout = trained.model.layout
+    mean_skeleton = np.asarray(trained.vectors)[:, layout.skeleton_slice].mean(axis=0).reshape(
+        layout.num_skeleton, 3)
+    scores = score_track(record, references, world, frames, mean_skeleton)
+
+    print(f"\n{scores['frames']} frames scored; device: {device_description()}; "
+          f"{time.perf_counter() - begin:.0f} s")
+    print_table([{"view": name, **values} for name, values in scores["views"].items()],
+                [("view", "view", "s"), ("observed", "observed", "d"),
+                 ("head_error_torso", "head error (torso)", ".2f"),
+                 ("hand_error_torso", "hand error (torso)", ".2f"),
+                 ("aligned_3d_error_mm", "3-D error, aligned (mm)", ".0f")])
+    selection = scores["selection"]
+    print(f"\nview selection over {selection['frames']} frames: selected "
+          f"{selection['selected_mm']:.0f} mm, oracle {selection['oracle_mm']:.0f} mm, worst "
+          f"{selection['worst_mm']:.0f} mm; times selected {selection['times_selected']}")
+    print(f"the training skeletons' mean, held constant: {scores['constant_mean_skeleton_mm']:.0f} "
+          f"mm")
+    write_json(args.out, {"benchmark": "linear_combination_real_video",
+                          "device": device_description(), "arguments": {
+                              key: str(value) for key, value in vars(args).items()},
+                          "tracked": str(tracked), "scores": scores,
+                          "seconds": record.get("seconds")})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
