@@ -134,19 +134,13 @@ def main() -> None:
             print(json.dumps(selection[-1]), flush=True)
 
     surface = []
-    if arguments.surface:
-        training_sequence = lc.render_hybrid_sequences(TRAIN[0], **render)
-        for clusters in (10, 40, 100):
-            model = lc.train(list(TRAIN), views=views, num_clusters=clusters)
-            for samples in (20, 100, 300):
-                options = dict(fitness=fitness, step=jnp.asarray(steps["linear-combination"]),
-                               particles=samples, iterations=arguments.iterations)
-                entry = {"clusters": clusters, "samples": samples,
-                         "training_m": _score(model, training_sequence, "linear-combination",
-                                              **options),
-                         "test_m": _score(model, test, "linear-combination", **options)}
-                surface.append(entry)
-                print(json.dumps(entry), flush=True)
+    if arguments.surface:  # a 3 x 3 corner; benchmarks.linear_combination_surface: the grid
+        from benchmarks.linear_combination_surface import surface as error_surface
+
+        surface = error_surface((10, 40, 100), (20, 100, 300), views=views,
+                                frames=arguments.frames, fitness=fitness,
+                                step=steps["linear-combination"],
+                                iterations=arguments.iterations)
     write_json(arguments.out, {"device": device_description(), "train": TRAIN,
                                "validation": VALIDATION, "test": TEST, "views": views,
                                "frames": arguments.frames, "trained": trained.description,

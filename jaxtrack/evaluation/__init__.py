@@ -16,6 +16,7 @@ from jaxtrack.evaluation.metrics import (
 )
 from jaxtrack.evaluation.plots import (
     plot_confusion,
+    plot_error_surface,
     plot_errors_over_time,
     plot_fraction_within,
     plot_fraction_within_per_part,
@@ -33,7 +34,7 @@ from jaxtrack.evaluation.tables import (
 __all__ = [
     "DEFAULT_EPSILONS", "MIXED_STATE_ESTIMATES", "MIXED_STATE_PARTS", "compare_methods",
     "evaluate_track", "marker_errors", "mixed_state_label", "mixed_state_table",
-    "plot_confusion", "plot_errors_over_time", "plot_fraction_within",
+    "plot_confusion", "plot_error_surface", "plot_errors_over_time", "plot_fraction_within",
     "plot_fraction_within_per_part", "plot_particle_sweep", "skeleton_error_table",
     "summarise", "summarise_skeleton_errors", "torso_lengths",
 ]

@@ -1,5 +1,5 @@
 """Figures of tracking results: error over time, fraction of frames within ε (per method, or per
-part and estimate), particle sweeps, a confusion matrix.
+part and estimate), particle sweeps, a confusion matrix, an error surface.
 
 matplotlib is imported inside the functions, so `import jaxtrack` works without it. Figures are
 built with the object-oriented API on an Agg canvas — no pyplot, so no global backend switch and
@@ -19,8 +19,8 @@ import numpy as np
 from jaxtrack._plotting import new_figure as _figure
 from jaxtrack._plotting import save_figure as _save
 
-__all__ = ["plot_confusion", "plot_errors_over_time", "plot_fraction_within",
-           "plot_fraction_within_per_part", "plot_particle_sweep"]
+__all__ = ["plot_confusion", "plot_error_surface", "plot_errors_over_time",
+           "plot_fraction_within", "plot_fraction_within_per_part", "plot_particle_sweep"]
 
 
 def _check_methods(name: str, values: Mapping) -> None:
@@ -251,3 +251,54 @@ def plot_particle_sweep(rows: Sequence[Mapping], path: str | os.PathLike, *,
     if title:
         figure.suptitle(title)
     return _save(figure, path, dpi)
+
+
+def plot_error_surface(rows: Sequence[Mapping], path: str | os.PathLike, *,
+                       panels: Sequence[tuple[str, str]] = (("training_m", "training clip"),
+                                                            ("test_m", "held-out subject")),
+                       title: str | None = None, dpi: int = 120) -> Path:
+    """Error over a clusters × samples grid (Ong & Gong's Fig. 10 and 12): one panel per error
+    key, the error against the samples per iteration, one line per cluster count.
+
+    Args:
+        rows: dicts ``{clusters, samples, <key>: error in metres, ...}``, one per grid point.
+        path: the image file.
+        panels: ``(key, panel title)`` for each panel; every row must hold every key.
+
+    Returns:
+        The path.
+    """
+    rows = list(rows)
+    if not rows:
+        raise ValueError("rows is empty; give at least one {clusters, samples, ...} row")
+    keys = ["clusters", "samples", *(key for key, _ in panels)]
+    for i, row in enumerate(rows):
+        missing = [key for key in keys if key not in row]
+        if missing:
+            raise ValueError(f"rows[{i}] lacks {missing}; each row needs {keys}")
+    figure, axes = _figure(4.5 * len(panels), 3.5, columns=len(panels))
+    axes = np.atleast_1d(axes)
+    clusters = sorted({int(row["clusters"]) for row in rows})
+    colours = _cluster_colours(len(clusters))
+    for panel, (key, panel_title) in zip(axes, panels, strict=True):
+        for colour, count in zip(colours, clusters, strict=True):
+            points = sorted((int(row["samples"]), 1e3 * float(row[key])) for row in rows
+                            if int(row["clusters"]) == count)
+            samples, errors = zip(*points, strict=True)
+            panel.plot(samples, errors, marker="o", markersize=3, color=colour,
+                       label=f"{count} clusters")
+        panel.set_xlabel("samples per iteration")
+        panel.set_ylabel("mean 3-D skeleton error (mm)")
+        panel.set_title(panel_title)
+        panel.grid(True, alpha=0.3)
+    axes[-1].legend(fontsize="x-small", ncol=2)
+    if title:
+        figure.suptitle(title)
+    return _save(figure, path, dpi)
+
+
+def _cluster_colours(count: int) -> list:
+    """``count`` colours along viridis, dark (few clusters) to light (many)."""
+    from matplotlib import colormaps
+
+    return [colormaps["viridis"](value) for value in np.linspace(0.0, 0.9, count)]

@@ -82,3 +82,20 @@ def test_bad_input_is_refused(tmp_path):
         plot_particle_sweep([{"method": "a", "particles": 10, "mean_error_torso": 0.1}],
                             tmp_path / "s.png")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_error_surface_draws_a_line_per_cluster_count_and_refuses_incomplete_rows(tmp_path):
+    from jaxtrack.evaluation import plot_error_surface
+
+    rows = [{"clusters": clusters, "samples": samples, "training_m": 0.1 / clusters,
+             "test_m": 0.25 + 0.001 * samples}
+            for clusters in (10, 40) for samples in (20, 100, 300)]
+    path = plot_error_surface(rows, tmp_path / "surface.png", title="grid")
+    assert path.read_bytes()[:8] == PNG_SIGNATURE
+    assert imread(path)[..., :3].std() > 0.01
+    with pytest.raises(ValueError, match="rows is empty"):
+        plot_error_surface([], tmp_path / "empty.png")
+    with pytest.raises(ValueError, match=r"rows\[1\] lacks \['test_m'\]"):
+        plot_error_surface([rows[0], {"clusters": 10, "samples": 50, "training_m": 0.1}],
+                           tmp_path / "bad.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["surface.png"]
