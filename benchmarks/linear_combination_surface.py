@@ -13,8 +13,9 @@ others. The paper's grid is clusters {10, 20, …, 100} × samples {10, 20, …,
 
     python -m benchmarks.linear_combination_surface [--frames 60] [--clusters 10 40 100] ...
 
-Prints the grid, writes ``benchmarks/results/linear_combination_surface.json`` and the plot
-``linear_combination_surface.png`` beside it.
+Prints the grid, writes ``benchmarks/results/linear_combination_surface.json`` (after every
+grid point, ``"complete": false`` until the last) and the plot ``linear_combination_surface.png``
+beside it.
 """
 
 from __future__ import annotations
@@ -31,8 +32,9 @@ PAPER_SAMPLES = (*range(10, 101, 10), *range(150, 301, 50))
 
 
 def surface(clusters, samples, *, views, frames: int, fitness, step, iterations: int = 5,
-            progress: bool = True) -> list[dict]:
-    """One row ``{clusters, samples, training_m, test_m, train_seconds}`` per grid point."""
+            progress: bool = True, on_row=None) -> list[dict]:
+    """One row ``{clusters, samples, training_m, test_m, train_seconds}`` per grid point;
+    ``on_row(rows)`` is called after each (a long grid's partial results survive a stop)."""
     import jax.numpy as jnp
     import numpy as np
     from tqdm import tqdm
@@ -62,6 +64,8 @@ def surface(clusters, samples, *, views, frames: int, fitness, step, iterations:
                              "test_m": score(model, test, particles),
                              "train_seconds": train_seconds})
                 bar.update()
+                if on_row is not None:
+                    on_row(rows)
     return rows
 
 
@@ -88,8 +92,17 @@ def main(argv=None) -> int:
     fitness = FitnessSettings(contour_tolerance=jnp.asarray(args.P),
                               hands_tolerance=jnp.asarray(args.Q))
     begin = time.perf_counter()
+
+    def record(rows, complete=False):
+        write_json(args.out, {"benchmark": "linear_combination_surface",
+                              "device": device_description(),
+                              "arguments": {key: str(value) if isinstance(value, Path) else value
+                                            for key, value in vars(args).items()},
+                              "complete": complete, "seconds": time.perf_counter() - begin,
+                              "rows": rows})
+
     rows = surface(args.clusters, args.samples, views=args.views, frames=args.frames,
-                   fitness=fitness, step=args.step, iterations=args.iterations)
+                   fitness=fitness, step=args.step, iterations=args.iterations, on_row=record)
     seconds = time.perf_counter() - begin
     print(f"device: {device_description()}; {len(rows)} grid points in {seconds:.0f} s; "
           f"P={args.P:g} Q={args.Q:g} ω={args.step:g}, {args.iterations} iterations, "
@@ -101,11 +114,7 @@ def main(argv=None) -> int:
                  ("test_mm", "held-out subject (mm)", ".0f")])
     figure = plot_error_surface(rows, args.out.with_suffix(".png"),
                                 title="Mean 3-D skeleton error (Ong & Gong, Fig. 10 and 12)")
-    write_json(args.out, {"benchmark": "linear_combination_surface",
-                          "device": device_description(),
-                          "arguments": {key: str(value) if isinstance(value, Path) else value
-                                        for key, value in vars(args).items()},
-                          "seconds": seconds, "rows": rows})
+    record(rows, complete=True)
     print(f"wrote {args.out} and {figure}")
     return 0
 
