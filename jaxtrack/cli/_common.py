@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -22,8 +23,32 @@ class UserError(Exception):
     """An error caused by the user's input: printed as one line, exit status 2."""
 
 
-def _one_line(error: BaseException | str) -> str:
+def one_line(error: BaseException | str) -> str:
+    """An error's message on one line."""
     return " ".join(str(error).split())
+
+
+_one_line = one_line  # the name this module's own callers use
+
+
+def at_least(value: int | None, minimum: int, option: str, default):
+    """``value`` (``default`` when None), refused with a one-line error below ``minimum``."""
+    if value is None:
+        return default
+    if value < minimum:
+        raise UserError(f"{option} must be at least {minimum}, got {value}")
+    return value
+
+
+def finite_json(value):
+    """``value`` with every non-finite float replaced by None (JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: finite_json(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite_json(item) for item in value]
+    return value
 
 
 def add_asf_option(parser: argparse.ArgumentParser) -> None:

@@ -29,11 +29,14 @@ import numpy as np
 
 from jaxtrack.cli._common import (
     UserError,
+    at_least,
     check_clips,
     check_held_out,
     check_json_and_plots,
     check_seed,
+    finite_json,
     load_clip_sources,
+    one_line,
     output_folder,
 )
 
@@ -50,17 +53,6 @@ _OTHER_FILES = {"jaxtrack.gplvm": "a GPLVM pose prior (the latent tracker's)",
                 "jaxtrack.postures": "a posture model (the mixed-state tracker's)",
                 "jaxtrack.sequence": "a rendered sequence"}
 """Other jaxtrack files, by the format name in their metadata."""
-
-
-def _one_line(error) -> str:
-    return " ".join(str(error).split())
-
-
-def _positive(value, option: str, default: int, minimum: int = 1) -> int:
-    value = default if value is None else value
-    if value < minimum:
-        raise UserError(f"{option} must be at least {minimum}, got {value}")
-    return value
 
 
 def _max_frames(value) -> int | None:
@@ -116,7 +108,7 @@ def _load(path: Path, what: str, remedy: str):
     try:
         return lc.load(path)
     except (LinearCombinationFormatError, ValueError, OSError) as error:
-        reason = _one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
+        reason = one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
         for kind, name in _OTHER_FILES.items():
             if f"'{kind}'" in reason:
                 reason = f"{name}, not a linear-combination model"
@@ -162,7 +154,7 @@ def train(args: argparse.Namespace) -> int:
     folder = output_folder(args.out, "--out")
     check_seed(args.seed)
     cameras = _cameras(args.cameras)
-    clusters = _positive(args.clusters, "--clusters", _CLUSTERS, minimum=2)
+    clusters = at_least(args.clusters, 2, "--clusters", _CLUSTERS)
     max_frames = _max_frames(args.max_frames)
     if max_frames is not None and len(names) * len(cameras) * max_frames < clusters:
         raise UserError(f"--clusters {clusters}: more clusters than the at most "
@@ -177,7 +169,7 @@ def train(args: argparse.Namespace) -> int:
                                max_frames=max_frames, seed=args.seed, output=args.out)
         except ValueError as error:
             option = "--clusters" if "num_clusters" in str(error) else "--clips"
-            raise UserError(f"{option}: {_one_line(error)}") from None
+            raise UserError(f"{option}: {one_line(error)}") from None
     model, description = trained.model, trained.description
     print(f"linear-combination model: {description['frames']} hybrid vectors from "
           f"{len(names)} clip(s) x {len(cameras)} camera(s), {model.num_components} components "
@@ -224,9 +216,9 @@ def evaluate(args: argparse.Namespace) -> int:
     try:
         check_disjoint(train_clips, test_clips)
     except ValueError as error:
-        raise UserError(f"--test: {_one_line(error)}") from None
-    particles = _positive(args.particles, "--particles", _PARTICLES)
-    iterations = _positive(args.iterations, "--iterations", _ITERATIONS)
+        raise UserError(f"--test: {one_line(error)}") from None
+    particles = at_least(args.particles, 1, "--particles", _PARTICLES)
+    iterations = at_least(args.iterations, 1, "--iterations", _ITERATIONS)
     max_frames = _max_frames(args.max_frames)
     check_seed(args.seed)
     cameras = _cameras(args.cameras)
@@ -255,7 +247,7 @@ def evaluate(args: argparse.Namespace) -> int:
             "test": test_clips,
             "cameras": list(cameras), "particles": particles, "iterations": iterations,
             "max_frames": max_frames, "seed": args.seed, "model_cache": str(cache),
-            "summary": summary, "results": _finite_json(results),
+            "summary": summary, "results": finite_json(results),
             "seconds": round(time.perf_counter() - started, 2)})
     print(skeleton_error_table(summary))
     print(f"{len(test_clips)} test clip(s) x {len(cameras)} camera(s), {particles} particles x "
@@ -269,17 +261,6 @@ def _device() -> str:
 
     device = jax.devices()[0]
     return f"{device.platform} ({device.device_kind})"
-
-
-def _finite_json(value):
-    """``value`` with every non-finite float replaced by None (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {key: _finite_json(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite_json(item) for item in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _evaluation_plots(folder: Path, written: list, results: dict, trained, clip: str,
@@ -346,7 +327,7 @@ def _calibrated_cameras(args, count: int) -> list | None:
         cameras = read_qca(args.calibration, world_up="y")
     except (ValueError, OSError, KeyError) as error:
         raise UserError(f"--calibration {args.calibration}: "
-                        f"{_one_line(error).removeprefix(str(args.calibration))}") from None
+                        f"{one_line(error).removeprefix(str(args.calibration))}") from None
     chosen = list(range(len(cameras))) if args.cameras is None else list(args.cameras)
     bad = [index for index in chosen if not 0 <= index < len(cameras)]
     if bad or len(set(chosen)) != len(chosen):
@@ -374,7 +355,7 @@ def _probe_videos(args, cameras, start: int) -> list[tuple[float, tuple[int, int
         try:
             probe = read_video(path, start=start, max_frames=1)
         except VideoError as error:
-            raise UserError(f"--video: {_one_line(error)}") from None
+            raise UserError(f"--video: {one_line(error)}") from None
         height, width = probe.frames.shape[1:3]
         size, fps = (width, height), probe.source_fps
         if cameras is None:
@@ -408,8 +389,8 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.vision import VideoError, median_background, read_video, write_views_video
 
     started = time.perf_counter()
-    particles = _positive(args.particles, "--particles", _PARTICLES)
-    iterations = _positive(args.iterations, "--iterations", _ITERATIONS)
+    particles = at_least(args.particles, 1, "--particles", _PARTICLES)
+    iterations = at_least(args.iterations, 1, "--iterations", _ITERATIONS)
     check_seed(args.seed)
     if args.init != "face":
         raise UserError("--init is not used by --method linear-combination (it starts from the "
@@ -443,7 +424,7 @@ def track(args: argparse.Namespace) -> int:
                                      max_frames=None if stop is None else
                                      -(-(stop - start) // strides[-1])))
         except VideoError as error:
-            raise UserError(f"--video: {_one_line(error)}") from None
+            raise UserError(f"--video: {one_line(error)}") from None
     count = min(video.num_frames for video in videos)
     if count < 3:
         raise UserError(f"--video: {count} frame(s) to track; the median background needs at "
@@ -520,7 +501,7 @@ def track(args: argparse.Namespace) -> int:
 def _write_json(path: Path, record: dict) -> Path:
     from jaxtrack._files import write_json_atomically
 
-    return write_json_atomically(path, _finite_json(record))
+    return write_json_atomically(path, finite_json(record))
 
 
 def _to_video(points: np.ndarray, view: dict) -> np.ndarray:

@@ -27,11 +27,14 @@ from pathlib import Path
 
 from jaxtrack.cli._common import (
     UserError,
+    at_least,
     check_clips,
     check_held_out,
     check_json_and_plots,
     check_memory,
     check_seed,
+    finite_json,
+    one_line,
     output_folder,
 )
 
@@ -75,10 +78,6 @@ _OTHER_METHODS = {
 _COMMAND_DEFAULTS = {"train": {"views": 5, "iterations": 3}, "evaluate": {"views": 2}}
 
 
-def _one_line(error: BaseException | str) -> str:
-    return " ".join(str(error).split())
-
-
 def _refuse_other_methods(args: argparse.Namespace, command: str) -> None:
     """Options of the other methods, set away from their defaults, are refused (not ignored)."""
     defaults = _COMMAND_DEFAULTS.get(command, {})
@@ -89,14 +88,6 @@ def _refuse_other_methods(args: argparse.Namespace, command: str) -> None:
         if getattr(args, name) != default:
             option = "--" + name.replace("_", "-")
             raise UserError(f"{option} does not apply to --method mixed-state ({instead})")
-
-
-def _at_least(value: int | None, minimum: int, option: str, default):
-    if value is None:
-        return default
-    if value < minimum:
-        raise UserError(f"{option} must be at least {minimum}, got {value}")
-    return value
 
 
 def _image_size(text: str | None, option: str = "--size") -> tuple[int, int]:
@@ -156,7 +147,7 @@ def _check_clip_files(sources: list, option: str) -> None:
         try:
             marker_joint_indices(source.load(), HUMANEVA_15)
         except (MocapFormatError, MarkerMapError, OSError) as error:
-            raise UserError(f"{option} {source.spec}: {_one_line(error)}") from None
+            raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
 
 
 def _file_digest(path: Path) -> str:
@@ -189,7 +180,7 @@ def _read_saved_model(path: Path, what: str, remedy: str):
     try:
         return load_posture_model(path)
     except (PostureFormatError, OSError) as error:
-        reason = _one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
+        reason = one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
         raise UserError(f"{what} {path} is damaged or not a posture model ({reason}); "
                         f"{remedy}") from None
 
@@ -208,7 +199,7 @@ def _fit(settings: dict, option: str, frames_option: str):
     except ValueError as error:
         if "training frames" not in str(error):
             raise
-        raise UserError(f"{option}: {_one_line(error)}; or raise {frames_option}") from None
+        raise UserError(f"{option}: {one_line(error)}; or raise {frames_option}") from None
     description = description | settings | {"seconds": time.perf_counter() - begin}
     return model, description
 
@@ -234,8 +225,8 @@ def train(args: argparse.Namespace) -> int:
         raise UserError(f"--out {args.out}: must be a .npz path")
     folder = output_folder(args.out, "--out")
     check_seed(args.seed)
-    max_frames = _at_least(args.max_frames, 2, "--max-frames", None)
-    bins = _at_least(args.bins, 1, "--bins", DEFAULT_BINS)
+    max_frames = at_least(args.max_frames, 2, "--max-frames", None)
+    bins = at_least(args.bins, 1, "--bins", DEFAULT_BINS)
     azimuths = _azimuths(args.azimuths)
     size = _image_size(args.size)
     existing = _read_saved_model(args.out, "--out", "delete it or choose another --out")
@@ -254,17 +245,6 @@ def train(args: argparse.Namespace) -> int:
 
 
 # --- evaluate ---------------------------------------------------------------------------------
-
-
-def _finite(value):
-    """``value`` with every non-finite float as None: JSON has no NaN."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {key: _finite(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(item) for item in value]
-    return value
 
 
 def _plots(folder: Path, overall: dict, confusion, lag: int, title: str, frames: int
@@ -303,12 +283,12 @@ def evaluate(args: argparse.Namespace) -> int:
     test_sources = check_clips(test_clips, "--test")
     check_held_out(train_sources, test_sources)
     _refuse_test_subjects(train_clips, train_sources, "--train")
-    particles = _at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
+    particles = at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
     check_seed(args.seed)
-    max_frames = _at_least(args.max_frames, 2, "--max-frames", None)
-    train_max_frames = _at_least(args.train_max_frames, 2, "--train-max-frames", None)
-    lag = _at_least(args.lag, 0, "--lag", DEFAULT_LAG)
-    bins = _at_least(args.bins, 1, "--bins", DEFAULT_BINS)
+    max_frames = at_least(args.max_frames, 2, "--max-frames", None)
+    train_max_frames = at_least(args.train_max_frames, 2, "--train-max-frames", None)
+    lag = at_least(args.lag, 0, "--lag", DEFAULT_LAG)
+    bins = at_least(args.bins, 1, "--bins", DEFAULT_BINS)
     azimuths = _azimuths(args.azimuths)
     size = _image_size(args.size)
     backgrounds = list(dict.fromkeys(args.backgrounds))
@@ -343,14 +323,14 @@ def evaluate(args: argparse.Namespace) -> int:
                              image_size=size, num_bins=bins, num_particles=particles, lag=lag,
                              max_frames=max_frames, seed=args.seed)
     evaluate_seconds = time.perf_counter() - begin
-    overall = _finite(results["overall"])
+    overall = finite_json(results["overall"])
     frames = overall["smoothed"]["frames"]
     title = (f"mixed-state, {len(results['sequences'])} sequences, {frames} frames at "
              f"{size[0]}x{size[1]}, N={particles}")
     plots = []
     if args.plots is not None:
         plots = _plots(args.plots, overall, results["smoothed_confusion"], lag, title, frames)
-    record = _finite({
+    record = finite_json({
         "method": "mixed-state", "train": train_clips, "test": test_clips,
         "particles": particles, "lag": lag, "seed": args.seed, "max_frames": max_frames,
         "posture_model": description, "posture_names": _posture_names(),
@@ -377,7 +357,7 @@ def _write_json(path: Path, value) -> Path:
     try:
         return write_json_atomically(path, value)
     except OSError as error:
-        raise UserError(f"cannot write {path}: {_one_line(error)}") from None
+        raise UserError(f"cannot write {path}: {one_line(error)}") from None
 
 
 # --- track ------------------------------------------------------------------------------------
@@ -395,7 +375,7 @@ def _load_model(path: Path):
     try:
         saved = load_posture_model(path)
     except (PostureFormatError, OSError) as error:
-        reason = _one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
+        reason = one_line(error).removeprefix(f"{path}: ").removeprefix(f"{path}:")
         if "'jaxtrack.gplvm'" in reason:
             reason = "a GPLVM pose prior (for --method latent), not a posture model"
         raise UserError(f"--model {path}: {reason}; {needed}") from None
@@ -442,7 +422,7 @@ def track(args: argparse.Namespace) -> int:
         raise UserError(f"--video: --method mixed-state tracks one video, got "
                         f"{len(args.video)}")
     video_path = args.video[0]
-    particles = _at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
+    particles = at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
     check_seed(args.seed)
     if args.max_size < 32:
         raise UserError(f"--max-size must be at least 32, got {args.max_size}")
@@ -475,7 +455,7 @@ def track(args: argparse.Namespace) -> int:
         video = read_video(video_path, start=start,
                            max_frames=None if stop is None else stop - start, scale=scale)
     except VideoError as error:
-        raise UserError(f"--video: {_one_line(error)}") from None
+        raise UserError(f"--video: {one_line(error)}") from None
     frames = video.frames
     num_frames, tracked_height, tracked_width = frames.shape[:3]
     scale = tracked_width / width  # the decoder rounds the size
@@ -559,7 +539,7 @@ def track(args: argparse.Namespace) -> int:
                                              for t, posture in enumerate(smoothed_posture)])
     except OSError as error:
         _remove_new([], args.out, not folder_existed)
-        raise UserError(f"cannot write {overlay_path}: {_one_line(error)}") from None
+        raise UserError(f"cannot write {overlay_path}: {one_line(error)}") from None
     tracked = int(ok.sum())
     record = {
         "method": "mixed-state", "video": str(video_path), "model": str(args.model),
@@ -576,7 +556,7 @@ def track(args: argparse.Namespace) -> int:
         "frames": per_frame,
     }
     try:
-        json_path = _write_json(args.out / "track.json", _finite(record))
+        json_path = _write_json(args.out / "track.json", finite_json(record))
     except BaseException:
         _remove_new([overlay], args.out, not folder_existed)
         raise
