@@ -32,14 +32,23 @@ PAPER_SAMPLES = (*range(10, 101, 10), *range(150, 301, 50))
 
 
 def surface(clusters, samples, *, views, frames: int, fitness, step, iterations: int = 5,
-            progress: bool = True, on_row=None) -> list[dict]:
+            progress: bool = True, on_row=None, done: list[dict] = ()) -> list[dict]:
     """One row ``{clusters, samples, training_m, test_m, train_seconds}`` per grid point;
-    ``on_row(rows)`` is called after each (a long grid's partial results survive a stop)."""
+    ``on_row(rows)`` is called after each (a long grid's partial results survive a stop), and
+    the grid points of ``done`` (earlier rows) are kept, not run again.
+
+    Every grid point compiles new programs (the sample count and the model's shapes are
+    static), so the compiled ones are released after each: a process may hold only
+    ``vm.max_map_count`` memory mappings, and the whole grid's programs exceed it (the
+    compiler then fails with "Cannot allocate memory"; docs/testing.md).
+    """
+    import jax
     import jax.numpy as jnp
     import numpy as np
     from tqdm import tqdm
 
     from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.trackers.linear_combination import release_compiled
 
     def score(model, sequences, particles):
         errors = [lc.skeleton_error(lc.run_method(
@@ -51,18 +60,28 @@ def surface(clusters, samples, *, views, frames: int, fitness, step, iterations:
     render = dict(views=tuple(views), max_frames=frames, keep_observations=True, seed=7)
     training = lc.render_hybrid_sequences(lc.TRAIN_CLIPS[0], **render)
     test = [s for clip in lc.TEST_CLIPS for s in lc.render_hybrid_sequences(clip, **render)]
+    finished = {(int(row["clusters"]), int(row["samples"])): row for row in done}
     rows = []
     with tqdm(total=len(clusters) * len(samples), disable=not progress,
               desc="error surface") as bar:
         for count in clusters:
-            tick = time.perf_counter()
-            model = lc.train(list(lc.TRAIN_CLIPS), views=tuple(views), num_clusters=count)
-            train_seconds = time.perf_counter() - tick
+            model = None
             for particles in samples:
+                if (int(count), int(particles)) in finished:
+                    rows.append(finished[(int(count), int(particles))])
+                    bar.update()
+                    continue
+                if model is None:
+                    tick = time.perf_counter()
+                    model = lc.train(list(lc.TRAIN_CLIPS), views=tuple(views),
+                                     num_clusters=count)
+                    train_seconds = time.perf_counter() - tick
                 rows.append({"clusters": int(count), "samples": int(particles),
                              "training_m": score(model, training, particles),
                              "test_m": score(model, test, particles),
                              "train_seconds": train_seconds})
+                release_compiled()
+                jax.clear_caches()
                 bar.update()
                 if on_row is not None:
                     on_row(rows)
@@ -80,6 +99,9 @@ def main(argv=None) -> int:
     parser.add_argument("--Q", type=float, default=16.0, help="eq. 9's hand tolerance")
     parser.add_argument("--step", type=float, default=0.03, help="the propagation step ω")
     parser.add_argument("--out", type=Path, default=RESULTS / "linear_combination_surface.json")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the grid points --out already holds from a run with the same "
+                             "settings and run the rest")
     args = parser.parse_args(argv)
     if min(args.clusters) < 2 or min(args.samples) < 1 or args.frames < 2:
         raise SystemExit("--clusters must be at least 2, --samples at least 1, --frames at "
@@ -101,8 +123,24 @@ def main(argv=None) -> int:
                               "complete": complete, "seconds": time.perf_counter() - begin,
                               "rows": rows})
 
+    done = []
+    if args.resume and args.out.is_file():
+        import json
+
+        earlier = json.loads(args.out.read_text())
+        settings = {key: value for key, value in earlier.get("arguments", {}).items()
+                    if key not in ("clusters", "samples", "resume")}
+        current = {key: str(value) if isinstance(value, Path) else value
+                   for key, value in vars(args).items()
+                   if key not in ("clusters", "samples", "resume")}
+        if settings != current:
+            raise SystemExit(f"--resume: {args.out} was written with other settings "
+                             f"({settings}); run without --resume or write --out elsewhere")
+        done = earlier["rows"]
+        print(f"--resume: {len(done)} grid points from {args.out}")
     rows = surface(args.clusters, args.samples, views=args.views, frames=args.frames,
-                   fitness=fitness, step=args.step, iterations=args.iterations, on_row=record)
+                   fitness=fitness, step=args.step, iterations=args.iterations, on_row=record,
+                   done=done)
     seconds = time.perf_counter() - begin
     print(f"device: {device_description()}; {len(rows)} grid points in {seconds:.0f} s; "
           f"P={args.P:g} Q={args.Q:g} ω={args.step:g}, {args.iterations} iterations, "
