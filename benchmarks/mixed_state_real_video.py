@@ -70,8 +70,7 @@ def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles:
     from jaxtrack.vision.histograms import FRAME_OK, silhouettes
 
     path = folder / "videos" / f"{camera}.mp4"
-    width = read_video(path, max_frames=1).frames.shape[2]
-    height = read_video(path, max_frames=1).frames.shape[1]
+    height, width = read_video(path, max_frames=1).frames.shape[1:3]
     video = read_video(path, scale=min(1.0, max_size / max(width, height)))
     scale = video.frames.shape[2] / width  # the decoder rounds the size
     masks = silhouettes(video.frames, median_background(video.frames))

@@ -28,9 +28,6 @@ def one_line(error: BaseException | str) -> str:
     return " ".join(str(error).split())
 
 
-_one_line = one_line  # the name this module's own callers use
-
-
 def at_least(value: int | None, minimum: int, option: str, default):
     """``value`` (``default`` when None), refused with a one-line error below ``minimum``."""
     if value is None:
@@ -101,12 +98,12 @@ def check_clips(names: Iterable[str], option: str, asf: Path | None = None) -> l
             if not _looks_like_path(name):
                 unknown.append(name)
                 continue
-            raise UserError(f"{option} {name}: {_one_line(error)}") from None
+            raise UserError(f"{option} {name}: {one_line(error)}") from None
         except ValueError as error:  # a file that is not a motion, or a name without a folder
             if "/" not in name and not Path(name).is_file():
                 unknown.append(name)
                 continue
-            raise UserError(f"{option} {name}: {_one_line(error)}") from None
+            raise UserError(f"{option} {name}: {one_line(error)}") from None
     if unknown:
         raise UserError(f"{option}: unknown clip(s) {', '.join(unknown)} (neither a file nor a "
                         f"catalogue name); known clips: {', '.join(list_clips())}")
@@ -155,7 +152,7 @@ def load_clip_sources(sources: Sequence, option: str) -> None:
         try:
             marker_joint_indices(source.load(), UPPER_BODY_12)
         except (MocapFormatError, MarkerMapError, OSError) as error:
-            raise UserError(f"{option} {source.spec}: {_one_line(error)}") from None
+            raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
 
 
 def check_prior_file(path: Path, what: str, remedy: str) -> None:
@@ -170,7 +167,7 @@ def check_prior_file(path: Path, what: str, remedy: str) -> None:
     try:
         load_prior(path)
     except (GPLVMFormatError, OSError) as error:
-        reason = _one_line(error)
+        reason = one_line(error)
         reason = reason.removeprefix(f"{path}: ").removeprefix(f"{path}:")
         raise UserError(f"{what} {path} is damaged or not a trained prior ({reason}); "
                         f"{remedy}") from None

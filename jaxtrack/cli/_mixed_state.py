@@ -545,7 +545,7 @@ def track(args: argparse.Namespace) -> int:
         "method": "mixed-state", "video": str(video_path), "model": str(args.model),
         "size": [width, height], "tracked_size": [tracked_width, tracked_height], "fps": fps,
         "particles": particles, "seed": args.seed, "num_bins": num_bins,
-        "tracker": _tracker_options(model),
+        "tracker": model.options(),
         "posture_names": list(POSTURE_NAMES), "part_names": list(PART_NAMES),
         "posture_model": saved.description,
         "frames_with_silhouette": tracked,
@@ -568,13 +568,3 @@ def track(args: argparse.Namespace) -> int:
           f"smoothed postures: {shown}; total {time.perf_counter() - started:.1f} s")
     print(f"  wrote {overlay}\n  wrote {json_path}")
     return 0
-
-
-def _tracker_options(model) -> dict:
-    return {"position_std": float(model.position_std), "velocity_std": float(model.velocity_std),
-            "initial_std": float(model.initial_std),
-            "initial_velocity_std": float(model.initial_velocity_std),
-            "redetect_probability": float(model.redetect_probability),
-            "redraw_on_switch": model.redraw_on_switch,
-            "part_cutoff": float(model.part_likelihood.cutoff),
-            "posture_cutoff": float(model.postures.cutoff)}

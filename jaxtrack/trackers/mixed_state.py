@@ -138,6 +138,17 @@ class MixedStateModel(eqx.Module):
         for name, value in values.items():
             setattr(self, name, jnp.asarray(float(value)))
 
+    def options(self) -> dict:
+        """The dynamics' and likelihoods' settings as plain numbers (for a run's JSON)."""
+        return {"position_std": float(self.position_std),
+                "velocity_std": float(self.velocity_std),
+                "initial_std": float(self.initial_std),
+                "initial_velocity_std": float(self.initial_velocity_std),
+                "redetect_probability": float(self.redetect_probability),
+                "redraw_on_switch": self.redraw_on_switch,
+                "part_cutoff": float(self.part_likelihood.cutoff),
+                "posture_cutoff": float(self.postures.cutoff)}
+
     def log_posture_likelihoods(self, frame: MixedStateFrame) -> Float[Array, " postures"]:
         """log p(h_t | q), zero (no evidence) on a frame whose status is not ok."""
         values = self.postures.log_likelihoods(frame.features)
@@ -425,16 +436,7 @@ class MixedStateTracker(Tracker):
         return self.particles
 
     def options(self) -> dict:
-        model = self.model
-        return {"method": "mixed-state", "particles": self.particles,
-                "position_std": float(model.position_std),
-                "velocity_std": float(model.velocity_std),
-                "initial_std": float(model.initial_std),
-                "initial_velocity_std": float(model.initial_velocity_std),
-                "redetect_probability": float(model.redetect_probability),
-                "redraw_on_switch": model.redraw_on_switch,
-                "part_cutoff": float(model.part_likelihood.cutoff),
-                "posture_cutoff": float(model.postures.cutoff)}
+        return {"method": "mixed-state", "particles": self.particles, **self.model.options()}
 
     def start(self, key, first_frame: MixedStateFrame, initial_pose=None) -> MixedStateState:
         dtype = jnp.result_type(float)
