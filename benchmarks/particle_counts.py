@@ -8,7 +8,7 @@ random dynamics and covariances the way pydpf's data generator does.
 
 Three filters run the same data in one process:
 
-* the engine: ``smc.run_batch`` with ``smc.LinearGaussian`` (chunking ``"auto"``);
+* the engine: ``smc.run_batch`` with ``smc.LinearGaussian`` (chunking ``--chunk``, ``"auto"``);
 * the straightforward JAX filter a user would write in thirty lines
   (:func:`straightforward_filter`: particles as one ``(N, 25)`` array, ``x @ A.T`` plus
   ``jax.random.normal`` noise, ``cumsum`` + ``searchsorted`` systematic resampling, one
@@ -204,9 +204,11 @@ def _timed(function, *args):
 
 
 def batch_benchmark(model, observations, particle_counts, numpy_sequences, alternations,
-                    peer_sequences=0):
+                    peer_sequences=0, chunk="auto"):
     """Engine and straightforward filter alternating on the whole batch; NumPy and the peer
-    libraries (particles, cuthbert: :mod:`benchmarks._peers`) on a few sequences."""
+    libraries (particles, cuthbert: :mod:`benchmarks._peers`) on a few sequences.
+
+    ``chunk``: the engine's ``chunk_size`` ("auto", None for the whole batch, or a count)."""
     rows = []
     batch, frames = observations.shape[:2]
     keys = jr.split(jr.key(1), batch)
@@ -214,8 +216,9 @@ def batch_benchmark(model, observations, particle_counts, numpy_sequences, alter
     peers = {}
     if peer_sequences > 0:
         peers = run_peers(model, observations[:peer_sequences], particle_counts)
+    chunk_option = chunk
     for num_particles in tqdm(particle_counts, desc="batch", leave=False):
-        chunk = smc.auto_chunk_size(model, num_particles, batch)
+        chunk = _chunk_size(chunk_option, model, num_particles, batch)
         engine_compile, _ = _compile(lambda k, y, c=min(chunk, batch), n=num_particles:
                                      smc.run_batch(k[:c], model, y[:c], n,
                                                    chunk_size=None).log_evidence,
@@ -238,7 +241,7 @@ def batch_benchmark(model, observations, particle_counts, numpy_sequences, alter
         for library, result in peers.items():
             peer_columns.update(_peer_columns(library, result, num_particles, exact,
                                               engine_s / batch))
-        reference = PYDPF_SECONDS_PER_BATCH["cpu"].get(num_particles)
+        reference = PYDPF_SECONDS_PER_BATCH[_pydpf_platform()].get(num_particles)
         if reference is not None:  # pydpf timed 128 x 1000 frames: scale to this workload
             reference *= batch * frames / (128 * 1000)
         rows.append(dict(
@@ -252,11 +255,35 @@ def batch_benchmark(model, observations, particle_counts, numpy_sequences, alter
             simple_error=_evidence_error(simple_evidence, exact),
             speedup_vs_simple=ratio, engine_times=engine_times, simple_times=simple_times,
             numpy_per_sequence_s=numpy_s, speedup_vs_numpy=numpy_s / (engine_s / batch),
-            pydpf_cpu_s=reference,
-            speedup_vs_pydpf_cpu=None if reference is None else reference / engine_s,
+            pydpf_platform=_pydpf_platform(), pydpf_s=reference,
+            speedup_vs_pydpf=None if reference is None else reference / engine_s,
             **peer_columns, peak_rss_mb=peak_rss_mb(),
         ))
     return rows
+
+
+def _pydpf_platform() -> str:
+    """Which of pydpf's published figures compare with this run: its GPU one on a GPU."""
+    return "gpu" if jax.default_backend() in ("gpu", "cuda", "rocm") else "cpu"
+
+
+def _chunk_size(option, model, num_particles, batch) -> int:
+    if option == "auto":
+        return smc.auto_chunk_size(model, num_particles, batch)
+    return batch if option is None else min(int(option), batch)
+
+
+def _chunk_argument(text: str):
+    if text in ("auto", "none"):
+        return None if text == "none" else text
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"--chunk must be auto, none or a positive count, "
+                                         f"got {text!r}")
+    return value
 
 
 def _peer_columns(library, result, num_particles, exact, engine_per_sequence_s) -> dict:
@@ -334,6 +361,10 @@ def main(argv=None) -> int:
                              "bench-peers-env) run per particle count; 0 disables (2)")
     parser.add_argument("--alternations", type=int, default=3,
                         help="engine / straightforward filter runs, alternating (3)")
+    parser.add_argument("--chunk", type=_chunk_argument, default="auto",
+                        help="the engine's sequences per chunk: auto (from the particle "
+                             "state's size, smc.auto_chunk_size), none (the whole batch) or a "
+                             "count (auto)")
     parser.add_argument("--model", choices=("pydpf", "random"), default="pydpf",
                         help="pydpf's benchmark model (default) or pydpf-style random dynamics")
     parser.add_argument("--quick", action="store_true", help="batch 8, 100 frames, N <= 10^5")
@@ -349,7 +380,7 @@ def main(argv=None) -> int:
     print(f"model: {args.model} linear-Gaussian, state 25, observation 1, float32; batch "
           f"{args.batch} x {args.frames} frames; sweep 1 x {args.sweep_frames} frames")
     rows = batch_benchmark(model, observations, args.batch_particles, args.numpy_sequences,
-                           args.alternations, args.peer_sequences)
+                           args.alternations, args.peer_sequences, args.chunk)
     rows += sweep_benchmark(model, observations[0, :args.sweep_frames], args.sweep_particles,
                             numpy_limit=100_000)
     columns = [("mode", "mode", "s"), ("particles", "N", "d"), ("sequences", "seqs", "d"),
@@ -362,8 +393,8 @@ def main(argv=None) -> int:
                ("simple_per_sequence_s", "simple s/seq", ".4f"),
                ("speedup_vs_simple", "x simple", ".2f"),
                ("numpy_per_sequence_s", "numpy s/seq", ".4f"),
-               ("speedup_vs_numpy", "x numpy", ".1f"), ("pydpf_cpu_s", "pydpf cpu s*", ".1f"),
-               ("speedup_vs_pydpf_cpu", "x pydpf", ".2f"),
+               ("speedup_vs_numpy", "x numpy", ".1f"), ("pydpf_s", "pydpf s*", ".2f"),
+               ("speedup_vs_pydpf", "x pydpf", ".2f"),
                ("engine_error", "|logZ err| engine", ".2f"),
                ("simple_error", "|logZ err| simple", ".2f"),
                ("particles_per_sequence_s", "particles s/seq", ".4f"),
@@ -377,9 +408,10 @@ def main(argv=None) -> int:
     write_json(args.json, {"benchmark": "particle_counts", "device": device_description(),
                            "arguments": vars(args), "rows": rows})
     print("x simple: the straightforward JAX filter's time over the engine's (median of the "
-          "alternating pairs); * pydpf's published CPU time per 128 x 1000-frame batch, scaled "
-          "to this batch x frames; particles, cuthbert: the peer libraries in their own venvs "
-          "(make bench-peers-env) on the first --peer-sequences sequences, median s/seq, x = "
+          "alternating pairs); * pydpf's published time per 128 x 1000-frame batch on this "
+          f"backend ({_pydpf_platform()}), scaled to this batch x frames; particles, cuthbert: "
+          "the peer libraries in their own venvs (make bench-peers-env) on the first "
+          "--peer-sequences sequences, median s/seq, x = "
           "their s/seq over the engine's, log Z errors over those sequences")
     print(f"wrote {args.json}")
     return 0

@@ -60,6 +60,20 @@ def test_auto_chunk_size_follows_the_particle_state_and_bad_sizes_are_refused(pr
     assert smc.auto_chunk_size(wide, 1_000, 128) == 128
     assert smc.auto_chunk_size(wide, 10_000, 128) == 2**28 // (4 * 10_000 * 100)
     assert smc.auto_chunk_size(wide, 1_000_000, 128) == 1
+    # on an accelerator: 1/8 of its memory, so the whole batch of 128 at N = 10^4 on 80 GB
+
+    class Accelerator:
+        platform = "gpu"
+
+        def __init__(self, limit):
+            self.limit = limit
+
+        def memory_stats(self):
+            return {"bytes_limit": self.limit}
+
+    assert smc.auto_chunk_size(wide, 10_000, 128, device=Accelerator(80 * 2**30)) == 128
+    assert smc.auto_chunk_size(wide, 1_000_000, 128, device=Accelerator(80 * 2**30)) == 26
+    assert smc.auto_chunk_size(wide, 10_000, 128, device=Accelerator(None)) == 67
     keys = jr.split(jr.key(3), 2)
     batch = jnp.stack([observations, -observations])
     with pytest.raises(ValueError, match="chunk_size must be a positive int, 'auto' or None"):
