@@ -37,7 +37,7 @@ from benchmarks._common import device_description, peak_rss_mb
 from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
-from jaxtrack.data.splits import check_disjoint, split_of
+from jaxtrack.data.splits import check_disjoint, clips_in, split_of
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import (
     BASELINE_DYNAMICS,
@@ -45,12 +45,22 @@ from jaxtrack.experiments import (
     build_tracker,
     render_test_sequences,
 )
+from jaxtrack.priors.gplvm import UPPER_BODY_PARTS
 from jaxtrack.priors.train import train_prior
 from jaxtrack.trackers import Likelihood, Refinement, track
 
 _HISTORY = "animateddrawings/history_c119d6b/"
 TRAINING_CLIPS = ("animateddrawings/fair1_wave_hello", _HISTORY + "8yr_old_wave_hello")
 """The prior's training clips: the wave gestures of the training subjects (bundled, MIT)."""
+
+PRIOR_CLIPS = {
+    "waves": TRAINING_CLIPS,
+    "gestures": tuple(clip for clip in clips_in("training", "animateddrawings")),
+}
+"""Candidate training sets for the prior (``--prior``), all of training subjects: ``waves``
+(two subjects' waves) and ``gestures`` (every AnimatedDrawings clip of the training subjects:
+waves, dab, jumping, zombie, jumping jacks and walks with a clap, a point, raise-the-roof and a
+side punch; four subjects)."""
 
 GESTURE_CLIPS = {
     "validation": ("bandai/dataset-2_wave-right-hand_normal_001",
@@ -75,6 +85,11 @@ COLUMNS = (("method", "method", "s"), ("estimate", "estimate", "s"),
            ("compile_seconds", "compile s", ".1f"))
 
 
+def prior_tag(name: str, mirror: bool, parts: bool) -> str:
+    """The name of a candidate prior (its results folder and cache): ``gestures_mirrored_parts``."""
+    return name + ("_mirrored" if mirror else "") + ("_parts" if parts else "")
+
+
 def t_interval(values) -> float:
     """Half-width of the 95 % Student-t interval of the mean (0 for a single value)."""
     from scipy import stats
@@ -85,13 +100,15 @@ def t_interval(values) -> float:
     return float(stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / math.sqrt(len(values)))
 
 
-def configurations(quick: bool) -> list[dict]:
-    """Every (method, estimate, likelihood) of the grid; ``quick``: two methods, default
-    likelihood."""
-    methods = ("latent", "condensation") if quick else METHODS
-    likelihoods = ("limbs+edges",) if quick else LIKELIHOODS
+def configurations(quick: bool, methods=METHODS, estimates=ESTIMATES,
+                   likelihoods=LIKELIHOODS) -> list[dict]:
+    """Every (method, estimate, likelihood) of the grid (or of the given subsets); ``quick``:
+    latent and CONDENSATION with the default likelihood."""
+    if quick:
+        methods = tuple(m for m in methods if m != "mht")
+        likelihoods = tuple(k for k in likelihoods if k == "limbs+edges") or ("limbs+edges",)
     return [{"method": m, "estimate": e, "likelihood": k}
-            for m, e, k in itertools.product(methods, ESTIMATES, likelihoods)]
+            for m, e, k in itertools.product(methods, estimates, likelihoods)]
 
 
 def run_one(prior, sequence, config: dict, seed: int, particles: int,
@@ -175,6 +192,17 @@ def main(argv=None) -> int:
                         help="track only the first frames of every clip")
     parser.add_argument("--baseline-dynamics", choices=BASELINE_DYNAMICS, default="training",
                         help="what CONDENSATION's AR(2) and MHT's step are learned from")
+    parser.add_argument("--prior", choices=tuple(PRIOR_CLIPS), default="waves",
+                        help="the prior's training clips (PRIOR_CLIPS; waves)")
+    parser.add_argument("--mirror", action="store_true",
+                        help="train the prior on the clips' left-right mirror images too")
+    parser.add_argument("--parts", action="store_true",
+                        help="one GPLVM per body part (torso, each arm; PartsGPLVM) instead of "
+                             "one of the whole upper body (Tian et al.)")
+    parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
+    parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
+    parser.add_argument("--likelihoods", nargs="+", choices=LIKELIHOODS,
+                        default=list(LIKELIHOODS))
     parser.add_argument("--quick", action="store_true",
                         help="a small prior; one clip, one view, one seed, 20 frames; latent and "
                              "CONDENSATION with the default likelihood (a smoke run for CI)")
@@ -190,20 +218,26 @@ def main(argv=None) -> int:
     seeds, views, max_frames = args.seeds, args.views, args.max_frames
     if args.quick:
         clips, seeds, views, max_frames = clips[:1], 1, 1, 20
-    check_disjoint(TRAINING_CLIPS, clips)
+    training_clips = PRIOR_CLIPS[args.prior]
+    check_disjoint(training_clips, clips)
     assert all(split_of(clip) == args.split for clip in clips)
-    out = args.out or RESULTS / (args.split + ("-quick" if args.quick else ""))
+    tag = prior_tag(args.prior, args.mirror, args.parts)
+    out = args.out or RESULTS / (args.split + ("" if tag == "waves" else "-" + tag)
+                                 + ("-quick" if args.quick else ""))
     out.mkdir(parents=True, exist_ok=True)
 
     started = time.perf_counter()
     # --quick: a small prior (2 views, 10 fps, 60 active points, one outer iteration)
     training = QUICK_TRAINING if args.quick else {}
-    prior = train_prior(TRAINING_CLIPS, progress=False, **training,
-                        cache=RESULTS / f"prior_training_waves{'_quick' if args.quick else ''}.npz")
+    prior_name = tag + ("_quick" if args.quick else "")
+    prior = train_prior(training_clips, progress=False, mirror=args.mirror,
+                        parts=UPPER_BODY_PARTS if args.parts else None, **training,
+                        cache=RESULTS / f"prior_training_{prior_name}.npz")
     sequences = [sequence for index, clip in enumerate(clips)
                  for sequence in render_test_sequences(clip, views=views, max_frames=max_frames,
                                                        seed=index)]
-    configs = configurations(args.quick)
+    configs = configurations(args.quick, tuple(args.methods), tuple(args.estimates),
+                             tuple(args.likelihoods))
     jobs = [(sequence, config, seed) for config in configs for sequence in sequences
             for seed in range(seeds)]
     print(f"{len(configs)} configurations × {len(sequences)} sequences × {seeds} seeds = "
@@ -221,7 +255,9 @@ def main(argv=None) -> int:
     table = markdown_table(rows)
     print(table)
     note = (f"{args.split} subjects: {', '.join(clips)}; {len(sequences)} sequences × {seeds} "
-            f"seeds; prior trained on {', '.join(TRAINING_CLIPS)}; baselines' dynamics from "
+            f"seeds; prior trained on {', '.join(training_clips)}"
+            f"{' and their mirror images' if args.mirror else ''}"
+            f"{', one GPLVM per body part' if args.parts else ''}; baselines' dynamics from "
             f"{args.baseline_dynamics}; initialised from frame 0's truth. error: mean over runs, "
             "± the 95 % t-interval; lost: error above 25 % of the torso for 10 frames in a row; "
             "ms/frame: median over runs; compile s: apart.")
@@ -229,7 +265,9 @@ def main(argv=None) -> int:
     plot(rows, out / "errors.png", f"{args.split} subjects: mean marker error")
     write_json_atomically(out / "summary.json", {
         "command": "python -m benchmarks.tracking " + " ".join(argv or []),
-        "split": args.split, "clips": list(clips), "training_clips": list(TRAINING_CLIPS),
+        "split": args.split, "clips": list(clips), "prior": args.prior, "mirror": args.mirror,
+        "parts": args.parts,
+        "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
         "baseline_dynamics": args.baseline_dynamics, "device": device_description(),
         "date": time.strftime("%Y-%m-%d"), "seconds": time.perf_counter() - started,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,7 +19,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxtrack.body import SPMTemplate
-from jaxtrack.priors.gplvm import GPLVM, GPLVMFormatError, fit_gplvm, load_gplvm, save_gplvm
+from jaxtrack.priors.gplvm import (
+    GPLVM,
+    GPLVMFormatError,
+    PartsGPLVM,
+    fit_gplvm,
+    load_gplvm,
+    part_features,
+    save_gplvm,
+)
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
 
 __all__ = ["TrainedPrior", "load_prior", "train_prior"]
@@ -35,7 +43,7 @@ class TrainedPrior:
     anything from the clip it is scored on. None for a prior saved before they were kept.
     """
 
-    model: GPLVM
+    model: GPLVM | PartsGPLVM
     template: SPMTemplate
     description: dict
     seconds: float = 0.0
@@ -75,7 +83,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
                 active_size: int = 200, iterations: int = 3, active_steps: int = 300,
                 optimiser: str = "bfgs", seed: int = 0, cache: str | Path | None = None,
                 progress: bool = True, asf: str | os.PathLike | None = None,
-                mirror: bool = False) -> TrainedPrior:
+                mirror: bool = False,
+                parts: Mapping[str, Sequence[int]] | None = None) -> TrainedPrior:
     """Train (or load from ``cache`` when it was trained with the same settings) a GPLVM.
 
     Args:
@@ -93,6 +102,10 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         asf: the skeleton of every ``.amc`` path among ``clips`` (default: the one beside each).
         mirror: also train on each clip's left-right mirror image (:meth:`Motion.mirror`: a
             right-hand wave becomes a left-hand one), named ``<clip> (mirrored)``.
+        parts: None (Tian et al.: one GPLVM of the whole upper body), or part name → its links
+            (indices into ``SPM_LINKS``, e.g. :data:`~jaxtrack.priors.gplvm.UPPER_BODY_PARTS`):
+            one GPLVM per part over the same poses, a :class:`~jaxtrack.priors.gplvm.PartsGPLVM`
+            (why: docs/tracking.md, "A prior that generalises").
 
     Raises:
         jaxtrack.priors.gplvm.GPLVMFormatError: ``cache`` exists but is damaged or not a GPLVM.
@@ -112,6 +125,9 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         settings["optimiser"] = optimiser
     if mirror:  # absent without, likewise
         settings["mirror"] = True
+    if parts is not None:
+        parts = {str(name): tuple(int(link) for link in links) for name, links in parts.items()}
+        settings["parts"] = {name: list(links) for name, links in parts.items()}
     key = _settings_key(settings)
     if cache is not None and Path(cache).is_file():
         saved = load_prior(cache)
@@ -123,21 +139,33 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
     poses = pose_set(motions, views=views, fps=fps)
     with jax.enable_x64(True):
         features = np.asarray(pose_features(poses.states, poses.template))
-    fit = fit_gplvm(features, active_size=active_size, iterations=iterations,
-                    active_steps=active_steps, optimiser=optimiser, inactive_dtype=jnp.float64,
-                    sequence_ids=poses.sequence_ids, fps=poses.fps, seed=seed, progress=progress)
+    fit_options = dict(active_size=active_size, iterations=iterations, active_steps=active_steps,
+                       optimiser=optimiser, inactive_dtype=jnp.float64,
+                       sequence_ids=poses.sequence_ids, fps=poses.fps, seed=seed,
+                       progress=progress)
+    if parts is None:
+        fit = fit_gplvm(features, **fit_options)
+        model, trace, init, seconds = fit.model, fit.trace, fit.init, fit.seconds
+    else:
+        fits = {name: fit_gplvm(part_features(features, links), **fit_options)
+                for name, links in parts.items()}
+        model = PartsGPLVM(tuple(fit.model for fit in fits.values()), tuple(parts.values()),
+                           tuple(parts))
+        trace = [{"part": name, **entry} for name, fit in fits.items() for entry in fit.trace]
+        init = "; ".join(f"{name}: {fit.init}" for name, fit in fits.items())
+        seconds = sum(fit.seconds for fit in fits.values())
     labels = tuple(str(name) for name in poses.clip_names)
     description = {"settings": settings, "settings_key": key, "num_poses": len(features),
-                   "init": fit.init, "train_seconds": fit.seconds}
+                   "init": init, "train_seconds": seconds}
     if cache is not None:
         Path(cache).parent.mkdir(parents=True, exist_ok=True)
-        save_gplvm(cache, fit.model, description=description, trace=fit.trace, arrays={
+        save_gplvm(cache, model, description=description, trace=trace, arrays={
             "reference_lengths": np.asarray(poses.template.reference_lengths),
             "reference_angles": np.asarray(poses.template.reference_angles),
             "labels": np.array(labels),
             "training_states": np.asarray(poses.states, np.float64),
             "training_sequence_ids": np.asarray(poses.sequence_ids),
         })
-    return TrainedPrior(fit.model, poses.template, description, fit.seconds, labels,
+    return TrainedPrior(model, poses.template, description, seconds, labels,
                         training_states=np.asarray(poses.states, np.float64),
                         training_sequence_ids=np.asarray(poses.sequence_ids))

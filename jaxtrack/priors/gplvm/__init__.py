@@ -22,12 +22,16 @@ from jaxtrack.priors.gplvm._kernel import (
     rbf,
 )
 from jaxtrack.priors.gplvm._model import GPLVM, INVERSE_OBJECTIVES, InverseResult
+from jaxtrack.priors.gplvm._parts import UPPER_BODY_PARTS, PartsGPLVM, part_features
 from jaxtrack.priors.gplvm._plot import plot_latent_space
 
 __all__ = [
     "GPLVM",
     "INVERSE_OBJECTIVES",
     "OPTIMISERS",
+    "UPPER_BODY_PARTS",
+    "PartsGPLVM",
+    "part_features",
     "GPLVMFit",
     "GPLVMFormatError",
     "SavedGPLVM",

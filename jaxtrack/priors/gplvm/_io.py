@@ -15,6 +15,7 @@ import numpy as np
 from jaxtrack._files import write_npz_atomically
 from jaxtrack.priors.gplvm._kernel import KernelParameters
 from jaxtrack.priors.gplvm._model import GPLVM
+from jaxtrack.priors.gplvm._parts import PartsGPLVM
 
 __all__ = ["GPLVMFormatError", "SavedGPLVM", "load_gplvm", "save_gplvm"]
 
@@ -34,7 +35,7 @@ class SavedGPLVM:
     """A loaded model with what was saved beside it.
 
     Attributes:
-        model: the :class:`GPLVM` (float64 arrays).
+        model: the :class:`GPLVM` or :class:`PartsGPLVM` (float64 arrays).
         description: the training-data description given to :func:`save_gplvm`.
         arrays: extra named arrays given to :func:`save_gplvm` (e.g. an SPM template).
         trace: the training trace, if saved.
@@ -46,9 +47,26 @@ class SavedGPLVM:
     trace: list = field(default_factory=list)
 
 
-def save_gplvm(path: str | os.PathLike, model: GPLVM, *, description: dict | None = None,
-               arrays: dict | None = None, trace: list | None = None) -> Path:
+def _model_metadata(model: GPLVM) -> dict:
+    return {"latent_dim": model.latent_dim, "pose_dim": model.pose_dim,
+            "active_size": model.active_size,
+            "kernel": {"alpha": float(model.kernel.alpha), "beta": float(model.kernel.beta),
+                       "gamma": float(model.kernel.gamma)},
+            "active_indices": np.asarray(model.active_indices).tolist()}
+
+
+def _model_arrays(model: GPLVM, prefix: str = "") -> dict:
+    contents = {prefix + name: np.asarray(getattr(model.kernel, name)) for name in _KERNEL_FIELDS}
+    return contents | {prefix + name: np.asarray(getattr(model, name)) for name in _MODEL_FIELDS}
+
+
+def save_gplvm(path: str | os.PathLike, model: GPLVM | PartsGPLVM, *,
+               description: dict | None = None, arrays: dict | None = None,
+               trace: list | None = None) -> Path:
     """Write ``model`` to ``path`` (``.npz``), atomically. Returns the path.
+
+    A :class:`PartsGPLVM` is saved part by part (arrays ``part<i>/<name>``, the parts' names
+    and links in the metadata).
 
     Args:
         description: JSON-serialisable description of the training data (clips, views, fps,
@@ -57,18 +75,21 @@ def save_gplvm(path: str | os.PathLike, model: GPLVM, *, description: dict | Non
         trace: the training trace (:attr:`GPLVMFit.trace`).
     """
     path = Path(path)
-    metadata = {
-        "format": FORMAT_NAME, "format_version": FORMAT_VERSION,
-        "latent_dim": model.latent_dim, "pose_dim": model.pose_dim,
-        "active_size": model.active_size,
-        "kernel": {"alpha": float(model.kernel.alpha), "beta": float(model.kernel.beta),
-                   "gamma": float(model.kernel.gamma)},
-        "active_indices": np.asarray(model.active_indices).tolist(),
-        "description": description or {}, "trace": trace or [],
-        "extra_arrays": sorted(arrays or {}),
-    }
-    contents = {name: np.asarray(getattr(model.kernel, name)) for name in _KERNEL_FIELDS}
-    contents |= {name: np.asarray(getattr(model, name)) for name in _MODEL_FIELDS}
+    metadata = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
+                "description": description or {}, "trace": trace or [],
+                "extra_arrays": sorted(arrays or {})}
+    if isinstance(model, PartsGPLVM):
+        metadata |= {"latent_dim": model.latent_dim, "pose_dim": model.pose_dim,
+                     "active_size": model.active_size, "parts": [
+                         {"name": name, "links": list(links), **_model_metadata(part)}
+                         for part, links, name in zip(model.parts, model.links, model.names,
+                                                      strict=True)]}
+        contents = {}
+        for index, part in enumerate(model.parts):
+            contents |= _model_arrays(part, f"part{index}/")
+    else:
+        metadata |= _model_metadata(model)
+        contents = _model_arrays(model)
     contents |= {f"extra/{name}": np.asarray(value) for name, value in (arrays or {}).items()}
     return write_npz_atomically(path, contents, metadata, what="description and trace")
 
@@ -106,10 +127,16 @@ def load_gplvm(path: str | os.PathLike) -> SavedGPLVM:
             if metadata.get("format_version", 0) > FORMAT_VERSION:
                 raise _fail(path, f"format version {metadata['format_version']} is newer than "
                                   f"this jaxtrack reads ({FORMAT_VERSION}); upgrade jaxtrack")
-            missing = [n for n in _KERNEL_FIELDS + _MODEL_FIELDS if n not in archive.files]
+            parts = metadata.get("parts")
+            layout = ([("", metadata)] if parts is None else
+                      [(f"part{index}/", part) for index, part in enumerate(parts)])
+            names = _KERNEL_FIELDS + _MODEL_FIELDS
+            missing = [prefix + n for prefix, _ in layout for n in names
+                       if prefix + n not in archive.files]
             if missing:
                 raise _fail(path, f"missing arrays {missing}")
-            values = {name: np.array(archive[name]) for name in _KERNEL_FIELDS + _MODEL_FIELDS}
+            values = [{name: np.array(archive[prefix + name]) for name in names}
+                      for prefix, _ in layout]
             extra = {name: np.array(archive[f"extra/{name}"])
                      for name in metadata.get("extra_arrays", [])}
     except GPLVMFormatError:
@@ -117,11 +144,19 @@ def load_gplvm(path: str | os.PathLike) -> SavedGPLVM:
     except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as error:
         raise _fail(path, f"damaged or truncated GPLVM file ({type(error).__name__}: "
                           f"{error})") from None
-    _check_shapes(path, values, metadata)
+    for part_values, (_, part_metadata) in zip(values, layout, strict=True):
+        _check_shapes(path, part_values, part_metadata)
     with jax.enable_x64(True):
-        kernel = KernelParameters(*(jnp.asarray(values[name]) for name in _KERNEL_FIELDS))
-        model = GPLVM(kernel=kernel, **{name: jnp.asarray(values[name])
-                                        for name in _MODEL_FIELDS})
+        models = [GPLVM(kernel=KernelParameters(*(jnp.asarray(v[name]) for name in _KERNEL_FIELDS)),
+                        **{name: jnp.asarray(v[name]) for name in _MODEL_FIELDS}) for v in values]
+        if parts is None:
+            model = models[0]
+        else:
+            try:
+                model = PartsGPLVM(tuple(models), tuple(tuple(p["links"]) for p in parts),
+                                   tuple(str(p["name"]) for p in parts))
+            except (ValueError, KeyError, TypeError) as error:
+                raise _fail(path, f"inconsistent parts ({error})") from None
     return SavedGPLVM(model=model, description=metadata.get("description", {}), arrays=extra,
                       trace=metadata.get("trace", []))
 

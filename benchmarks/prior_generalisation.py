@@ -1,0 +1,163 @@
+"""How well each candidate prior reconstructs the poses of people it was never trained on.
+
+    python -m benchmarks.prior_generalisation                     # validation subjects
+    python -m benchmarks.prior_generalisation --split test        # report only, never choose
+    python -m benchmarks.prior_generalisation --priors waves gestures --mirror both
+
+The latent tracker's own estimate is μ of a latent point, so no tracker can report a pose
+closer than μ(μ⁻¹(y)), the prior's reconstruction of the true pose y: a floor under the
+latent tracker's error that CONDENSATION, tracking in the full state, does not have. For every
+candidate prior of ``benchmarks.tracking`` (``--prior`` × ``--mirror``, trained with the same
+settings and cache), the held-out subjects' gesture clips of ``--split``
+(:data:`jaxtrack.data.splits.SUBJECTS`; every clip of the split's AnimatedDrawings and Bandai
+subjects) are seen from ``--views`` viewpoints and fitted with the prior's SPM template, and
+each pose's features are reconstructed by
+
+* the GPLVM through eq. 5's μ⁻¹ (the tracker's) and through argmin ½|y − μ(x)|²,
+* PCA with the same latent dimension on the same training features,
+* the nearest training pose (a lookup: the best any model of these poses could do without
+  generalising), and the mean training pose,
+
+and scored as markers (the held-out pose's own placement) in % of its torso. Writes a table and
+``benchmarks/results/prior_generalisation_<split>.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from tqdm import tqdm
+
+from benchmarks._common import device_description, print_table, write_json
+from benchmarks.gplvm import marker_errors, pca_reconstruction
+from benchmarks.tracking import PRIOR_CLIPS, RESULTS, prior_tag
+from jaxtrack.data.splits import check_disjoint, clips_in
+from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, part_features
+from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
+from jaxtrack.priors.train import train_prior
+
+HELD_OUT_COLLECTIONS = ("animateddrawings", "bandai")
+"""Upper-body gesture sources whose held-out subjects are reconstructed."""
+
+
+def held_out_clips(split: str) -> tuple[str, ...]:
+    """The split's gesture clips (its AnimatedDrawings and Bandai subjects' clips)."""
+    return clips_in(split, *HELD_OUT_COLLECTIONS)
+
+
+def nearest_reconstruction(train: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """Each test row's nearest training row (Euclidean, feature space)."""
+    distances = (np.sum(test**2, axis=1)[:, None] - 2.0 * test @ train.T
+                 + np.sum(train**2, axis=1)[None, :])
+    return train[np.argmin(distances, axis=1)]
+
+
+def nearest_per_part(train: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """Each part (:data:`UPPER_BODY_PARTS`) of each test row from its nearest training part."""
+    out = np.array(test, copy=True)
+    for links in UPPER_BODY_PARTS.values():
+        columns = np.asarray([i for link in links for i in (2 * link, 2 * link + 1)])
+        out[:, columns] = nearest_reconstruction(part_features(train, links),
+                                                 part_features(test, links))
+    return out
+
+
+def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
+                   stride: int) -> list[dict]:
+    """Rows (one per reconstruction method) for one candidate prior."""
+    tag = prior_tag(name, mirror, parts)
+    check_disjoint(PRIOR_CLIPS[name], clips)
+    prior = train_prior(PRIOR_CLIPS[name], progress=False, mirror=mirror,
+                        parts=UPPER_BODY_PARTS if parts else None,
+                        cache=RESULTS / f"prior_training_{tag}.npz")
+    held_out = pose_set(clip_motions(clips), views=views, template=prior.template)
+    keep = np.arange(0, len(held_out.states), stride)
+    held_out = type(held_out)(held_out.states[keep], held_out.markers_2d[keep],
+                              held_out.sequence_ids[keep], held_out.sequences,
+                              held_out.template, held_out.fps, held_out.image_size)
+    with jax.enable_x64(True):
+        test = np.asarray(pose_features(held_out.states, prior.template))
+        train = np.asarray(pose_features(prior.training_states, prior.template))
+        model = prior.model.astype(jnp.float64)
+        reconstructions = {}
+        for objective in ("posterior", "reconstruction"):
+            start = time.perf_counter()
+            reconstructions["GPLVM, eq. 5 μ⁻¹" if objective == "posterior" else
+                            "GPLVM, argmin |y − μ(x)|"] = (
+                np.asarray(model.reconstruct(jnp.asarray(test), objective=objective)),
+                time.perf_counter() - start)
+    latent_dim = prior.model.latent_dim
+    reconstructions[f"PCA, q = {latent_dim}"] = (pca_reconstruction(train, test, latent_dim), 0.0)
+    reconstructions["nearest training pose"] = (nearest_reconstruction(train, test), 0.0)
+    reconstructions["nearest training pose per part"] = (nearest_per_part(train, test), 0.0)
+    reconstructions["mean training pose"] = (np.broadcast_to(train.mean(0), test.shape), 0.0)
+    rows = []
+    for method, (features, seconds) in reconstructions.items():
+        for own_lengths in (False, True):
+            if own_lengths:
+                features = with_lengths_of(features, test)
+            errors = marker_errors(np.asarray(features), held_out)
+            rows.append({"prior": tag, "training_poses": len(train),
+                         "held_out_poses": len(test), "method": method,
+                         "lengths": "true (oracle)" if own_lengths else "reconstructed",
+                         "seconds": seconds, **errors})
+    return rows
+
+
+def with_lengths_of(features: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``features``' link directions with ``reference``'s link lengths (both ``(n, 22)``: 11
+    link vectors). With the true pose's lengths (an oracle: in the image they also carry
+    foreshortening) only the directions are scored, so the rows with and without bound how
+    much of the error is the held-out subject's proportions rather than the pose."""
+    links = np.asarray(features).reshape(len(features), -1, 2)
+    lengths = np.linalg.norm(np.asarray(reference).reshape(len(reference), -1, 2), axis=-1)
+    directions = links / np.maximum(np.linalg.norm(links, axis=-1, keepdims=True), 1e-12)
+    return (directions * lengths[..., None]).reshape(len(features), -1)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.prior_generalisation",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--split", choices=("validation", "test"), default="validation")
+    parser.add_argument("--priors", nargs="+", choices=tuple(PRIOR_CLIPS),
+                        default=list(PRIOR_CLIPS))
+    parser.add_argument("--mirror", choices=("no", "yes", "both"), default="both",
+                        help="train each prior without, with, or both (both)")
+    parser.add_argument("--parts", choices=("no", "yes", "both"), default="both",
+                        help="one GPLVM of the whole upper body, one per part, or both (both)")
+    parser.add_argument("--views", type=int, default=3, help="viewpoints per held-out clip (3)")
+    parser.add_argument("--stride", type=int, default=3,
+                        help="score every stride-th held-out pose (3)")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    if args.views < 1 or args.stride < 1:
+        parser.error("--views and --stride must be at least 1")
+    clips = held_out_clips(args.split)
+    choices = {"no": (False,), "yes": (True,), "both": (False, True)}
+    mirrors, parted = choices[args.mirror], choices[args.parts]
+    print(f"{args.split} subjects' clips: {len(clips)} x {args.views} views; "
+          f"{device_description()}")
+    rows = []
+    for name in tqdm(args.priors, desc="priors"):
+        for mirror in mirrors:
+            for parts in parted:
+                rows += evaluate_prior(name, mirror, parts, clips, args.views, args.stride)
+    print_table(rows, [("prior", "prior", "s"), ("training_poses", "training poses", "d"),
+                       ("held_out_poses", "held-out poses", "d"), ("method", "method", "s"),
+                       ("lengths", "link lengths", "s"), ("error_torso", "error/torso", ".1%"),
+                       ("error_px", "error px", ".1f"),
+                       ("error_p95_px", "p95 px", ".1f"), ("seconds", "s", ".1f")])
+    path = args.json or f"benchmarks/results/prior_generalisation_{args.split}.json"
+    write_json(path, {"benchmark": "prior_generalisation", "device": device_description(),
+                      "date": time.strftime("%Y-%m-%d"), "split": args.split,
+                      "clips": list(clips), "arguments": vars(args), "rows": rows})
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
