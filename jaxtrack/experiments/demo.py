@@ -52,10 +52,38 @@ def _decoder(prior):
     return lambda latent: np.asarray(decode(jnp.asarray(latent, jnp.float32)))
 
 
+def _latent_plots(prior, output: Path) -> list[Path]:
+    """The latent-space figure: one for a whole-body GPLVM, one per part for a
+    :class:`~jaxtrack.priors.gplvm.PartsGPLVM` (each part's latent varied, the others held at
+    the first training pose's)."""
+    from jaxtrack.body import MARKER_EDGES, UPPER_BODY_12
+    from jaxtrack.priors.gplvm import PartsGPLVM, plot_latent_space
+
+    edges, labels = MARKER_EDGES[UPPER_BODY_12], prior.labels or None
+    decode = _decoder(prior)
+    if not isinstance(prior.model, PartsGPLVM):
+        return [plot_latent_space(prior.model, output / "latent_space.png", labels=labels,
+                                  decode=decode, edges=edges)]
+    base = np.asarray(prior.model.latents[0], np.float64)
+    paths, offset = [], 0
+    for part, name in zip(prior.model.parts, prior.model.names, strict=True):
+        def decode_part(latent, offset=offset, size=part.latent_dim):
+            full = base.copy()
+            full[offset:offset + size] = latent
+            return decode(full)
+
+        paths.append(plot_latent_space(
+            part, output / f"latent_space_{name}.png", labels=labels, decode=decode_part,
+            edges=edges, title=f"{name.replace('_', ' ')}: GPLVM latent space "
+                               f"({part.latents.shape[0]} poses, {part.active_size} active)"))
+        offset += part.latent_dim
+    return paths
+
+
 def run_demo(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
     """Run the four steps above, printing progress and the comparison; returns 0."""
     from jaxtrack._files import write_json_atomically
-    from jaxtrack.body import MARKER_EDGES, UPPER_BODY_12
+    from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.data.splits import check_disjoint, split_of
     from jaxtrack.evaluation import (
         compare_methods,
@@ -63,7 +91,6 @@ def run_demo(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
         plot_errors_over_time,
     )
     from jaxtrack.experiments import render_test_sequences, run_method
-    from jaxtrack.priors.gplvm import plot_latent_space
     from jaxtrack.priors.train import train_prior
     from jaxtrack.trackers import Refinement
     from jaxtrack.vision import write_overlay_video
@@ -133,8 +160,7 @@ def run_demo(seed: int = 0, output_dir: str | Path = "jaxtrack-demo") -> int:
         plot_errors_over_time({m: metrics[m]["errors_torso"] for m in SHOWN},
                               output / "errors.png", fps=sequence.fps,
                               title=f"held-out subject's wave: {HELD_OUT_CLIP.split('/')[-1]}"),
-        plot_latent_space(prior.model, output / "latent_space.png", labels=prior.labels or None,
-                          decode=_decoder(prior), edges=MARKER_EDGES[UPPER_BODY_12]),
+        *_latent_plots(prior, output),
         write_json_atomically(output / "metrics.json", {
             "train_clips": list(TRAIN_CLIPS), "test_clip": HELD_OUT_CLIP,
             "splits": {clip: split_of(clip) for clip in (*TRAIN_CLIPS, HELD_OUT_CLIP)},
