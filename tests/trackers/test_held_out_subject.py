@@ -51,3 +51,25 @@ def test_the_filters_own_estimates_on_a_held_out_subject(subject_prior, sequence
     # the prior alone does not carry this subject (docs/tracking.md): guarded, not celebrated
     assert latent["mean_error_torso"] < 0.45  # measured 0.32 of the torso
     assert condensation["mean_error_torso"] < 0.12  # measured 0.077
+
+
+def test_a_prior_of_parts_trains_reloads_and_tracks(tmp_path, sequence):
+    from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, PartsGPLVM
+    from jaxtrack.priors.train import load_prior
+
+    cache = tmp_path / "parts.npz"
+    prior = train_prior(TRAINING[:1], views=1, fps=5.0, active_size=30, iterations=1,
+                        parts=UPPER_BODY_PARTS, cache=cache, progress=False)
+    assert isinstance(prior.model, PartsGPLVM)
+    assert prior.model.names == tuple(UPPER_BODY_PARTS) and prior.model.latent_dim == 6
+    assert prior.description["settings"]["parts"]["left_arm"] == [7, 8, 9]
+    loaded = load_prior(cache)
+    assert isinstance(loaded.model, PartsGPLVM) and loaded.model.links == prior.model.links
+    # the same settings load the cache
+    again = train_prior(TRAINING[:1], views=1, fps=5.0, active_size=30, iterations=1,
+                        parts=UPPER_BODY_PARTS, cache=cache, progress=False)
+    assert again.description["settings_key"] == prior.description["settings_key"]
+    short = type(sequence)(name=sequence.name, images=sequence.images[:4],
+                           frames=sequence.frames[:4], truth=sequence.truth[:4], fps=sequence.fps)
+    metrics = _error(loaded, short, "latent", 32, None)
+    assert metrics["mean_error_torso"] < 0.5

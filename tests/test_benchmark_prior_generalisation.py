@@ -1,0 +1,43 @@
+"""The prior-generalisation benchmark's reconstructions: nearest pose, per part, given lengths."""
+
+import numpy as np
+
+from benchmarks.prior_generalisation import (
+    held_out_clips,
+    nearest_per_part,
+    nearest_reconstruction,
+    with_lengths_of,
+)
+from jaxtrack.data.splits import split_of
+
+
+def test_nearest_reconstruction_picks_the_closest_training_row():
+    train = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    test = np.array([[9.0, 1.0], [1.0, 8.0], [0.2, -0.1]])
+    np.testing.assert_array_equal(nearest_reconstruction(train, test), train[[1, 2, 0]])
+
+
+def test_nearest_per_part_combines_parts_of_different_training_poses():
+    rng = np.random.default_rng(0)
+    first, second = rng.normal(size=22), rng.normal(size=22)
+    # a held-out pose with the first pose's torso and right arm and the second's left arm
+    mixed = first.copy()
+    left_arm = [i for link in (7, 8, 9) for i in (2 * link, 2 * link + 1)]
+    mixed[left_arm] = second[left_arm]
+    train = np.stack([first, second])
+    np.testing.assert_allclose(nearest_per_part(train, mixed[None])[0], mixed)
+    # the whole-body nearest pose cannot make that combination
+    assert not np.allclose(nearest_reconstruction(train, mixed[None])[0], mixed)
+
+
+def test_with_lengths_of_keeps_directions_and_takes_the_reference_lengths():
+    features = np.array([[3.0, 4.0] * 11])
+    reference = np.array([[0.0, 2.0] * 11])
+    out = with_lengths_of(features, reference).reshape(11, 2)
+    np.testing.assert_allclose(out, np.tile([1.2, 1.6], (11, 1)))
+
+
+def test_held_out_clips_are_the_splits_gesture_clips():
+    clips = held_out_clips("validation")
+    assert clips and {split_of(clip) for clip in clips} == {"validation"}
+    assert all(clip.split("/")[0] in ("animateddrawings", "bandai") for clip in clips)
