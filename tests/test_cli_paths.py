@@ -116,6 +116,19 @@ def test_train_command_trains_on_a_bvh_path(tmp_path, own_files, capsys):
     assert prior.description["num_poses"] == 20  # 80 frames at 119.9 Hz, taken at 30 fps
 
 
+def test_train_command_trains_one_gplvm_per_part_with_parts(tmp_path, own_files, capsys):
+    from jaxtrack.priors.gplvm import PartsGPLVM
+
+    out = tmp_path / "parts.npz"
+    arguments = ["train", "--clips", str(own_files["short_bvh"]), "--views", "1", "--active",
+                 "8", "--iterations", "1", "--parts", "--mirror", "--out", str(out)]
+    assert main(arguments) == 0, capsys.readouterr().err
+    assert "3 GPLVMs, one per part," in capsys.readouterr().out
+    prior = load_prior(out)
+    assert isinstance(prior.model, PartsGPLVM)
+    assert prior.description["num_poses"] == 2 * 20  # the clip and its mirror image
+
+
 def test_train_command_reads_an_asf_amc_pair_with_asf(tmp_path, own_files, monkeypatch,
                                                       capsys):
     calls = []

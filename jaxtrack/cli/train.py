@@ -56,6 +56,12 @@ def add_parser(subparsers) -> None:
                         help="outer iterations of Algorithm 1 (default 3)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the training (default 0)")
+    parser.add_argument("--parts", action="store_true",
+                        help="latent: one GPLVM per body part (torso, each arm) instead of one "
+                             "of the whole upper body: reconstructs new people's poses better "
+                             "(docs/tracking.md, 'A prior that generalises across people')")
+    parser.add_argument("--mirror", action="store_true",
+                        help="latent: also learn from every clip's left-right mirror image")
     group = parser.add_argument_group("linear-combination and mixed-state")
     # linear-combination options
     group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
@@ -103,9 +109,13 @@ def run(args: argparse.Namespace) -> int:
     check_prior_file(args.out, "--out", "delete it or choose another --out to train a new one")
     load_clip_sources(sources, "--clips")
     folder.mkdir(parents=True, exist_ok=True)
+    from jaxtrack.priors.gplvm import UPPER_BODY_PARTS
+
     prior = train_prior(args.clips, views=args.views, active_size=args.active,
                         iterations=args.iterations, seed=args.seed, cache=args.out,
-                        asf=args.asf)
-    print(f"GPLVM of {prior.description['num_poses']} poses, active set "
+                        asf=args.asf, mirror=args.mirror,
+                        parts=UPPER_BODY_PARTS if args.parts else None)
+    kind = f"{len(UPPER_BODY_PARTS)} GPLVMs, one per part," if args.parts else "GPLVM"
+    print(f"{kind} of {prior.description['num_poses']} poses, active set "
           f"{prior.model.active_size} -> {args.out}")
     return 0
