@@ -54,7 +54,7 @@ from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import METHODS, build_tracker, render_test_sequences
 from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.priors.train import train_prior
-from jaxtrack.trackers import track
+from jaxtrack.trackers import Likelihood, track
 
 PARTICLE_COUNTS = (10, 20, 50, 100, 200, 500, 1_000, 5_000, 10_000)
 QUICK_PARTICLE_COUNTS = (10, 100, 1_000)
@@ -74,7 +74,7 @@ COLUMNS = [("method", "method", "s"), ("particles", "N", "d"),
 def _track_once(method, prior, sequence, particles, seed, likelihood) -> dict:
     """One tracked run: the evaluation's scalars, timings, and the re-seeded frame count."""
     start = time.perf_counter()
-    tracker = build_tracker(method, prior, sequence, particles, likelihood)
+    tracker = build_tracker(method, prior, sequence, particles, Likelihood(likelihood))
     result = track(tracker, jr.PRNGKey(seed), sequence.frames, sequence.truth[0],
                    chunk_size=max(len(sequence.frames) - 1, 1), progress=False)
     wall = time.perf_counter() - start
