@@ -1,9 +1,11 @@
 """GPLVM pose prior: training time, held-out reconstruction, μ⁻¹ and μ, with GPy side by side.
 
-Training poses are real upper-body gestures from the catalogue (AnimatedDrawings wave_hello and
-history clips, Bandai wave and raise clips) seen from several views (``pose_set``), as GPLVM
-features (``pose_features``: 11 link vectors in torso units, 22 numbers). The held-out poses are
-WHOLE clips that no training set contains, projected with the training template. Training sets
+Training poses are real upper-body gestures of the *training subjects* (the ten AnimatedDrawings
+clips of :mod:`jaxtrack.data.splits`' training split) seen from several views (``pose_set``), as
+GPLVM features (``pose_features``: 11 link vectors in torso units, 22 numbers). The held-out
+poses are whole clips of people no training clip shows: the test subject's two waves, or with
+``--validation`` three clips of the validation subject (the Bandai actors), on which settings
+are chosen; projected with the training template. Training sets
 of ~1 000 and ~5 000 poses are taken evenly from every (clip, view) sequence of the 30 fps pool.
 
 Measured, compile time apart from run time:
@@ -72,6 +74,7 @@ from benchmarks._common import (
 )
 from benchmarks._gpy import run_gpy_reference
 from jaxtrack.body import SPM_MARKERS, marker_edges
+from jaxtrack.data.splits import check_disjoint, clips_in
 from jaxtrack.priors.gplvm import (
     GPLVM,
     INVERSE_OBJECTIVES,
@@ -90,35 +93,23 @@ from jaxtrack.priors.poses import (
     states_from_features,
 )
 
-_HISTORY = "animateddrawings/history_c119d6b/"
 _BANDAI = "bandai/dataset-2_"
-TRAINING_CLIPS = (
-    "animateddrawings/fair1_wave_hello",
-    _HISTORY + "8yr_old_wave_hello",
-    _HISTORY + "cmu_1006_wave_hello_1",
-    _HISTORY + "cmu_new_walk_clap",
-    _HISTORY + "cmu_new_walk_point",
-    _HISTORY + "cmu_new_walk_raise_the_roof",
-    _HISTORY + "cmu_new_walk_side_punch",
-    *(_BANDAI + name for name in (
-        "raise-up-both-hands_normal_001", "raise-up-both-hands_normal_002",
-        "raise-up-right-hand_normal_001", "raise-up-right-hand_normal_002",
-        "wave-both-hands_normal_001", "wave-both-hands_normal_002",
-        "wave-left-hand_normal_001", "wave-left-hand_normal_002",
-        "wave-right-hand_active_001", "wave-right-hand_elderly_001",
-        "wave-right-hand_normal_001", "wave-right-hand_youthful_001")),
-)
-HELD_OUT_CLIPS = (_HISTORY + "cmu_1006_wave_hello_2", _BANDAI + "wave-right-hand_normal_002")
-# ``--validation``: settings are chosen with these two training clips held out instead (other
-# takes of the same two gestures), so that the held-out clips above only report
-VALIDATION_CLIPS = (_HISTORY + "cmu_1006_wave_hello_1", _BANDAI + "wave-right-hand_normal_001")
+TRAINING_CLIPS = clips_in("training", "animateddrawings")
+"""The training subjects' upper-body gestures (four people; :mod:`jaxtrack.data.splits`)."""
+HELD_OUT_CLIPS = clips_in("test", "animateddrawings")
+"""The test subject's two waves (cmu_1006): only ever reported."""
+VALIDATION_CLIPS = (_BANDAI + "wave-right-hand_normal_001", _BANDAI + "wave-left-hand_normal_001",
+                    _BANDAI + "raise-up-right-hand_normal_001")
+"""``--validation``: settings are chosen on these clips of a validation subject (the Bandai
+actors) instead, so that the held-out clips above only report."""
 
 
 def split(validation: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(training clips, held-out clips) of the benchmark, or of its validation split."""
-    if not validation:
-        return TRAINING_CLIPS, HELD_OUT_CLIPS
-    return tuple(c for c in TRAINING_CLIPS if c not in VALIDATION_CLIPS), VALIDATION_CLIPS
+    """(training clips, held-out clips) of the benchmark, or of its validation split: split by
+    subject, never by take (:func:`jaxtrack.data.splits.check_disjoint`)."""
+    held_out = VALIDATION_CLIPS if validation else HELD_OUT_CLIPS
+    check_disjoint(TRAINING_CLIPS, held_out)
+    return TRAINING_CLIPS, held_out
 
 
 # ---------------------------------------------------------------------------------- data
