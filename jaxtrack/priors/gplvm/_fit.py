@@ -200,10 +200,12 @@ def fit_gplvm(
         latent_dim: latent dimension q (2 in the paper).
         active_size: size d of the IVM active set (capped at n). At n (or more) every pose is
             active, the IVM is skipped and eq. 1 is optimised over all poses: the exact GPLVM
-            (best with ``iterations=1, optimiser="lbfgs", active_steps=100``); μ and eq. 5's
-            μ⁻¹ then cost more per point, since every pose is a kernel centre.
-        iterations: outer iterations T (2 with ``active_steps`` 150: more did not help on a
-            validation split).
+            (``iterations=1, optimiser="lbfgs", active_steps=30``: the fewest steps whose
+            held-out error on the validation subjects is no worse than 150 steps'; docs/gplvm.md);
+            μ and eq. 5's μ⁻¹ then cost more per point, since every pose is a kernel centre.
+        iterations: outer iterations T (2 with ``active_steps`` 150: the lowest held-out error
+            of T ∈ {1, 2, 3} × steps ∈ {75, 150, 300} on the validation subjects' clips;
+            docs/gplvm.md).
         init: ``"isomap"`` (PCA when the neighbour graph stays disconnected) or ``"pca"``.
         neighbours: k of Isomap's nearest-neighbour graph.
         active_steps: step cap for eq. 1.
