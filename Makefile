@@ -56,7 +56,8 @@ bench-gplvm: $(STAMP)
 # reconstruction as well as GPy by its own infer_newX (README, Benchmarks)
 bench-gplvm-exact: $(STAMP)
 	$(BIN)/python -m benchmarks.gplvm --sizes 1000 --active-size 1000 --iterations 1 \
-		--active-steps 30 --optimiser lbfgs --inverse reconstruction --gpy-model full --subsets 3
+		--active-steps 30 --optimiser lbfgs --inverse reconstruction --gpy-model full --subsets 3 \
+		--gpy-max-iters 60
 
 # tracking error and ms/frame of latent / CONDENSATION / MHT vs N (~15 minutes on 2 cores)
 bench-tracking: $(STAMP)
