@@ -73,8 +73,9 @@ from benchmarks._common import (
     write_json,
 )
 from benchmarks._gpy import run_gpy_reference
+from benchmarks.tracking import GESTURE_CLIPS, PRIOR_CLIPS
 from jaxtrack.body import SPM_MARKERS, marker_edges
-from jaxtrack.data.splits import check_disjoint, clips_in
+from jaxtrack.data.splits import check_disjoint
 from jaxtrack.priors.gplvm import (
     GPLVM,
     INVERSE_OBJECTIVES,
@@ -93,15 +94,14 @@ from jaxtrack.priors.poses import (
     states_from_features,
 )
 
-_BANDAI = "bandai/dataset-2_"
-TRAINING_CLIPS = clips_in("training", "animateddrawings")
+TRAINING_CLIPS = PRIOR_CLIPS["gestures"]
 """The training subjects' upper-body gestures (four people; :mod:`jaxtrack.data.splits`)."""
-HELD_OUT_CLIPS = clips_in("test", "animateddrawings")
+HELD_OUT_CLIPS = GESTURE_CLIPS["test"]
 """The test subject's two waves (cmu_1006): only ever reported."""
-VALIDATION_CLIPS = (_BANDAI + "wave-right-hand_normal_001", _BANDAI + "wave-left-hand_normal_001",
-                    _BANDAI + "raise-up-right-hand_normal_001")
+VALIDATION_CLIPS = GESTURE_CLIPS["validation"]
 """``--validation``: settings are chosen on these clips of a validation subject (the Bandai
-actors) instead, so that the held-out clips above only report."""
+actors) instead, so that the held-out clips above only report. The clips of
+:mod:`benchmarks.tracking`'s comparison, so that both choose on the same people."""
 
 
 def split(validation: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:

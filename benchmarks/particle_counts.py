@@ -204,11 +204,12 @@ def _timed(function, *args):
 
 
 def batch_benchmark(model, observations, particle_counts, numpy_sequences, alternations,
-                    peer_sequences=0, chunk="auto"):
+                    peer_sequences=0, chunk_option="auto"):
     """Engine and straightforward filter alternating on the whole batch; NumPy and the peer
     libraries (particles, cuthbert: :mod:`benchmarks._peers`) on a few sequences.
 
-    ``chunk``: the engine's ``chunk_size`` ("auto", None for the whole batch, or a count)."""
+    ``chunk_option``: the engine's ``chunk_size`` ("auto", None for the whole batch, or a
+    count)."""
     rows = []
     batch, frames = observations.shape[:2]
     keys = jr.split(jr.key(1), batch)
@@ -216,7 +217,6 @@ def batch_benchmark(model, observations, particle_counts, numpy_sequences, alter
     peers = {}
     if peer_sequences > 0:
         peers = run_peers(model, observations[:peer_sequences], particle_counts)
-    chunk_option = chunk
     for num_particles in tqdm(particle_counts, desc="batch", leave=False):
         chunk = _chunk_size(chunk_option, model, num_particles, batch)
         engine_compile, _ = _compile(lambda k, y, c=min(chunk, batch), n=num_particles:

@@ -34,11 +34,10 @@ from tqdm import tqdm
 
 from benchmarks._common import device_description, print_table, write_json
 from benchmarks.gplvm import marker_errors, pca_reconstruction
-from benchmarks.tracking import PRIOR_CLIPS, RESULTS, prior_tag
+from benchmarks.tracking import PRIOR_CLIPS, candidate_prior, prior_tag
 from jaxtrack.data.splits import check_disjoint, clips_in
-from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, part_features
+from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, feature_columns, part_features
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
-from jaxtrack.priors.train import train_prior
 
 HELD_OUT_COLLECTIONS = ("animateddrawings", "bandai")
 """Upper-body gesture sources whose held-out subjects are reconstructed."""
@@ -60,9 +59,8 @@ def nearest_per_part(train: np.ndarray, test: np.ndarray) -> np.ndarray:
     """Each part (:data:`UPPER_BODY_PARTS`) of each test row from its nearest training part."""
     out = np.array(test, copy=True)
     for links in UPPER_BODY_PARTS.values():
-        columns = np.asarray([i for link in links for i in (2 * link, 2 * link + 1)])
-        out[:, columns] = nearest_reconstruction(part_features(train, links),
-                                                 part_features(test, links))
+        out[:, feature_columns(links)] = nearest_reconstruction(part_features(train, links),
+                                                                part_features(test, links))
     return out
 
 
@@ -71,9 +69,7 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
     """Rows (one per reconstruction method) for one candidate prior."""
     tag = prior_tag(name, mirror, parts)
     check_disjoint(PRIOR_CLIPS[name], clips)
-    prior = train_prior(PRIOR_CLIPS[name], progress=False, mirror=mirror,
-                        parts=UPPER_BODY_PARTS if parts else None,
-                        cache=RESULTS / f"prior_training_{tag}.npz")
+    prior = candidate_prior(name, mirror, parts)
     held_out = pose_set(clip_motions(clips), views=views, template=prior.template)
     keep = np.arange(0, len(held_out.states), stride)
     held_out = type(held_out)(held_out.states[keep], held_out.markers_2d[keep],

@@ -55,7 +55,7 @@ TRAINING_CLIPS = ("animateddrawings/fair1_wave_hello", _HISTORY + "8yr_old_wave_
 
 PRIOR_CLIPS = {
     "waves": TRAINING_CLIPS,
-    "gestures": tuple(clip for clip in clips_in("training", "animateddrawings")),
+    "gestures": clips_in("training", "animateddrawings"),
 }
 """Candidate training sets for the prior (``--prior``), all of training subjects: ``waves``
 (two subjects' waves) and ``gestures`` (every AnimatedDrawings clip of the training subjects:
@@ -88,6 +88,16 @@ COLUMNS = (("method", "method", "s"), ("estimate", "estimate", "s"),
 def prior_tag(name: str, mirror: bool, parts: bool) -> str:
     """The name of a candidate prior (its results folder and cache): ``gestures_mirrored_parts``."""
     return name + ("_mirrored" if mirror else "") + ("_parts" if parts else "")
+
+
+def candidate_prior(name: str, mirror: bool = False, parts: bool = False, **training):
+    """The candidate prior ``name`` of :data:`PRIOR_CLIPS` (``training``: ``train_prior``'s
+    settings), trained once and cached in ``RESULTS`` under its :func:`prior_tag`."""
+    suffix = "_quick" if training else ""
+    return train_prior(PRIOR_CLIPS[name], progress=False, mirror=mirror,
+                       parts=UPPER_BODY_PARTS if parts else None, **training,
+                       cache=RESULTS / f"prior_training_{prior_tag(name, mirror, parts)}"
+                                       f"{suffix}.npz")
 
 
 def t_interval(values) -> float:
@@ -229,10 +239,7 @@ def main(argv=None) -> int:
     started = time.perf_counter()
     # --quick: a small prior (2 views, 10 fps, 60 active points, one outer iteration)
     training = QUICK_TRAINING if args.quick else {}
-    prior_name = tag + ("_quick" if args.quick else "")
-    prior = train_prior(training_clips, progress=False, mirror=args.mirror,
-                        parts=UPPER_BODY_PARTS if args.parts else None, **training,
-                        cache=RESULTS / f"prior_training_{prior_name}.npz")
+    prior = candidate_prior(args.prior, args.mirror, args.parts, **training)
     sequences = [sequence for index, clip in enumerate(clips)
                  for sequence in render_test_sequences(clip, views=views, max_frames=max_frames,
                                                        seed=index)]

@@ -73,8 +73,9 @@ def _chunk_memory_bytes(device: jax.Device | None = None) -> int:
         limit = (device.memory_stats() or {}).get("bytes_limit")
     except Exception:  # memory_stats is optional for a backend; keep the CPU rule there
         limit = None
-    return max(CHUNK_MEMORY_BYTES, int(limit) // ACCELERATOR_MEMORY_FRACTION) if limit else (
-        CHUNK_MEMORY_BYTES)
+    if not limit:
+        return CHUNK_MEMORY_BYTES
+    return max(CHUNK_MEMORY_BYTES, int(limit) // ACCELERATOR_MEMORY_FRACTION)
 
 
 def auto_chunk_size(

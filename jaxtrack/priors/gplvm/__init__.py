@@ -22,7 +22,12 @@ from jaxtrack.priors.gplvm._kernel import (
     rbf,
 )
 from jaxtrack.priors.gplvm._model import GPLVM, INVERSE_OBJECTIVES, InverseResult
-from jaxtrack.priors.gplvm._parts import UPPER_BODY_PARTS, PartsGPLVM, part_features
+from jaxtrack.priors.gplvm._parts import (
+    UPPER_BODY_PARTS,
+    PartsGPLVM,
+    feature_columns,
+    part_features,
+)
 from jaxtrack.priors.gplvm._plot import plot_latent_space
 
 __all__ = [
@@ -31,6 +36,7 @@ __all__ = [
     "OPTIMISERS",
     "UPPER_BODY_PARTS",
     "PartsGPLVM",
+    "feature_columns",
     "part_features",
     "GPLVMFit",
     "GPLVMFormatError",

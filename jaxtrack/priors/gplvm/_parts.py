@@ -24,7 +24,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from jaxtrack.priors.gplvm._model import GPLVM, InverseResult
 
-__all__ = ["UPPER_BODY_PARTS", "PartsGPLVM"]
+__all__ = ["UPPER_BODY_PARTS", "PartsGPLVM", "feature_columns", "part_features"]
 
 UPPER_BODY_PARTS: dict[str, tuple[int, ...]] = {
     "torso": (0, 1, 2, 6, 10),  # neck–head, neck–thorax, thorax–pelvis, the two hips
@@ -34,8 +34,9 @@ UPPER_BODY_PARTS: dict[str, tuple[int, ...]] = {
 """The default parts: indices into :data:`jaxtrack.body.SPM_LINKS` (each link is two features)."""
 
 
-def _feature_indices(links: tuple[int, ...]) -> tuple[int, ...]:
-    return tuple(index for link in links for index in (2 * link, 2 * link + 1))
+def feature_columns(links: tuple[int, ...]) -> np.ndarray:
+    """The columns of link-vector features (two per link, x then y) that hold ``links``."""
+    return np.asarray([index for link in links for index in (2 * link, 2 * link + 1)])
 
 
 class PartsGPLVM(eqx.Module):
@@ -86,7 +87,7 @@ class PartsGPLVM(eqx.Module):
         return [slice(int(a), int(b)) for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
 
     def _feature_indices(self) -> list[np.ndarray]:
-        return [np.asarray(_feature_indices(group)) for group in self.links]
+        return [feature_columns(group) for group in self.links]
 
     # --- what the trackers read ---------------------------------------------------------
     @property
@@ -151,4 +152,4 @@ class PartsGPLVM(eqx.Module):
 
 def part_features(features: Float[ArrayLike, "n dims"], links: tuple[int, ...]) -> np.ndarray:
     """The columns of link-vector features (``(n, 2 × links)``) that belong to ``links``."""
-    return np.asarray(features)[:, np.asarray(_feature_indices(links))]
+    return np.asarray(features)[:, feature_columns(links)]
