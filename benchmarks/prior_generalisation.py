@@ -125,6 +125,8 @@ def main(argv=None) -> int:
                         help="train each prior without, with, or both (both)")
     parser.add_argument("--parts", choices=("no", "yes", "both"), default="both",
                         help="one GPLVM of the whole upper body, one per part, or both (both)")
+    parser.add_argument("--clips", nargs="+", default=None,
+                        help="score only these of the split's clips (default all)")
     parser.add_argument("--views", type=int, default=3, help="viewpoints per held-out clip (3)")
     parser.add_argument("--stride", type=int, default=3,
                         help="score every stride-th held-out pose (3)")
@@ -133,6 +135,12 @@ def main(argv=None) -> int:
     if args.views < 1 or args.stride < 1:
         parser.error("--views and --stride must be at least 1")
     clips = held_out_clips(args.split)
+    if args.clips:
+        unknown = sorted(set(args.clips) - set(clips))
+        if unknown:
+            parser.error(f"--clips {' '.join(unknown)}: not a gesture clip of the "
+                         f"{args.split} split")
+        clips = tuple(args.clips)
     choices = {"no": (False,), "yes": (True,), "both": (False, True)}
     mirrors, parted = choices[args.mirror], choices[args.parts]
     print(f"{args.split} subjects' clips: {len(clips)} x {args.views} views; "

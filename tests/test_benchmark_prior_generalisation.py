@@ -1,6 +1,7 @@
 """The prior-generalisation benchmark's reconstructions: nearest pose, per part, given lengths."""
 
 import numpy as np
+import pytest
 
 from benchmarks.prior_generalisation import (
     held_out_clips,
@@ -41,3 +42,21 @@ def test_held_out_clips_are_the_splits_gesture_clips():
     clips = held_out_clips("validation")
     assert clips and {split_of(clip) for clip in clips} == {"validation"}
     assert all(clip.split("/")[0] in ("animateddrawings", "bandai") for clip in clips)
+
+
+def test_a_clip_outside_the_split_is_refused_in_one_line(capsys):
+    from benchmarks.prior_generalisation import main
+
+    with pytest.raises(SystemExit):
+        main(["--split", "validation", "--clips", "animateddrawings/fair1_wave_hello"])
+    assert "not a gesture clip of the validation split" in capsys.readouterr().err
+
+
+def test_the_diagnosis_variants_each_change_one_setting():
+    from benchmarks.latent_diagnosis import variants
+
+    rows = variants()
+    assert rows[0] == ("default", {}, 1.0, 1.0)
+    for name, options, sharpness, step in rows[1:]:
+        changed = bool(options) + (sharpness != 1.0) + (step != 1.0)
+        assert changed == 1, name
