@@ -44,10 +44,16 @@ bench-mediapipe-env:
 	$(PYTHON) -m venv .venv-mediapipe && .venv-mediapipe/bin/pip install -q -r benchmarks/requirements-mediapipe.txt
 
 # the particle-count benchmark's peer libraries, each in its own venv (particles needs numpy<2,
-# cuthbert its own jax): benchmarks/_peers.py runs them when these exist
+# cuthbert its own jax, pydpf torch): benchmarks/_peers.py runs them when these exist. pydpf 1.2
+# declares Python >= 3.12 and torchvision/torchaudio, but imports neither and runs on 3.11: it is
+# installed without its declared dependencies, beside the torch 2.13.0 CPU wheel and what it imports
+
 bench-peers-env:
 	$(PYTHON) -m venv .venv-peers-particles && .venv-peers-particles/bin/pip install -q particles==0.4 "numpy<2"
 	$(PYTHON) -m venv .venv-peers-cuthbert && .venv-peers-cuthbert/bin/pip install -q cuthbert==0.1.1
+	$(PYTHON) -m venv .venv-peers-pydpf && .venv-peers-pydpf/bin/pip install -q torch==2.13.0 && \
+	  .venv-peers-pydpf/bin/pip install -q --no-deps --ignore-requires-python pydpf==1.2.3 && \
+	  .venv-peers-pydpf/bin/pip install -q joblib numpy pandas polars
 
 bench-gplvm: $(STAMP)
 	$(BIN)/python -m benchmarks.gplvm

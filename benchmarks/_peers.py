@@ -1,7 +1,8 @@
 """Run peer particle-filter libraries on the benchmark's model and data, each in its own venv.
 
-``particles`` (N. Chopin, NumPy) and ``cuthbert`` (JAX) never enter the jaxtrack venv; create
-theirs once with ``make bench-peers-env`` (``.venv-peers-particles``, ``.venv-peers-cuthbert``).
+``particles`` (N. Chopin, NumPy), ``cuthbert`` (JAX) and ``pydpf`` (Brady et al., PyTorch) never
+enter the jaxtrack venv; create theirs once with ``make bench-peers-env``
+(``.venv-peers-particles``, ``.venv-peers-cuthbert``, ``.venv-peers-pydpf``).
 The model's arrays and the observations go to a temporary .npz, ``_peer_<library>.py`` runs
 under the peer venv's python and writes JSON back. ``JAXTRACK_PEER_<LIBRARY>_PYTHON`` may name
 another python that has the library.
@@ -18,7 +19,10 @@ import numpy as np
 from benchmarks._common import run_in_venv
 
 ROOT = Path(__file__).resolve().parent.parent
-PEERS = ("particles", "cuthbert")
+PEERS = ("particles", "cuthbert", "pydpf")
+BATCHED = ("pydpf",)
+"""Peers that filter a batch of sequences in one call (as their own benchmarks do): they get the
+batch handed to :func:`run_peers` whole, the others a few sequences one at a time."""
 
 
 def peer_python(library: str) -> Path:
@@ -57,11 +61,17 @@ def run_peer(library: str, model, observations, particle_counts, *, seed: int = 
                        timeout=timeout)
 
 
-def run_peers(model, observations, particle_counts, *, seed: int = 0) -> dict:
-    """{library: :func:`run_peer`'s result} for every peer; prints a note for each skipped."""
+def run_peers(model, observations, particle_counts, *, sequences: int, batched_sequences=None,
+              seed: int = 0) -> dict:
+    """{library: :func:`run_peer`'s result} for every peer; prints a note for each skipped.
+
+    The one-sequence-at-a-time peers run the first ``sequences`` of ``observations``; the
+    :data:`BATCHED` ones the first ``batched_sequences`` (all of them when None) in one call."""
     results = {}
     for library in PEERS:
-        results[library] = run_peer(library, model, observations, particle_counts, seed=seed)
+        count = (batched_sequences or len(observations)) if library in BATCHED else sequences
+        results[library] = run_peer(library, model, observations[:count], particle_counts,
+                                    seed=seed)
         if "skipped" in results[library]:
             print(f"note: {library} skipped: {results[library]['skipped']}")
     return results

@@ -10,7 +10,12 @@ limb strips and edges} × tracker seeds × rendered views of every gesture clip 
 subjects (:mod:`jaxtrack.data.splits`). Every method learns from the same training clips: the
 latent tracker's GPLVM from their poses, the baselines' dynamics from the same poses
 (``baseline_dynamics="training"``; ``--baseline-dynamics test_start`` runs Tian et al.'s first
-30 frames of the test clip instead). Every run starts from frame 0's ground truth.
+30 frames of the test clip instead). Every run starts from frame 0's ground truth (the paper's
+protocol), or with ``--init auto`` from the automatic initialisation a user without ground
+truth runs (``jaxtrack track --init face``'s search: the prior's pose that best explains frame
+0's foreground against the empty scene behind the figure, :func:`auto_initial_markers`), the same
+pose for every method, seed and estimate of a sequence; a sequence where it finds no one is
+reported and left out.
 
 Writes to ``benchmarks/results/tracking/<split>/``: ``runs.jsonl`` (one JSON object per run),
 ``summary.json`` (per configuration: mean error with a 95 % t-interval over the runs, fraction
@@ -121,17 +126,60 @@ def configurations(quick: bool, methods=METHODS, estimates=ESTIMATES,
             for m, e, k in itertools.product(methods, estimates, likelihoods)]
 
 
+def auto_initial_markers(prior, sequence) -> tuple[np.ndarray | None, dict]:
+    """``jaxtrack track --init face``'s search on the sequence's first frame, its foreground taken
+    against the empty scene the figure was rendered over (``sequence.background``: a static
+    camera's background plate; the video's median where there is none, as ``jaxtrack track``
+    takes, which keeps a person who hardly moves as background). Returns the initial markers
+    (None when it finds no one) and a record (the winning box's source, its overlap, the pose's
+    error in torso lengths, or why it failed)."""
+    from jaxtrack.evaluation import marker_errors, torso_lengths
+    from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
+    from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask, median_background
+
+    background = (median_background(sequence.images) if sequence.background is None
+                  else sequence.background)
+    foreground = foreground_mask(sequence.images[0], background)
+    try:
+        found = auto_initialise(prior.model, prior.template, sequence.images[0], foreground)
+    except (AutoInitError, FaceDetectorUnavailableError) as error:
+        return None, {"sequence": sequence.name, "failed": " ".join(str(error).split())}
+    markers = np.asarray(found.markers, np.float64)
+    error = marker_errors(markers[None], sequence.truth[:1])[0]
+    torso = torso_lengths(sequence.truth[:1], UPPER_BODY_12)[0]
+    return markers, {"sequence": sequence.name, "source": found.source,
+                     "overlap": float(found.score), "error_torso": float(error / torso)}
+
+
+SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges' angular "
+            "tolerance (degrees)", "foreground_weight": "limbs+edges' mu",
+            "jump_probability": "the latent tracker's jump probability epsilon",
+            "refine_steps": "the refinement's Gauss-Newton steps"}
+"""Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
+
+
 def run_one(prior, sequence, config: dict, seed: int, particles: int,
-            baseline_dynamics: str) -> dict:
-    """Track one sequence with one configuration and seed; the evaluation's scalars."""
-    likelihood = Likelihood(config["likelihood"])
+            baseline_dynamics: str, initial: np.ndarray | None = None,
+            settings: dict | None = None) -> dict:
+    """Track one sequence with one configuration and seed from ``initial`` (frame 0's truth
+    when None), with ``settings`` (of :data:`SETTINGS`) overriding the defaults; the
+    evaluation's scalars."""
+    settings = settings or {}
+    edges = {name: value for name, value in settings.items()
+             if name not in ("jump_probability", "refine_steps")}
+    likelihood = Likelihood(config["likelihood"],
+                            **(edges if config["likelihood"] == "limbs+edges" else {}))
+    latent_options = ({"jump_probability": settings["jump_probability"]}
+                      if "jump_probability" in settings and config["method"] == "latent" else None)
     # "own": the filter's estimate (weighted mean / best mode); "refined": the same Gauss–Newton
     # refinement stage for every method
-    refinement = Refinement() if config["estimate"] == "refined" else None
+    steps = {"steps": int(settings["refine_steps"])} if "refine_steps" in settings else {}
+    refinement = Refinement(**steps) if config["estimate"] == "refined" else None
     tracker = build_tracker(config["method"], prior, sequence, particles, likelihood,
-                            refinement=refinement, baseline_dynamics=baseline_dynamics)
-    result = track(tracker, jr.PRNGKey(seed), sequence.frames, sequence.truth[0],
-                   progress=False)
+                            refinement=refinement, baseline_dynamics=baseline_dynamics,
+                            latent_options=latent_options)
+    initial = sequence.truth[0] if initial is None else initial
+    result = track(tracker, jr.PRNGKey(seed), sequence.frames, initial, progress=False)
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                              seconds_per_frame=result.seconds_per_frame,
                              compile_seconds=result.compile_seconds)
@@ -190,6 +238,18 @@ def plot(rows: list[dict], path: Path, title: str) -> Path:
     return save_figure(figure, path, dpi=120)
 
 
+def _setting(text: str) -> tuple[str, float]:
+    name, _, value = text.partition("=")
+    try:
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if name not in SETTINGS or not math.isfinite(number):
+        raise argparse.ArgumentTypeError(f"--set takes NAME=VALUE with NAME one of "
+                                         f"{', '.join(SETTINGS)} and a number, got {text!r}")
+    return name, number
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.tracking",
                                      description=__doc__.split("\n\n")[0])
@@ -213,6 +273,12 @@ def main(argv=None) -> int:
     parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
     parser.add_argument("--likelihoods", nargs="+", choices=LIKELIHOODS,
                         default=list(LIKELIHOODS))
+    parser.add_argument("--init", choices=("truth", "auto"), default="truth",
+                        help="start from frame 0's ground truth (the paper's protocol) or from "
+                             "the automatic initialisation (jaxtrack track --init face)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        type=_setting, help="override a default to compare it on validation "
+                        "subjects: " + ", ".join(SETTINGS) + " (repeatable)")
     parser.add_argument("--quick", action="store_true",
                         help="a small prior; one clip, one view, one seed, 20 frames; latent and "
                              "CONDENSATION with the default likelihood (a smoke run for CI)")
@@ -224,6 +290,8 @@ def main(argv=None) -> int:
             parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
     if args.max_frames is not None and args.max_frames < 2:
         parser.error(f"--max-frames must be at least 2, got {args.max_frames}")
+    if args.init == "auto" and args.parts:
+        parser.error("--init auto searches one GPLVM's poses; it does not take --parts")
     clips = GESTURE_CLIPS[args.split]
     seeds, views, max_frames = args.seeds, args.views, args.max_frames
     if args.quick:
@@ -232,7 +300,11 @@ def main(argv=None) -> int:
     check_disjoint(training_clips, clips)
     assert all(split_of(clip) == args.split for clip in clips)
     tag = prior_tag(args.prior, args.mirror, args.parts)
+    settings = dict(args.set)
     out = args.out or RESULTS / (args.split + ("" if tag == "waves" else "-" + tag)
+                                 + ("-auto" if args.init == "auto" else "")
+                                 + "".join(f"-{name}={value:g}"
+                                           for name, value in sorted(settings.items()))
                                  + ("-quick" if args.quick else ""))
     out.mkdir(parents=True, exist_ok=True)
 
@@ -245,6 +317,18 @@ def main(argv=None) -> int:
                                                        seed=index)]
     configs = configurations(args.quick, tuple(args.methods), tuple(args.estimates),
                              tuple(args.likelihoods))
+    initial, inits = {}, []
+    if args.init == "auto":
+        for sequence in sequences:
+            initial[sequence.name], record = auto_initial_markers(prior, sequence)
+            inits.append(record)
+            print(f"auto init {sequence.name}: " + (
+                record.get("failed") or f"{record['source']}, overlap {record['overlap']:.2f}, "
+                                        f"{record['error_torso']:.0%} of the torso off"))
+        sequences = [sequence for sequence in sequences if initial[sequence.name] is not None]
+        if not sequences:
+            print("the automatic initialisation found no one in any sequence; nothing to track")
+            return 1
     jobs = [(sequence, config, seed) for config in configs for sequence in sequences
             for seed in range(seeds)]
     print(f"{len(configs)} configurations × {len(sequences)} sequences × {seeds} seeds = "
@@ -254,18 +338,28 @@ def main(argv=None) -> int:
     with open(out / "runs.jsonl", "w") as handle:
         for sequence, config, seed in tqdm(jobs, desc="tracking", unit="run"):
             run = run_one(prior, sequence, config, seed, DEFAULT_PARTICLES[config["method"]],
-                          args.baseline_dynamics)
+                          args.baseline_dynamics, initial.get(sequence.name), settings)
             runs.append(run)
             handle.write(json.dumps(run) + "\n")
             handle.flush()
     rows = summarise(runs)
     table = markdown_table(rows)
     print(table)
+    init_note = "initialised from frame 0's truth"
+    if args.init == "auto":
+        found = [record for record in inits if "failed" not in record]
+        init_note = (f"initialised automatically (jaxtrack track --init face's search, "
+                     f"foreground against the empty scene) in "
+                     f"{len(found)} of {len(inits)} sequences, the initial pose "
+                     f"{statistics.mean(r['error_torso'] for r in found):.0%} of the torso off "
+                     f"on average; the others are left out")
     note = (f"{args.split} subjects: {', '.join(clips)}; {len(sequences)} sequences × {seeds} "
             f"seeds; prior trained on {', '.join(training_clips)}"
             f"{' and their mirror images' if args.mirror else ''}"
-            f"{', one GPLVM per body part' if args.parts else ''}; baselines' dynamics from "
-            f"{args.baseline_dynamics}; initialised from frame 0's truth. error: mean over runs, "
+            f"{', one GPLVM per body part' if args.parts else ''}"
+            + "".join(f"; {SETTINGS[name]} {value:g}" for name, value in settings.items())
+            + "; baselines' dynamics from "
+            f"{args.baseline_dynamics}; {init_note}. error: mean over runs, "
             "± the 95 % t-interval; lost: error above 25 % of the torso for 10 frames in a row; "
             "ms/frame: median over runs; compile s: apart.")
     (out / "table.md").write_text(table + "\n\n" + note + "\n")
@@ -276,7 +370,9 @@ def main(argv=None) -> int:
         "parts": args.parts,
         "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
-        "baseline_dynamics": args.baseline_dynamics, "device": device_description(),
+        "baseline_dynamics": args.baseline_dynamics, "init": args.init, "auto_init": inits,
+        "settings": settings,
+        "device": device_description(),
         "date": time.strftime("%Y-%m-%d"), "seconds": time.perf_counter() - started,
         "peak_rss_mb": peak_rss_mb(), "rows": rows})
     print(f"wrote {out}/ (runs.jsonl, summary.json, table.md, errors.png) in "

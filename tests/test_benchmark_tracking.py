@@ -51,3 +51,30 @@ def test_bad_arguments_are_refused_in_one_line(capsys):
     with pytest.raises(SystemExit):
         tracking.main(["--seeds", "0"])
     assert "--seeds must be at least 1" in capsys.readouterr().err
+
+
+def test_a_setting_is_parsed_and_a_bad_one_refused_in_one_line(capsys):
+    assert tracking._setting("edge_weight=0.5") == ("edge_weight", 0.5)
+    for bad in ("edge_weight", "edge_weight=x", "sharpness=2", "edge_weight=nan"):
+        with pytest.raises(SystemExit):
+            tracking.main(["--set", bad])
+        assert "--set takes NAME=VALUE" in capsys.readouterr().err
+
+
+def test_a_setting_reaches_the_tracker_it_belongs_to(monkeypatch):
+    built = []
+
+    def fake_build(method, prior, sequence, particles, likelihood, **options):
+        built.append((method, likelihood, options["latent_options"]))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(tracking, "build_tracker", fake_build)
+    settings = {"edge_weight": 2.0, "jump_probability": 0.1}
+    for method, kind in (("latent", "limbs+edges"), ("condensation", "markers")):
+        with pytest.raises(RuntimeError, match="stop"):
+            tracking.run_one(None, None, {"method": method, "estimate": "own",
+                                          "likelihood": kind}, 0, 10, "training",
+                             settings=settings)
+    (_, latent_likelihood, latent_options), (_, markers, baseline_options) = built
+    assert latent_likelihood.edge_weight == 2.0 and latent_options == {"jump_probability": 0.1}
+    assert markers.edge_weight is None and baseline_options is None

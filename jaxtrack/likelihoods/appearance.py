@@ -62,15 +62,21 @@ def make_appearance_templates(
     image: Float[ArrayLike, "height width"] | Float[ArrayLike, "3 height width"],
     markers_2d: Float[ArrayLike, "markers 2"],
     background: Float[ArrayLike, "height width"] | None = None,
+    **edge_options: float,
 ) -> AppearanceTemplates:
     """The templates of ``likelihood`` cut from a reference frame (for ``"limbs+edges"`` the
     grey frame or its ``(3, height, width)`` observation) at its ``(markers, 2)`` pixel markers
     in ``SPM_MARKERS`` order, with the static camera's grey ``background`` for
     ``"limbs+edges"``'s foreground term (None: none; the other likelihoods take none), cast to
-    the templates' dtype."""
+    the templates' dtype. ``edge_options`` (``edge_weight``, ``edge_tolerance``,
+    ``foreground_weight``) go to ``make_edge_limb_templates``; other likelihoods take none."""
     _check(likelihood)
     if likelihood == "limbs+edges":
-        return make_edge_limb_templates(image, markers_2d, background=background)
+        return make_edge_limb_templates(image, markers_2d, background=background,
+                                        **edge_options)
+    if edge_options:
+        raise ValueError(f"{sorted(edge_options)} are settings of the 'limbs+edges' likelihood "
+                         f"only, not of {likelihood!r}")
     if background is not None:
         raise ValueError(f"a background is used by the 'limbs+edges' likelihood only, not by "
                          f"{likelihood!r}")

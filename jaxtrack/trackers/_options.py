@@ -72,11 +72,17 @@ class Likelihood(eqx.Module):
         sharpness: λ; None for the kind's default.
         nearest: particles read pixels at the nearest sample point (fast) instead of
             bilinearly (refinements and mode scores always read bilinearly).
+        edge_weight, edge_tolerance, foreground_weight: ``"limbs+edges"``'s κ, angular
+            tolerance (degrees) and μ (``jaxtrack.likelihoods.edges``); None for the library's
+            defaults, whose docstrings say where they were chosen.
     """
 
     kind: str = eqx.field(static=True, default=DEFAULT_LIKELIHOOD)
     sharpness: float | None = eqx.field(static=True, default=None)
     nearest: bool = eqx.field(static=True, default=True)
+    edge_weight: float | None = eqx.field(static=True, default=None)
+    edge_tolerance: float | None = eqx.field(static=True, default=None)
+    foreground_weight: float | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         if self.kind not in LIKELIHOODS:
@@ -85,6 +91,22 @@ class Likelihood(eqx.Module):
             _number(self.sharpness, "sharpness", 0, closed_low=False)
         if not isinstance(self.nearest, bool):
             raise ValueError(f"nearest must be True or False, got {self.nearest!r}")
+        for name, high in (("edge_weight", math.inf), ("edge_tolerance", 90.0),
+                           ("foreground_weight", math.inf)):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if self.kind != "limbs+edges":
+                raise ValueError(f"{name} is a setting of the 'limbs+edges' likelihood, not of "
+                                 f"{self.kind!r}")
+            _number(value, name, 0, high, closed_low=name != "edge_tolerance")
+
+    @property
+    def edge_options(self) -> dict:
+        """The edge settings given (not None), as ``make_edge_limb_templates`` keywords."""
+        names = ("edge_weight", "edge_tolerance", "foreground_weight")
+        return {name: float(getattr(self, name)) for name in names
+                if getattr(self, name) is not None}
 
     @property
     def lam(self) -> float:

@@ -42,7 +42,7 @@ def frame0_templates(likelihood: Likelihood, first_frame: Float[ArrayLike, "..."
         raise ValueError("first_frame holds non-finite values")
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     return make_appearance_templates(likelihood.kind, cast(first_frame), cast(markers),
-                                     background)
+                                     background, **likelihood.edge_options)
 
 
 def frame0_state(markers: np.ndarray, template: SPMTemplate, dtype) -> Float[Array, " 25"]:

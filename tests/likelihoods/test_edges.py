@@ -158,6 +158,20 @@ def test_chosen_by_name_and_misuse_is_reported():
         needs_edges("edges")
 
 
+def test_a_trackers_likelihood_settings_reach_the_templates():
+    from jaxtrack.trackers import Likelihood
+    from jaxtrack.trackers._particles import frame0_templates
+
+    observations, markers, defaults = wave()
+    likelihood = Likelihood(edge_weight=3.0, edge_tolerance=30.0, foreground_weight=0.5)
+    templates = frame0_templates(likelihood, observations[0], markers[0], None, jnp.float32)
+    assert float(templates.edge_weight) == 3.0 and float(templates.edge_tolerance) == 30.0
+    assert float(templates.foreground_weight) == 0.5
+    assert float(defaults.edge_weight) != 3.0
+    with pytest.raises(ValueError, match="settings of the 'limbs\\+edges' likelihood only"):
+        make_appearance_templates("limbs", observations[0, 0], markers[0], edge_weight=1.0)
+
+
 def test_border_widths_are_fitted_to_the_limbs_outlines_at_initialisation():
     """The rendered forearms are narrower than the strips: their borders are fitted inwards on
     frame 0, the spine (whose borders lie on no outline) keeps the strips' half width, and the

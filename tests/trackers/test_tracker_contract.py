@@ -140,6 +140,12 @@ def test_options_are_validated_once_where_they_are_built():
         Likelihood("patches")
     with pytest.raises(ValueError, match="sharpness"):
         Likelihood(sharpness=-1.0)
+    for name, value in (("edge_weight", -1.0), ("edge_tolerance", 0.0),
+                        ("edge_tolerance", 120.0), ("foreground_weight", float("nan"))):
+        with pytest.raises(ValueError, match=name):
+            Likelihood(**{name: value})
+    with pytest.raises(ValueError, match="edge_weight is a setting of the 'limbs\\+edges'"):
+        Likelihood("markers", edge_weight=2.0)
     for grid in (4, -1, 2.5):
         with pytest.raises(ValueError, match="arm_grid"):
             ArmSearch(grid=grid)
@@ -249,7 +255,8 @@ def test_evaluate_runs_the_baselines_with_the_latent_trackers_refinement(prior, 
         "steps": 3, "prior_std": 40.0,
         "arm_search": {"grid": 3, "span": 0.6, "margin": 2.0, "momentum": 1.0}}
     assert plain["tracker"]["likelihood"] == {"kind": "limbs+edges", "sharpness": None,
-                                              "nearest": True}
+                                              "nearest": True, "edge_weight": None,
+                                              "edge_tolerance": None, "foreground_weight": None}
     assert plain["overall"]["mean_error_px"] != refined["overall"]["mean_error_px"]
 
 
