@@ -112,6 +112,7 @@ def straightforward_filter(model: smc.LinearGaussian, num_particles: int):
     chol_p_t = jnp.asarray(np.linalg.cholesky(np.asarray(model.initial_covariance,
                                                          np.float64)).T, jnp.float32)
     mean0, dim, n = jnp.asarray(model.initial_mean), model.state_dim, num_particles
+    dtype = transition_t.dtype  # the model's (float32 here, whatever JAX's default float)
 
     def log_likelihood(x, y):
         residual = (y[None] - x @ observation_t) @ r_inv_t
@@ -123,7 +124,7 @@ def straightforward_filter(model: smc.LinearGaussian, num_particles: int):
 
     def filter_one(key, observations):
         key_init, key_frames = jr.split(key)
-        x = mean0 + jr.normal(key_init, (n, dim)) @ chol_p_t
+        x = mean0 + jr.normal(key_init, (n, dim), dtype) @ chol_p_t
         log_weights = log_likelihood(x, observations[0])
 
         def frame(carry, inputs):
@@ -132,9 +133,10 @@ def straightforward_filter(model: smc.LinearGaussian, num_particles: int):
             key_offset, key_noise = jr.split(key)
             log_evidence = log_evidence + log_mean_weight(log_weights)
             cumulative = jnp.cumsum(jnp.exp(log_weights - jnp.max(log_weights)))
-            positions = (jnp.arange(n) + jr.uniform(key_offset)) / n * cumulative[-1]
+            positions = (jnp.arange(n, dtype=dtype) + jr.uniform(key_offset, (), dtype)
+                         ) / n * cumulative[-1]
             ancestors = jnp.minimum(jnp.searchsorted(cumulative, positions, side="right"), n - 1)
-            noise = jr.normal(key_noise, (n, dim))
+            noise = jr.normal(key_noise, (n, dim), dtype)
             if noise_t is not None:
                 noise = noise @ noise_t
             x = x[ancestors] @ transition_t + noise
@@ -142,7 +144,7 @@ def straightforward_filter(model: smc.LinearGaussian, num_particles: int):
 
         frames = observations.shape[0]
         (x, log_weights, log_evidence), _ = lax.scan(
-            frame, (x, log_weights, jnp.zeros((), jnp.float32)),
+            frame, (x, log_weights, jnp.zeros((), dtype)),
             (jr.split(key_frames, frames - 1), observations[1:]))
         return log_evidence + log_mean_weight(log_weights)
 

@@ -35,13 +35,17 @@ def test_summarise_groups_runs_by_configuration():
 
 
 def test_quick_comparison_writes_every_output(tmp_path, monkeypatch):
+    # automatically initialised, as a user without ground truth would run it
     monkeypatch.setattr(tracking, "RESULTS", tmp_path / "results")
     out = tmp_path / "quick"
-    assert tracking.main(["--quick", "--out", str(out)]) == 0
+    assert tracking.main(["--quick", "--init", "auto", "--out", str(out)]) == 0
     runs = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
     assert len(runs) == 4 and {run["estimate"] for run in runs} == {"own", "refined"}
     summary = json.loads((out / "summary.json").read_text())
     assert summary["split"] == "test" and summary["baseline_dynamics"] == "training"
+    (found,) = summary["auto_init"]
+    assert found["overlap"] > 0.35 and np.isfinite(found["error_torso"])
+    assert "initialised automatically" in (out / "table.md").read_text()
     assert all(np.isfinite(row["error_torso"]) for row in summary["rows"])
     assert (out / "errors.png").stat().st_size > 1000
     assert "error/torso" in (out / "table.md").read_text()

@@ -287,6 +287,6 @@ def render_motion(
         joints_3d=joints[:, [_figure.FIGURE_MARKERS.index(name) for name in markers]],
         visibility=visibility, marker_names=tuple(markers),
         camera=camera, fps=motion.fps, source=motion.source, seed=int(seed),
-        settings=settings, background=background_image,
+        settings=settings,
     )
 

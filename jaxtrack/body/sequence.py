@@ -51,9 +51,6 @@ class RenderedSequence:
         source: the motion clip the frames come from.
         seed: the render's random seed.
         settings: JSON-able render settings (background, noise, blur, lighting, occluders, ...).
-        background: `(height, width, 3)` uint8 RGB, the scene without the figure (what a static
-            camera's empty shot would show; no noise, lighting or occluders), or None (a
-            sequence read from a file, which does not keep it).
     """
 
     images: np.ndarray
@@ -67,7 +64,6 @@ class RenderedSequence:
     source: str
     seed: int
     settings: dict = field(default_factory=dict)
-    background: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:

@@ -47,15 +47,13 @@ default: nothing is learned from the clip that is scored), or the first
 
 @dataclass(frozen=True)
 class TestSequence:
-    """A rendered held-out clip: colour frames, grey frames and the 12 true markers, and the
-    empty scene behind the figure (``background``, RGB; None where unknown)."""
+    """A rendered held-out clip: colour frames, grey frames and the 12 true markers."""
 
     name: str
     images: np.ndarray
     frames: np.ndarray
     truth: np.ndarray
     fps: float
-    background: np.ndarray | None = None
 
 
 def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[str] = ("photo",),
@@ -90,8 +88,7 @@ def render_test_sequences(clip: str, *, views: int = 2, backgrounds: Sequence[st
             sequences.append(TestSequence(
                 name=f"{source.short_name}_view{view}_{background}",
                 images=rendered.images, frames=to_grey(rendered.images),
-                truth=np.asarray(rendered.markers_2d, np.float64), fps=fps,
-                background=rendered.background))
+                truth=np.asarray(rendered.markers_2d, np.float64), fps=fps))
     return sequences
 
 
