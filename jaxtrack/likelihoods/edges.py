@@ -81,7 +81,8 @@ __all__ = ["DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
-Chosen against 0.5 and 2 on held-out takes (see docs/likelihoods.md, "Edges")."""
+Chosen against 0.5 and 2 on held-out takes (see docs/likelihoods.md, "Edges"), and kept against
+them on the validation subjects (docs/trackers.md, "Why the defaults are what they are")."""
 
 DEFAULT_EDGE_SCALE = 0.025
 """σ as a fraction of the spine (neck–pelvis) length: ~3 px for a 130-px spine."""
@@ -89,7 +90,8 @@ DEFAULT_EDGE_SCALE = 0.025
 DEFAULT_EDGE_TOLERANCE = 45.0
 """Largest angle in degrees between a strip's axis and the nearest edge's tangent for a border
 point to count as on the limb's outline (90: any edge); ±45° lost the fewest runs against ±30°
-and 90° (see docs/likelihoods.md, "Edges")."""
+and 90° (see docs/likelihoods.md, "Edges"); kept against both on the validation subjects
+(docs/trackers.md, "Why the defaults are what they are")."""
 
 DEFAULT_BORDER_SCALES = (0.5, 0.6, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.4, 1.5)
 """Scales of the strips' half width tried for each strip's scored borders at initialisation
@@ -101,7 +103,8 @@ fitted half width than at the strips' own for the fitted one to be taken."""
 
 DEFAULT_FOREGROUND_WEIGHT = 2.0
 """μ: nats per arm strip whose centre line lies wholly on the background (the foreground term,
-module docstring)."""
+module docstring); chosen on the Bandai validation splits (docs/likelihoods.md, "Edges") and
+kept against 1 and 4 on the validation subjects (docs/trackers.md)."""
 
 DEFAULT_FOREGROUND_THRESHOLD = 20 / 255
 """How far (grey levels in [0, 1]) a pixel must differ from the background to be foreground."""
