@@ -151,7 +151,10 @@ def auto_initial_markers(prior, sequence) -> tuple[np.ndarray | None, dict]:
 SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges' angular "
             "tolerance (degrees)", "foreground_weight": "limbs+edges' mu",
             "jump_probability": "the latent tracker's jump probability epsilon",
-            "refine_steps": "the refinement's Gauss-Newton steps"}
+            "refine_steps": "the refinement's Gauss-Newton steps",
+            "velocity_weight": "MHT's velocity weight", "prior_scale": "MHT's prior scale",
+            "prune_below": "MHT's pruning threshold"}
+_LATENT, _MHT = ("jump_probability",), ("velocity_weight", "prior_scale", "prune_below")
 """Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
 
 
@@ -163,18 +166,20 @@ def run_one(prior, sequence, config: dict, seed: int, particles: int,
     evaluation's scalars."""
     settings = settings or {}
     edges = {name: value for name, value in settings.items()
-             if name not in ("jump_probability", "refine_steps")}
+             if name not in (*_LATENT, *_MHT, "refine_steps")}
     likelihood = Likelihood(config["likelihood"],
                             **(edges if config["likelihood"] == "limbs+edges" else {}))
-    latent_options = ({"jump_probability": settings["jump_probability"]}
-                      if "jump_probability" in settings and config["method"] == "latent" else None)
+    latent_options = {name: settings[name] for name in _LATENT if name in settings
+                      and config["method"] == "latent"} or None
+    mht_options = {name: settings[name] for name in _MHT if name in settings
+                   and config["method"] == "mht"} or None
     # "own": the filter's estimate (weighted mean / best mode); "refined": the same Gauss–Newton
     # refinement stage for every method
     steps = {"steps": int(settings["refine_steps"])} if "refine_steps" in settings else {}
     refinement = Refinement(**steps) if config["estimate"] == "refined" else None
     tracker = build_tracker(config["method"], prior, sequence, particles, likelihood,
                             refinement=refinement, baseline_dynamics=baseline_dynamics,
-                            latent_options=latent_options)
+                            latent_options=latent_options, mht_options=mht_options)
     initial = sequence.truth[0] if initial is None else initial
     result = track(tracker, jr.PRNGKey(seed), sequence.frames, initial, progress=False)
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,

@@ -69,16 +69,19 @@ def test_a_setting_reaches_the_tracker_it_belongs_to(monkeypatch):
     built = []
 
     def fake_build(method, prior, sequence, particles, likelihood, **options):
-        built.append((method, likelihood, options["latent_options"]))
+        built.append((method, likelihood, options["latent_options"], options["mht_options"]))
         raise RuntimeError("stop")
 
     monkeypatch.setattr(tracking, "build_tracker", fake_build)
-    settings = {"edge_weight": 2.0, "jump_probability": 0.1}
-    for method, kind in (("latent", "limbs+edges"), ("condensation", "markers")):
+    settings = {"edge_weight": 2.0, "jump_probability": 0.1, "prior_scale": 2.0}
+    for method, kind in (("latent", "limbs+edges"), ("condensation", "markers"),
+                         ("mht", "limbs+edges")):
         with pytest.raises(RuntimeError, match="stop"):
             tracking.run_one(None, None, {"method": method, "estimate": "own",
                                           "likelihood": kind}, 0, 10, "training",
                              settings=settings)
-    (_, latent_likelihood, latent_options), (_, markers, baseline_options) = built
-    assert latent_likelihood.edge_weight == 2.0 and latent_options == {"jump_probability": 0.1}
-    assert markers.edge_weight is None and baseline_options is None
+    latent, condensation, mht = built
+    assert latent[1].edge_weight == 2.0 and latent[2] == {"jump_probability": 0.1}
+    assert latent[3] is None
+    assert condensation[1].edge_weight is None and condensation[2:] == (None, None)
+    assert mht[1].edge_weight == 2.0 and mht[2] is None and mht[3] == {"prior_scale": 2.0}

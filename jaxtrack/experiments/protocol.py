@@ -113,7 +113,8 @@ def baseline_training_states(prior: TrainedPrior, sequence: TestSequence,
 def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, particles: int,
                   likelihood: Likelihood = Likelihood(),
                   refinement: Refinement | None | str = "default", background: bool = True,
-                  baseline_dynamics: str = "training", latent_options: dict | None = None):
+                  baseline_dynamics: str = "training", latent_options: dict | None = None,
+                  mht_options: dict | None = None):
     """The tracker ``method`` for a test sequence (start it at frame 0's ground truth).
 
     Every method is scored by the same ``likelihood``; ``refinement`` is the full-state
@@ -124,7 +125,8 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
     background too (the foreground term, ``jaxtrack.likelihoods.edges``). CONDENSATION's AR(2)
     and MHT's step are learned as ``baseline_dynamics`` says (:data:`BASELINE_DYNAMICS`).
     ``latent_options``: further keyword arguments of :func:`~jaxtrack.trackers.latent_tracker`
-    (e.g. ``{"subject_lengths": True}``)."""
+    (e.g. ``{"subject_lengths": True}``); ``mht_options`` those of
+    :func:`~jaxtrack.trackers.mht_tracker` (e.g. ``{"prior_scale": 2.0}``)."""
     from jaxtrack import trackers
     from jaxtrack.vision import median_grey_background
 
@@ -147,7 +149,7 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
                                              background=scene, sequence_ids=ids)
     return trackers.mht_tracker(prior.template, states, num_modes=particles,
                                 likelihood=likelihood, refinement=refinement,
-                                background=scene, sequence_ids=ids)
+                                background=scene, sequence_ids=ids, **(mht_options or {}))
 
 
 def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
