@@ -32,8 +32,10 @@ vary smoothly with the markers, and nearest-pixel ones are piecewise constant.
 σ (``step_std``) is the per-frame state step, by default the RMS frame-to-frame difference of the
 same 30 ground-truth frames the CONDENSATION baseline learns from. The estimate is the best mode;
 ``FrameEstimate.ess`` is the number of modes kept after merging and pruning. A frame where no
-mode has a finite likelihood (a numerical failure: the NCC cost is bounded) is reported as
-degenerate and the pool is re-seeded at frame 0's state.
+mode has a finite likelihood (a numerical failure: the NCC cost is bounded) or stays on the
+frame (a finite state whose markers all lie within half a frame of its border; a
+constant-velocity prediction can run away) is reported as degenerate, with frame 0's pose as its
+estimate, and the pool is re-seeded at frame 0's state.
 
 Given a :class:`~jaxtrack.trackers.Refinement`, the reported best mode is refined in the full
 state by the same stage as the other trackers' estimates (arm search, then the parts solver).
@@ -198,9 +200,14 @@ class MHTModel(eqx.Module):
             & (results != optx.RESULTS.nonlinear_max_steps_reached))
         refined = jnp.where(failed[:, None], candidates, refined)
 
-        # 3. weight, merge and prune
-        log_likelihoods = self._log_likelihoods(refined, frame)
+        # 3. weight, merge and prune; a mode that ran away (a state or marker not finite, or
+        # a marker more than half the frame beyond its border) cannot be scored: pixel reads
+        # there return clamped, finite values, so it is ruled out here, not by its likelihood
         markers = self._markers(refined)
+        size = jnp.asarray(frame.shape[-1:-3:-1], dtype)  # (width, height)
+        on_frame = jnp.all((markers >= -0.5 * size) & (markers <= 1.5 * size), axis=(-2, -1))
+        finite = jnp.all(jnp.isfinite(refined), axis=-1) & on_frame
+        log_likelihoods = jnp.where(finite, self._log_likelihoods(refined, frame), -jnp.inf)
         kept = _surviving(markers, log_likelihoods, self.merge_radius, self.prune_below)
         best = jnp.argmax(log_likelihoods)
         total = jax.nn.logsumexp(jnp.where(kept, log_likelihoods, -jnp.inf))
@@ -213,8 +220,11 @@ class MHTModel(eqx.Module):
                                (state.time + 1, num_failed))
         new_state = jax.tree.map(lambda new, seed: jnp.where(degenerate, seed, new), new_state,
                                  reseeded)
+        # a degenerate frame reports the pose the pool starts again from, never NaN
+        reported = jnp.where(degenerate, spm_forward(self.initial_state, self.template),
+                             markers[best])
         estimate = FrameEstimate(
-            markers=markers[best], best_markers=markers[best],
+            markers=reported, best_markers=reported,
             ess=jnp.sum(kept).astype(dtype), log_likelihood=log_likelihoods[best],
             degenerate=degenerate,
         )

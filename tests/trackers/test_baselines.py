@@ -413,3 +413,20 @@ def test_fit_ar2_over_several_trajectories_never_fits_across_two():
     assert np.all(np.asarray(fit_ar2(states).noise_std) > 2 * np.asarray(joint.noise_std))
     with pytest.raises(ValueError, match="one id per row"):
         fit_ar2(states, sequence_ids=ids[:-1])
+
+
+def test_mht_never_reports_a_runaway_mode(wave):
+    # a pool whose modes ran away (NaN, or far beyond the frame: pixel reads there are clamped
+    # and finite, so the likelihood alone would keep them) is a degenerate frame: it reports
+    # frame 0's pose and starts again from it, never NaN or a pose off the image
+    frames = edge_observations(wave["frames"][:2])
+    tracker = mht_tracker(wave["template"], wave["states"], num_modes=6, max_steps=6)
+    state = tracker.start(jr.key(0), frames[0], wave["truth"][0])
+    update = eqx.filter_jit(tracker.update)
+    far = state.pool.modes + 1e6  # every state component: the figure far off the frame
+    for modes in (jnp.full_like(state.pool.modes, jnp.nan), far):
+        pool = eqx.tree_at(lambda p: (p.modes, p.previous), state.pool, (modes, modes))
+        _, estimate = update(jr.key(1), eqx.tree_at(lambda s: s.pool, state, pool),
+                             jnp.asarray(frames[1]))
+        assert bool(estimate.degenerate)
+        np.testing.assert_allclose(estimate.markers, wave["truth"][0], atol=1e-2)
