@@ -40,11 +40,11 @@ from pathlib import Path
 import jax.random as jr
 import numpy as np
 
-from benchmarks._common import device_description, peak_rss_mb
+from benchmarks._common import auto_initial_pose, device_description, peak_rss_mb
 from jaxtrack._files import write_json_atomically
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.data.splits import split_of
-from jaxtrack.evaluation import evaluate_track, marker_errors, torso_lengths
+from jaxtrack.evaluation import evaluate_track, torso_lengths
 from jaxtrack.evaluation.reference import default_folder, load_reference
 from jaxtrack.experiments import DEFAULT_PARTICLES
 
@@ -115,25 +115,6 @@ def make_tracker(method: str, estimate: str, prior, view: View):
     return trackers.mht_tracker(prior.template, states, num_modes=particles,
                                 refinement=refinement, background=view.background,
                                 sequence_ids=ids)
-
-
-def auto_initial_pose(prior, view: View) -> tuple[np.ndarray | None, dict]:
-    """``jaxtrack track --init face`` on the first tracked frame: markers (or None) and a
-    record (source, overlap, the pose's error against the reference)."""
-    from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
-    from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask
-
-    started = time.perf_counter()
-    foreground = foreground_mask(view.images[0], view.background_rgb)
-    try:
-        found = auto_initialise(prior.model, prior.template, view.images[0], foreground)
-    except (AutoInitError, FaceDetectorUnavailableError) as error:
-        return None, {"failed": " ".join(str(error).split())}
-    error = marker_errors(found.markers[None], view.truth[:1])[0]
-    torso = torso_lengths(view.truth[:1], UPPER_BODY_12)[0]
-    return np.asarray(found.markers), {
-        "source": found.source, "overlap": float(found.score), "error_torso": float(error / torso),
-        "seconds": time.perf_counter() - started}
 
 
 def score(markers: np.ndarray, view: View, **timing) -> dict:
@@ -286,7 +267,8 @@ def main(argv=None) -> int:
                          "view": camera,
                          **score(np.repeat(view.truth[:1], len(view.truth), 0), view)})
         if "auto" in args.inits:
-            pose, record = auto_initial_pose(prior, view)
+            pose, record = auto_initial_pose(prior, view.images[0], view.background_rgb,
+                                             view.truth[0])
             inits[camera] = record
             print(f"  auto init: {record}")
             if pose is None:

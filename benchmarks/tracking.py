@@ -39,7 +39,7 @@ import jax.random as jr
 import numpy as np
 from tqdm import tqdm
 
-from benchmarks._common import device_description, peak_rss_mb
+from benchmarks._common import auto_initial_pose, device_description, peak_rss_mb
 from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
@@ -129,23 +129,13 @@ def configurations(quick: bool, methods=METHODS, estimates=ESTIMATES,
 
 def auto_initial_markers(prior, sequence) -> tuple[np.ndarray | None, dict]:
     """``jaxtrack track --init face`` on the sequence's first frame, its foreground taken against
-    the sequence's median background as ``jaxtrack track`` takes it. Returns the initial markers
-    (None when it finds no one) and a record (the winning box's source, its overlap, the pose's
-    error in torso lengths, or why it failed)."""
-    from jaxtrack.evaluation import marker_errors, torso_lengths
-    from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
-    from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask, median_background
+    the sequence's median background as ``jaxtrack track`` takes it
+    (:func:`benchmarks._common.auto_initial_pose`; its record names the sequence)."""
+    from jaxtrack.vision import median_background
 
-    foreground = foreground_mask(sequence.images[0], median_background(sequence.images))
-    try:
-        found = auto_initialise(prior.model, prior.template, sequence.images[0], foreground)
-    except (AutoInitError, FaceDetectorUnavailableError) as error:
-        return None, {"sequence": sequence.name, "failed": " ".join(str(error).split())}
-    markers = np.asarray(found.markers, np.float64)
-    error = marker_errors(markers[None], sequence.truth[:1])[0]
-    torso = torso_lengths(sequence.truth[:1], UPPER_BODY_12)[0]
-    return markers, {"sequence": sequence.name, "source": found.source,
-                     "overlap": float(found.score), "error_torso": float(error / torso)}
+    markers, record = auto_initial_pose(prior, sequence.images[0],
+                                        median_background(sequence.images), sequence.truth[0])
+    return markers, {"sequence": sequence.name, **record}
 
 
 SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges' angular "
@@ -154,8 +144,9 @@ SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges'
             "refine_steps": "the refinement's Gauss-Newton steps",
             "velocity_weight": "MHT's velocity weight", "prior_scale": "MHT's prior scale",
             "prune_below": "MHT's pruning threshold"}
-_LATENT, _MHT = ("jump_probability",), ("velocity_weight", "prior_scale", "prune_below")
 """Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
+_EDGES = ("edge_weight", "edge_tolerance", "foreground_weight")
+_LATENT, _MHT = ("jump_probability",), ("velocity_weight", "prior_scale", "prune_below")
 
 
 def run_one(prior, sequence, config: dict, seed: int, particles: int,
@@ -165,8 +156,7 @@ def run_one(prior, sequence, config: dict, seed: int, particles: int,
     when None), with ``settings`` (of :data:`SETTINGS`) overriding the defaults; the
     evaluation's scalars."""
     settings = settings or {}
-    edges = {name: value for name, value in settings.items()
-             if name not in (*_LATENT, *_MHT, "refine_steps")}
+    edges = {name: settings[name] for name in _EDGES if name in settings}
     likelihood = Likelihood(config["likelihood"],
                             **(edges if config["likelihood"] == "limbs+edges" else {}))
     latent_options = {name: settings[name] for name in _LATENT if name in settings

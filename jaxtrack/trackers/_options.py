@@ -63,6 +63,10 @@ def _number(value, name: str, low: float, high: float = math.inf, *, closed_low:
         raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
 
 
+_EDGE_BOUNDS = {"edge_weight": math.inf, "edge_tolerance": 90.0, "foreground_weight": math.inf}
+"""The ``"limbs+edges"`` settings a :class:`Likelihood` may give, and their upper bounds."""
+
+
 class Likelihood(eqx.Module):
     """How a tracker scores a frame.
 
@@ -92,8 +96,7 @@ class Likelihood(eqx.Module):
             _number(self.sharpness, "sharpness", 0, closed_low=False)
         if not isinstance(self.nearest, bool):
             raise ValueError(f"nearest must be True or False, got {self.nearest!r}")
-        for name, high in (("edge_weight", math.inf), ("edge_tolerance", 90.0),
-                           ("foreground_weight", math.inf)):
+        for name, high in _EDGE_BOUNDS.items():
             value = getattr(self, name)
             if value is None:
                 continue
@@ -105,8 +108,7 @@ class Likelihood(eqx.Module):
     @property
     def edge_options(self) -> dict:
         """The edge settings given (not None), as ``make_edge_limb_templates`` keywords."""
-        names = ("edge_weight", "edge_tolerance", "foreground_weight")
-        return {name: float(getattr(self, name)) for name in names
+        return {name: float(getattr(self, name)) for name in _EDGE_BOUNDS
                 if getattr(self, name) is not None}
 
     @property

@@ -206,8 +206,8 @@ class MHTModel(eqx.Module):
         markers = self._markers(refined)
         size = jnp.asarray(frame.shape[-1:-3:-1], dtype)  # (width, height)
         on_frame = jnp.all((markers >= -0.5 * size) & (markers <= 1.5 * size), axis=(-2, -1))
-        finite = jnp.all(jnp.isfinite(refined), axis=-1) & on_frame
-        log_likelihoods = jnp.where(finite, self._log_likelihoods(refined, frame), -jnp.inf)
+        scorable = jnp.all(jnp.isfinite(refined), axis=-1) & on_frame
+        log_likelihoods = jnp.where(scorable, self._log_likelihoods(refined, frame), -jnp.inf)
         kept = _surviving(markers, log_likelihoods, self.merge_radius, self.prune_below)
         best = jnp.argmax(log_likelihoods)
         total = jax.nn.logsumexp(jnp.where(kept, log_likelihoods, -jnp.inf))
