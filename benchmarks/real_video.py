@@ -1,13 +1,15 @@
 """The trackers on the four real Pose2Sim videos, scored against the triangulated reference.
 
     python -m benchmarks.real_video                  # 4 views × 3 methods × 2 estimates × 2 inits
-    python -m benchmarks.real_video --frames 40      # the first 40 tracked frames of each view
+    python -m benchmarks.real_video --frames 40      # the first 40 video frames of each view
     python -m benchmarks.real_video --quick          # one view, 10 frames, the latent tracker
 
 Each video (``shared/data/pose2sim_demo_singleperson/videos/cam0N.mp4``, 1080 × 1920 at 60 fps,
 a man balancing on a beam) is downscaled as ``jaxtrack track`` does (longer side at most
 ``--max-size``, default 960) and tracked from video frame 1 (the first frame the reference
-covers: ``.trc`` row k is video frame k + 1) by
+covers: ``.trc`` row k is video frame k + 1), every second frame by default (``--stride``: the
+60 fps videos at the 30 fps of the training poses, the rate at which CONDENSATION's AR(2) and
+MHT's step are learned, so that no method's dynamics run at the wrong rate), by
 
 - the latent tracker (200 particles), CONDENSATION (1 000 particles, AR(2) dynamics) and MHT
   (10 modes), all from the same prior: the GPLVM and the training poses of the wave gestures of
@@ -63,7 +65,7 @@ class View:
     """One camera's tracked frames (downscaled), their background and reference."""
 
     def __init__(self, folder: Path, camera: str, frames: int | None, max_size: int, *,
-                 filtered: bool = False):
+                 filtered: bool = False, stride: int = 1):
         from jaxtrack.vision import (
             median_background,
             median_grey_background,
@@ -76,7 +78,7 @@ class View:
         height, width = probe.frames.shape[1:3]
         scale = min(1.0, max_size / max(height, width))
         video = read_video(path, scale=scale)  # every frame: the median background needs them
-        self.name, self.fps = camera, float(video.fps)
+        self.name, self.fps = camera, float(video.fps) / stride  # the rate tracked
         self.scale = video.frames.shape[2] / width  # the decoder rounds the size
         self.size = (width, height)
         reference = load_reference(folder, filtered=filtered,
@@ -85,7 +87,10 @@ class View:
         stop = len(covered) if frames is None else min(len(covered), frames)
         if stop < 2:
             raise SystemExit(f"{camera}: tracking needs at least 2 frames, got {stop}")
-        indices = covered[:stop]
+        indices = covered[:stop:stride]
+        if len(indices) < 2:
+            raise SystemExit(f"{camera}: tracking needs at least 2 frames, got {len(indices)} "
+                             f"(--frames {stop}, --stride {stride})")
         self.frame_indices = indices
         self.truth = reference.select(indices).scaled(self.scale).markers
         self.images = video.frames[indices]
@@ -202,14 +207,18 @@ def main(argv=None) -> int:
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--views", nargs="+", choices=VIEWS, default=list(VIEWS))
     parser.add_argument("--frames", type=int, default=None,
-                        help="track this many frames of each view from video frame 1 (default: "
-                             "all the reference covers, 99)")
+                        help="track within this many video frames of each view from video "
+                             "frame 1, every --stride-th (default: all the reference covers, 99)")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
     parser.add_argument("--inits", nargs="+", choices=INITS, default=list(INITS))
     parser.add_argument("--seeds", type=int, default=1, help="tracker seeds per configuration")
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
+    parser.add_argument("--stride", type=int, default=2,
+                        help="track every STRIDE-th video frame (default 2: the 60 fps videos at "
+                             "the training poses' 30 fps, the rate CONDENSATION's AR(2) and "
+                             "MHT's step are learned at)")
     parser.add_argument("--filtered", action="store_true",
                         help="score against Pose2Sim's Butterworth-filtered triangulation")
     parser.add_argument("--no-mediapipe", action="store_true",
@@ -227,6 +236,8 @@ def main(argv=None) -> int:
         parser.error(f"--frames must be at least 2, got {args.frames}")
     if args.seeds < 1:
         parser.error(f"--seeds must be at least 1, got {args.seeds}")
+    if args.stride < 1:
+        parser.error(f"--stride must be at least 1, got {args.stride}")
     if args.max_size < 32:
         parser.error(f"--max-size must be at least 32, got {args.max_size}")
     views, frames = tuple(args.views), args.frames
@@ -255,7 +266,8 @@ def main(argv=None) -> int:
 
     runs, inits = [], {}
     for camera in views:
-        view = View(folder, camera, frames, args.max_size, filtered=args.filtered)
+        view = View(folder, camera, frames, args.max_size, filtered=args.filtered,
+                    stride=args.stride)
         height, width = view.frames.shape[1:]
         print(f"{camera}: video frames {view.frame_indices[0]}..{view.frame_indices[-1]} at "
               f"{width}x{height}, reference torso "
@@ -299,7 +311,8 @@ def main(argv=None) -> int:
         "command": "python -m benchmarks.real_video " + " ".join(argv or []),
         "device": device_description(), "date": time.strftime("%Y-%m-%d"),
         "seconds": seconds, "peak_rss_mb": peak_rss_mb(),
-        "data": str(folder), "views": list(views), "frames": frames, "max_size": args.max_size,
+        "data": str(folder), "views": list(views), "frames": frames, "stride": args.stride,
+        "max_size": args.max_size,
         "methods": list(methods), "estimates": list(estimates), "inits": list(args.inits),
         "seeds": args.seeds, "training_clips": list(TRAINING_CLIPS),
         "prior": "quick" if args.quick else "full",

@@ -3,6 +3,7 @@
     python -m benchmarks.tracking                     # test subjects, the full grid (~1 h, 2 cores)
     python -m benchmarks.tracking --split validation  # the same grid on validation subjects
     python -m benchmarks.tracking --quick             # one short sequence, two methods (CI)
+    python -m benchmarks.tracking --no-real-video     # the rendered grid only
 
 The grid is methods {latent (200 particles), CONDENSATION (1 000), MHT (10 modes)} × estimate
 {the filter's own, + the shared refinement stage} × likelihood {eq. 7 marker patches, the default
@@ -16,6 +17,14 @@ truth runs (``jaxtrack track --init face``: the prior's pose that best explains 
 foreground against the sequence's median background, :func:`auto_initial_markers`), the same
 pose for every method, seed and estimate of a sequence; a sequence where it finds no one is
 reported and left out.
+
+On the test split the same methods and estimates then track the four real Pose2Sim videos of a
+test subject (:mod:`benchmarks.real_video`: the default likelihood, initialised from the
+reference's first frame and automatically, MediaPipe beside them where its venv exists), scored
+against the keypoints triangulated from the four cameras; their table follows the rendered one
+in ``table.md`` and their runs are in ``real_video.json`` (``--no-real-video`` leaves them out,
+as ``--quick``, ``--split validation`` and a prior other than the default do: real video has no
+validation subject, and :mod:`benchmarks.real_video` tracks with the default prior).
 
 Writes to ``benchmarks/results/tracking/<split>/``: ``runs.jsonl`` (one JSON object per run),
 ``summary.json`` (per configuration: mean error with a 95 % t-interval over the runs, fraction
@@ -230,6 +239,33 @@ def plot(rows: list[dict], path: Path, title: str) -> Path:
     return save_figure(figure, path, dpi=120)
 
 
+def wants_real_video(args, tag: str, settings: dict) -> bool:
+    """Whether this run also tracks the real videos: the full test grid with the default prior
+    and settings (real video has no validation subject; benchmarks.real_video tracks with the
+    default prior and settings)."""
+    return not (args.no_real_video or args.quick or args.split != "test" or tag != "waves"
+                or settings or args.baseline_dynamics != "training")
+
+
+def real_video_table(out: Path, methods: tuple[str, ...], estimates: tuple[str, ...]) -> str:
+    """Track the four real Pose2Sim videos with ``methods`` × ``estimates``, one tracker seed
+    (:func:`benchmarks.real_video.main`, both initialisations; about 13 minutes on 2 cores),
+    writing
+    ``out/real_video.json``; its table, headed, for ``table.md``."""
+    from benchmarks import real_video
+
+    path = out / "real_video.json"
+    code = real_video.main(["--methods", *methods, "--estimates", *estimates,
+                            "--out", str(path)])
+    if code != 0:
+        raise RuntimeError(f"benchmarks.real_video failed (exit status {code})")
+    result = json.loads(path.read_text())
+    return (f"Real video (a test subject): the four Pose2Sim views, {result['frames'] or 'all'} "
+            f"frames each, the default likelihood, one tracker seed; error against the keypoints "
+            f"triangulated from the four cameras (benchmarks.real_video):\n\n"
+            + result["table"])
+
+
 def _setting(text: str) -> tuple[str, float]:
     name, _, value = text.partition("=")
     try:
@@ -274,6 +310,8 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true",
                         help="a small prior; one clip, one view, one seed, 20 frames; latent and "
                              "CONDENSATION with the default likelihood (a smoke run for CI)")
+    parser.add_argument("--no-real-video", action="store_true",
+                        help="do not track the real Pose2Sim videos after the rendered grid")
     parser.add_argument("--out", type=Path, default=None,
                         help="output folder (default benchmarks/results/tracking/<split>)")
     args = parser.parse_args(argv)
@@ -372,6 +410,9 @@ def main(argv=None) -> int:
         "device": device_description(),
         "date": time.strftime("%Y-%m-%d"), "seconds": time.perf_counter() - started,
         "peak_rss_mb": peak_rss_mb(), "rows": rows})
+    if wants_real_video(args, tag, settings):  # the rendered grid's outputs are already written
+        real = real_video_table(out, tuple(args.methods), tuple(args.estimates))
+        (out / "table.md").write_text(table + "\n\n" + note + "\n\n" + real + "\n")
     print(f"wrote {out}/ (runs.jsonl, summary.json, table.md, errors.png) in "
           f"{time.perf_counter() - started:.0f} s")
     return 0

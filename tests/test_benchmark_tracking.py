@@ -1,6 +1,8 @@
 """The scripted comparison (``python -m benchmarks.tracking``): its statistics and a quick run."""
 
+import argparse
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -85,3 +87,44 @@ def test_a_setting_reaches_the_tracker_it_belongs_to(monkeypatch):
     assert latent[3] is None
     assert condensation[1].edge_weight is None and condensation[2:] == (None, None)
     assert mht[1].edge_weight == 2.0 and mht[2] is None and mht[3] == {"prior_scale": 2.0}
+
+
+def test_the_test_grid_tracks_the_real_videos_with_the_same_methods(tmp_path, monkeypatch):
+    from benchmarks import real_video
+
+    called = []
+
+    def fake_real_video(argv):
+        called.append(argv)
+        out = argv[argv.index("--out") + 1]
+        Path(out).write_text(json.dumps({"frames": None, "table": "| latent | own | x |"}))
+        return 0
+
+    monkeypatch.setattr(real_video, "main", fake_real_video)
+    text = tracking.real_video_table(tmp_path, ("latent", "mht"), ("refined",))
+    (argv,) = called
+    assert argv[argv.index("--methods") + 1:argv.index("--estimates")] == ["latent", "mht"]
+    assert argv[argv.index("--estimates") + 1] == "refined"
+    assert "Real video" in text and "| latent | own | x |" in text
+
+    def parsed(*extra):
+        namespace = argparse.Namespace(no_real_video=False, quick=False, split="test",
+                                       baseline_dynamics="training")
+        for name, value in extra:
+            setattr(namespace, name, value)
+        return namespace
+
+    assert tracking.wants_real_video(parsed(), "waves", {})
+    assert not tracking.wants_real_video(parsed(("quick", True)), "waves", {})
+    assert not tracking.wants_real_video(parsed(("split", "validation")), "waves", {})
+    assert not tracking.wants_real_video(parsed(("no_real_video", True)), "waves", {})
+    assert not tracking.wants_real_video(parsed(), "gestures", {})
+    assert not tracking.wants_real_video(parsed(), "waves", {"edge_weight": 2.0})
+
+
+def test_a_failed_real_video_run_is_not_reported_as_a_table(tmp_path, monkeypatch):
+    from benchmarks import real_video
+
+    monkeypatch.setattr(real_video, "main", lambda argv: 2)
+    with pytest.raises(RuntimeError, match="benchmarks.real_video failed"):
+        tracking.real_video_table(tmp_path, ("latent",), ("own",))
