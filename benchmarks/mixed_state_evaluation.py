@@ -1,25 +1,32 @@
-"""Kwatra et al.'s mixed-state tracker on real posture changes: a setting chosen on validation
+"""Kwatra et al.'s mixed-state tracker on real posture changes: settings chosen on validation
 clips, then the paper's Table 1 metrics on the test clips.
 
-The posture model is trained on ``experiments.mixed_state.TRAINING_CLIPS`` (cached beside
-``--out``). The re-detection probability (``MixedStateModel.redetect_probability``, the chance
-per particle and frame that its parts are re-drawn about its posture's hypotheses) is chosen
-among ``--redetect`` by the smoothed estimate's mean squared error over all parts on the
-validation clips (``experiments.mixed_state.VALIDATION_CLIPS``: subject 77's half-crouch and
-subject 02's walk, validation subjects of ``jaxtrack.data.splits``), together with whether a
-particle that changes posture keeps its parts or has them re-drawn about the new posture's
-hypotheses (``MixedStateModel.redraw_on_switch``, ``--switch``); the test clips are then
-scored with the chosen pair, for
-the instantaneous (extended Ghost), filtered, smoothed and fixed-lag estimates.
+1. The posture model is trained on ``experiments.mixed_state.TRAINING_CLIPS`` with each
+   covariance ridge of ``--regularisation`` (cached beside ``--out``), and the ridge is chosen
+   by the instantaneous (extended Ghost) posture error on the validation clips
+   (``experiments.mixed_state.VALIDATION_CLIPS``: subject 77's half-crouch and subject 02's
+   walk, validation subjects of ``jaxtrack.data.splits``, and held-out clips of the training
+   subjects who sit and lie down: 75_17 and DeepMimic's roll).
+2. With that model, the part likelihood's cutoff δ (``PartDistances.cutoff``, ``--cutoff``:
+   how far, in squared standard deviations, a hypothesis still pulls a part), the
+   re-detection probability (``MixedStateModel.redetect_probability``, the chance per
+   particle and frame that its parts are re-drawn about its posture's hypotheses,
+   ``--redetect``) and whether a particle that changes posture keeps its parts or
+   has them re-drawn about the new posture's hypotheses (``MixedStateModel.redraw_on_switch``,
+   ``--switch``) are chosen together by the smoothed estimate's mean squared error over all
+   parts on the validation clips.
+3. The test clips are scored once with the chosen settings, for the instantaneous (extended
+   Ghost), filtered, smoothed and fixed-lag estimates.
 
     python -m benchmarks.mixed_state_evaluation [--frames 150] [--particles 500]
 
-Prints both tables and writes ``benchmarks/results/mixed_state_evaluation.json``.
+Prints the tables and writes ``benchmarks/results/mixed_state_evaluation.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 from pathlib import Path
 
@@ -42,11 +49,51 @@ _COLUMNS = [("estimate", "estimate", "s"), ("mse_head", "MSE head", ".1f"),
             ("max_head", "max head px", ".1f")]
 
 
+def trained_models(folder: Path, ridges) -> dict:
+    """The posture model trained on the training clips with each covariance ridge, cached in
+    ``folder`` (the clips rendered once for all of them)."""
+    from jaxtrack.experiments import mixed_state as ms
+    from jaxtrack.priors.postures import load_posture_model, save_posture_model
+
+    paths = {ridge: folder / f"mixed_state_posture_model_ridge{ridge:g}.npz" for ridge in ridges}
+    models = {ridge: load_posture_model(path).model for ridge, path in paths.items()
+              if path.is_file()}
+    missing = [ridge for ridge in ridges if ridge not in models]
+    if missing:
+        features, labels = ms.training_features()
+        for ridge in missing:
+            models[ridge], description = ms.fit(
+                features, labels, regularisation=ridge, clips=list(ms.TRAINING_CLIPS),
+                azimuths=[float(a) for a in ms.VIEW_AZIMUTHS], backgrounds=["photo"],
+                image_size=[640, 480], num_bins=16)
+            save_posture_model(paths[ridge], models[ridge], description=description)
+    return {ridge: models[ridge] for ridge in ridges}
+
+
+def instantaneous_posture_error(model, sequences) -> float:
+    """The extended Ghost posture's error rate over the frames with a silhouette."""
+    import numpy as np
+
+    from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
+
+    wrong = total = 0
+    for sequence in sequences:
+        features, status = silhouette_features(sequence.masks, model.num_features // 2)
+        ok = status == FRAME_OK
+        wrong += int(np.sum(np.asarray(model.classify(features[ok])) != sequence.labels[ok]))
+        total += int(ok.sum())
+    return wrong / total
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=150, help="frames per clip (30 fps)")
     parser.add_argument("--particles", type=int, default=500)
-    parser.add_argument("--redetect", type=float, nargs="+", default=[0.0, 0.02, 0.05, 0.2])
+    parser.add_argument("--regularisation", type=float, nargs="+", default=[0.01, 0.05, 0.2],
+                        help="the posture model's covariance ridges to choose among")
+    parser.add_argument("--redetect", type=float, nargs="+", default=[0.0, 0.02])
+    parser.add_argument("--cutoff", type=float, nargs="+", default=[9.0, 25.0, 100.0],
+                        help="the part likelihood's cutoffs delta to choose among")
     parser.add_argument("--switch", nargs="+", choices=("keep", "redraw"),
                         default=["keep", "redraw"],
                         help="what a particle that changes posture does with its parts")
@@ -56,60 +103,74 @@ def main(argv=None) -> int:
                         "experiments.mixed_state.VIEW_AZIMUTHS; 90 -90: the paper's side views)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_evaluation.json"))
     args = parser.parse_args(argv)
-    from jaxtrack.experiments import mixed_state as ms
-    from jaxtrack.priors.postures import load_posture_model, save_posture_model
-
-    cache = Path(args.out).with_name("mixed_state_posture_model.npz")
-    begin = time.perf_counter()
-    if cache.is_file():
-        posture_model = load_posture_model(cache).model
-    else:
-        posture_model, description = ms.train(max_frames=None)
-        save_posture_model(cache, posture_model, description=description)
-    train_seconds = time.perf_counter() - begin
     import numpy as np
 
+    from jaxtrack.experiments import mixed_state as ms
+
+    begin = time.perf_counter()
+    models = trained_models(Path(args.out).parent, args.regularisation)
+    train_seconds = time.perf_counter() - begin
     azimuths = ms.VIEW_AZIMUTHS if args.azimuths is None else tuple(
         float(np.radians(value)) for value in args.azimuths)
+    # the evaluation's own rendering of the validation clips, once for every setting
+    sequences = ms.render_sequences(ms.VALIDATION_CLIPS, azimuths, ("clutter",), (640, 480),
+                                    args.frames, args.seed)
+    posture_errors = {ridge: instantaneous_posture_error(model, sequences)
+                      for ridge, model in models.items()}
+    for ridge, error in posture_errors.items():
+        print(f"validation, regularisation {ridge:g}: instantaneous posture error "
+              f"{100 * error:.1f} %")
+    ridge = min(posture_errors, key=posture_errors.get)
+    posture_model = models[ridge]
     validation = {}
-    for switch in args.switch:
-        for value in args.redetect:
-            result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, azimuths=azimuths,
-                                 backgrounds=("clutter",),
-                                 num_particles=args.particles, max_frames=args.frames,
-                                 seed=args.seed, redetect_probability=value,
-                                 redraw_on_switch=switch == "redraw")
-            validation[(value, switch)] = result["overall"]
-            print(f"validation, redetect {value:g}, {switch} on a switch: smoothed MSE all "
-                  f"{result['overall']['smoothed']['mse']['all']:.1f}")
-    chosen, chosen_switch = min(validation,
-                                key=lambda pair: validation[pair]["smoothed"]["mse"]["all"])
+    for cutoff, switch, value in itertools.product(args.cutoff, args.switch, args.redetect):
+        result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, azimuths=azimuths,
+                             backgrounds=("clutter",),
+                             num_particles=args.particles, max_frames=args.frames,
+                             seed=args.seed, redetect_probability=value,
+                             redraw_on_switch=switch == "redraw", part_cutoff=cutoff,
+                             sequences=sequences)
+        validation[(cutoff, value, switch)] = result["overall"]
+        print(f"validation, cutoff {cutoff:g}, redetect {value:g}, {switch} on a switch: "
+              f"smoothed MSE all {result['overall']['smoothed']['mse']['all']:.1f}")
+    cutoff, chosen, chosen_switch = min(
+        validation, key=lambda key: validation[key]["smoothed"]["mse"]["all"])
     begin = time.perf_counter()
     test = ms.evaluate(posture_model, ms.TEST_CLIPS, azimuths=azimuths, backgrounds=("clutter",),
                        num_particles=args.particles, max_frames=args.frames, seed=args.seed,
                        redetect_probability=chosen,
-                       redraw_on_switch=chosen_switch == "redraw")
+                       redraw_on_switch=chosen_switch == "redraw", part_cutoff=cutoff)
     test_seconds = time.perf_counter() - begin
     print(f"device: {device_description()}")
-    print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; smoothed MSE all (px², 640 x 480) "
-          f"by redetect_probability:")
-    print_table([{"redetect": value, "switch": switch, "mse": scores["smoothed"]["mse"]["all"],
+    print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; posture model regularisation "
+          f"{ridge:g} (instantaneous posture error " + ", ".join(
+              f"{100 * error:.1f} % at {value:g}" for value, error in posture_errors.items())
+          + "); smoothed MSE all (px², 640 x 480) by part cutoff, re-detection and switch rule:")
+    print_table([{"cutoff": delta, "redetect": value, "switch": switch,
+                  "mse": scores["smoothed"]["mse"]["all"],
                   "posture_error": 100 * scores["smoothed"]["posture_error"]}
-                 for (value, switch), scores in validation.items()],
-                [("redetect", "redetect", "g"), ("switch", "on a switch", "s"),
+                 for (delta, value, switch), scores in validation.items()],
+                [("cutoff", "cutoff", "g"), ("redetect", "redetect", "g"),
+                 ("switch", "on a switch", "s"),
                  ("mse", "smoothed MSE all", ".1f"),
                  ("posture_error", "posture error %", ".1f")])
-    print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, redetect {chosen:g}, {chosen_switch} on a "
-          f"switch, "
+    print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, regularisation {ridge:g}, cutoff "
+          f"{cutoff:g}, redetect {chosen:g}, {chosen_switch} on a switch, "
           f"{args.particles} particles, {args.frames} frames per clip, {len(azimuths)} views, "
           f"clutter; "
           f"{test_seconds:.0f} s")
     print_table(_rows(test["overall"]), _COLUMNS)
     write_json(args.out, {"benchmark": "mixed_state_evaluation", "device": device_description(),
                           "arguments": vars(args), "train_seconds": train_seconds,
-                          "validation": [{"redetect_probability": value, "on_switch": switch,
-                                          **scores}
-                                         for (value, switch), scores in validation.items()],
+                          "validation_posture_error": [
+                              {"regularisation": value, "instantaneous_posture_error": error}
+                              for value, error in posture_errors.items()],
+                          "chosen_regularisation": ridge,
+                          "validation": [{"part_cutoff": delta, "redetect_probability": value,
+                                          "on_switch": switch, **scores}
+                                         for (delta, value, switch), scores
+                                         in validation.items()],
+                          "chosen_part_cutoff": cutoff,
                           "chosen_redetect_probability": chosen,
                           "chosen_on_switch": chosen_switch, "test": test,
                           "test_seconds": test_seconds})

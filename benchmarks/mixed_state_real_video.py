@@ -45,16 +45,13 @@ def truth_parts(keypoints: np.ndarray) -> np.ndarray:
     return keypoints[:, [TRC_KEYPOINTS.index(name) for name in TRUTH_KEYPOINTS]]
 
 
-def posture_model(cache: Path):
-    """The training clips' posture model, from ``cache`` when it is there."""
-    from jaxtrack.experiments import mixed_state as ms
-    from jaxtrack.priors.postures import load_posture_model, save_posture_model
+def posture_model(folder: Path):
+    """The training clips' posture model with the default covariance ridge, shared with
+    ``benchmarks.mixed_state_evaluation``'s cache in ``folder``."""
+    from benchmarks.mixed_state_evaluation import trained_models
+    from jaxtrack.experiments.mixed_state import DEFAULT_REGULARISATION
 
-    if cache.is_file():
-        return load_posture_model(cache).model
-    model, description = ms.train(max_frames=None)
-    save_posture_model(cache, model, description=description)
-    return model
+    return trained_models(folder, [DEFAULT_REGULARISATION])[DEFAULT_REGULARISATION]
 
 
 def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles: int,
@@ -191,7 +188,7 @@ def main(argv=None) -> int:
     if not (folder / "videos").is_dir():
         raise SystemExit(f"{folder / 'videos'}: the Pose2Sim demo's videos are not there")
     begin = time.perf_counter()
-    model = posture_model(Path(args.out).with_name("mixed_state_posture_model.npz"))
+    model = posture_model(Path(args.out).parent)
     from jaxtrack.trackers.mixed_state import MixedStateModel
 
     tracker_model = MixedStateModel(model)

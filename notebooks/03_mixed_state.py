@@ -68,10 +68,10 @@ from jaxtrack.vision.histograms import FRAME_OK
 
 SMOKE = os.environ.get("JAXTRACK_SMOKE") == "1"
 BENCHMARK = Path("benchmarks/results/mixed_state_evaluation.json")
-BENCHMARK_MODEL = BENCHMARK.with_name("mixed_state_posture_model.npz")
+BENCHMARK_MODEL = None
 BINS = 16
-if SMOKE:  # 30 frames of each training clip from both profiles (every posture seen at least twice)
-    TRAIN = dict(azimuths=(np.pi / 2, -np.pi / 2), image_size=(160, 120), max_frames=30)
+if SMOKE:  # 45 frames of each training clip from both profiles (every posture seen at least twice)
+    TRAIN = dict(azimuths=(np.pi / 2, -np.pi / 2), image_size=(160, 120), max_frames=45)
     TEST = dict(azimuths=(np.pi / 2,), image_size=(160, 120), max_frames=12,
                 num_particles=64, lag=4, seed=1)
     MODEL_OPTIONS, CACHE, saved_benchmark = {}, None, None
@@ -85,8 +85,12 @@ else:  # the benchmark's evaluation: the settings it recorded, else its defaults
                     max_frames=saved_benchmark["arguments"]["frames"],
                     num_particles=settings["num_particles"], lag=settings["lag"],
                     seed=settings["seed"])
-        # the re-detection probability it chose on the validation clips
+        # the re-detection probability and switch rule it chose on the validation clips, and
+        # the posture model of the covariance ridge it chose there
         MODEL_OPTIONS = settings["model"]
+        ridge = saved_benchmark.get("chosen_regularisation")
+        BENCHMARK_MODEL = None if ridge is None else BENCHMARK.with_name(
+            f"mixed_state_posture_model_ridge{ridge:g}.npz")
         print(f"settings of {BENCHMARK}:", TEST, MODEL_OPTIONS)
     else:  # --frames 150 --particles 500 --seed 1; the library's default re-detection
         TEST = dict(azimuths=ms.VIEW_AZIMUTHS, image_size=(640, 480), max_frames=150,
@@ -112,7 +116,8 @@ if not POSTURE_DATA:
 # %%
 posture_model = None
 if POSTURE_DATA:
-    if not SMOKE and BENCHMARK_MODEL.is_file():  # the model the benchmark's numbers come from
+    # the model the benchmark's numbers come from
+    if BENCHMARK_MODEL is not None and BENCHMARK_MODEL.is_file():
         saved = load_posture_model(BENCHMARK_MODEL)
         posture_model, description = saved.model, saved.description
     elif CACHE is not None and CACHE.is_file():

@@ -6,14 +6,32 @@ Every compiled XLA program maps a few pages of executable memory, and the proces
 most ``vm.max_map_count`` (65 530 by default) mappings: a suite that keeps every program it
 ever compiled reaches that limit and the compiler crashes (a segmentation fault inside
 ``backend_compile_and_load``). The compiled programs are therefore released after each module.
+
+Many modules compile the same programs (the same tracker on the same tiny shapes), so the
+session shares a persistent compilation cache in a temporary folder: the first module to
+compile a program writes it, later modules (in any xdist worker) load it instead of compiling
+again. The folder is made once by the process that imports this file first (pytest's main
+process, before it starts the workers, which inherit its path) and removed when that process
+exits. Setting ``JAXTRACK_TEST_XLA_CACHE`` to a folder keeps the cache there across runs.
 """
 
+import atexit
 import gc
+import os
+import shutil
+import tempfile
 
 import jax
 import pytest
 
 jax.config.update("jax_enable_x64", True)
+
+if "JAXTRACK_TEST_XLA_CACHE" not in os.environ:
+    os.environ["JAXTRACK_TEST_XLA_CACHE"] = tempfile.mkdtemp(prefix="jaxtrack-tests-xla-")
+    atexit.register(shutil.rmtree, os.environ["JAXTRACK_TEST_XLA_CACHE"], ignore_errors=True)
+jax.config.update("jax_compilation_cache_dir", os.environ["JAXTRACK_TEST_XLA_CACHE"])
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
 
 @pytest.fixture(autouse=True, scope="module")

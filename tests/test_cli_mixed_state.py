@@ -18,7 +18,7 @@ from jaxtrack.cli import main
 from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES, PostureModel
 
 SIZE = (160, 120)
-TRAIN = ("--max-frames", "30", "--size", "160x120", "--azimuths", "90", "-90")
+TRAIN = ("--max-frames", "45", "--size", "160x120", "--azimuths", "90", "-90")
 ESTIMATES = ("instantaneous", "filtered", "smoothed", "fixed_lag")
 
 
@@ -37,7 +37,8 @@ def _needs_posture_clips():
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory):
-    """A posture model from the default training clips, 30 frames each, two profile views."""
+    """A posture model from the default training clips, 45 frames each (75_19 sits from its
+    35th), two profile views."""
     pytest.importorskip("cv2")
     _needs_posture_clips()
     path = tmp_path_factory.mktemp("trained") / "postures.npz"
@@ -89,7 +90,7 @@ def test_train_reuses_a_model_of_the_same_settings(trained, capsys, tmp_path):
     saved = load_posture_model(trained)
     counts = saved.description["label_counts"]
     assert saved.model.num_features == 33 and all(counts[name] >= 2 for name in POSTURE_NAMES)
-    assert saved.description["frames"] == sum(counts.values()) <= 6 * 2 * 30
+    assert saved.description["frames"] == sum(counts.values()) <= 5 * 2 * 45
     copy = shutil.copy(trained, tmp_path / "copy.npz")
     before = (tmp_path / "copy.npz").stat().st_mtime_ns
     code, out, _ = run(capsys, "train", "--method", "mixed-state", "--out", copy, *TRAIN)
@@ -138,7 +139,7 @@ def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, ca
     shutil.copy(trained, folder / "posture_cache.npz")  # the same settings: reused
     code, out, error = run(capsys, "evaluate", "--method", "mixed-state", "--test",
                            "cmu_posture_bvh/75_20", "--max-frames", 12, "--train-max-frames",
-                           30, "--size", "160x120", "--azimuths", 90, -90, "--backgrounds",
+                           45, "--size", "160x120", "--azimuths", 90, -90, "--backgrounds",
                            "plain", "--particles", 32, "--lag", 3, "--json",
                            folder / "metrics.json", "--plots", tmp_path / "plots")
     assert code == 0, error
@@ -148,7 +149,7 @@ def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, ca
         "| estimate", "| instantaneous (extended Ghost)", "| filtered",
         "| smoothed (whole sequence)", "| fixed-lag (3 frames)"]
     record = json.loads((folder / "metrics.json").read_text())
-    assert record["train"][0] == "cmu_posture_bvh/75_17"
+    assert record["train"][0] == "cmu_posture_bvh/75_19"
     assert record["test"] == ["cmu_posture_bvh/75_20"] and record["lag"] == 3
     assert len(record["sequences"]) == 2
     for kind in ESTIMATES:

@@ -96,15 +96,15 @@ class MixedStateModel(eqx.Module):
             about its own posture's hypotheses (velocity zero): the way back for parts that
             drifted beyond the likelihood's cutoff δ, where nothing pulls them back. Default 0,
             chosen on the validation clips (``python -m benchmarks.mixed_state_evaluation``,
-            2026-11-26: smoothed MSE over all parts 5 469 px² at 0 against 7 906, 7 626 and
-            8 336 at 0.02, 0.05 and 0.2; the posture error fell from 32 % to 19–23 % but the
-            parts of re-drawn particles followed wrong postures' hypotheses).
+            2026-11-27: smoothed MSE over all parts 7 320 px² at 0 against 7 484 and 7 786 at
+            0.02 and 0.05; the posture error fell from 36 % to 30 % and 26 %, but the parts of
+            re-drawn particles followed wrong postures' hypotheses).
         redraw_on_switch: whether a particle whose posture changes has its parts re-drawn
             about the new posture's hypotheses (velocity zero) instead of keeping them. Default
             off, chosen on the validation clips with ``redetect_probability``
-            (``python -m benchmarks.mixed_state_evaluation``, 2026-11-26: smoothed MSE over all
-            parts 7 641, 7 800 and 7 997 px² with it at re-detection 0, 0.02 and 0.05,
-            against 5 469 without it at 0; the posture error fell from 32.5 % to 18–20 %).
+            (``python -m benchmarks.mixed_state_evaluation``, 2026-11-27: smoothed MSE over all
+            parts 8 226, 8 200 and 8 307 px² with it at re-detection 0, 0.02 and 0.05,
+            against 7 320 without it at 0; the posture error fell from 36 % to 22 %).
     """
 
     postures: PostureModel

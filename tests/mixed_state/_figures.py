@@ -13,6 +13,8 @@ FIGURES = {
     "sitting": ((50, 30), (50, 38), (50, 65), (28, 62), (72, 62), (35, 92), (65, 92)),
     "crawling_bending": ((20, 55), (28, 55), (75, 45), (28, 85), (42, 85), (82, 88), (95, 88)),
     "lying_left": ((15, 70), (23, 70), (70, 70), (45, 60), (45, 80), (105, 64), (105, 78)),
+    # a crouch seen from the front: taller than wide, so the bending rule reads it from the top
+    "crouching": ((50, 14), (50, 22), (50, 50), (30, 52), (70, 52), (38, 90), (62, 90)),
 }
 IMAGE_SIZE = (120, 100)  # width, height
 

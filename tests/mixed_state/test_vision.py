@@ -64,7 +64,7 @@ def _pair_errors(estimate, truth):
     ("standing", False, "standing", 5), ("standing", True, "standing", 5),
     ("sitting", False, "sitting", 5), ("crawling_bending", False, "crawling_bending", 22),
     ("crawling_bending", True, "crawling_bending", 22), ("lying_left", False, "lying_left", 5),
-    ("lying_left", True, "lying_right", 5)])
+    ("lying_left", True, "lying_right", 5), ("crouching", False, "crawling_bending", 5)])
 def test_each_postures_heuristics_find_the_drawn_extremes(name, mirror, posture, feet_tolerance):
     mask, truth = draw(name, mirror=mirror)
     estimate = posture_hypotheses(mask)[POSTURE_NAMES.index(posture)]
