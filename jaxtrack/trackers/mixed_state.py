@@ -19,7 +19,9 @@ feet, pixels). Per frame t, with the posture likelihoods p(h_t | q) of
    so the filter and the smoother estimate that posterior and not a heuristic of it (the
    paper's weighting omits it; with it the smoother's posture matches brute-force enumeration,
    tests/mixed_state/test_smoothing.py).
-4. Parts, constant velocity plus white noise: v' = v + σ_v ε, x' = x + v' + σ_x ε'.
+4. Parts, constant velocity plus white noise: v' = v + σ_v ε, x' = x + v' + σ_x ε'; a
+   particle whose posture changed has its parts re-drawn about the new posture's hypotheses
+   instead (``MixedStateModel.redraw_on_switch``, chosen on validation clips).
 5. Any predicted part outside the silhouette is moved to the nearest silhouette pixel: one
    gather from the frame's nearest-point map
    (:func:`jaxtrack.vision.parts.nearest_silhouette_points`); the velocity becomes the
@@ -95,16 +97,18 @@ class MixedStateModel(eqx.Module):
         redetect_probability: per particle and frame, the chance that its parts are re-drawn
             about its own posture's hypotheses (velocity zero): the way back for parts that
             drifted beyond the likelihood's cutoff δ, where nothing pulls them back. Default 0,
-            chosen on the validation clips (``python -m benchmarks.mixed_state_evaluation``,
-            2026-11-27: smoothed MSE over all parts 7 320 px² at 0 against 7 484 and 7 786 at
-            0.02 and 0.05; the posture error fell from 36 % to 30 % and 26 %, but the parts of
-            re-drawn particles followed wrong postures' hypotheses).
+            chosen on the validation clips with ``redraw_on_switch`` and the part likelihood's
+            cutoff (``python -m benchmarks.mixed_state_evaluation``, 2026-11-27: at δ = 25 and
+            parts re-drawn on a switch, smoothed MSE over all parts 5 482 px² at 0 against
+            6 068 at 0.02).
         redraw_on_switch: whether a particle whose posture changes has its parts re-drawn
-            about the new posture's hypotheses (velocity zero) instead of keeping them. Default
-            off, chosen on the validation clips with ``redetect_probability``
-            (``python -m benchmarks.mixed_state_evaluation``, 2026-11-27: smoothed MSE over all
-            parts 8 226, 8 200 and 8 307 px² with it at re-detection 0, 0.02 and 0.05,
-            against 7 320 without it at 0; the posture error fell from 36 % to 22 %).
+            about the new posture's hypotheses (velocity zero) instead of keeping them (the
+            paper does not say). Kept, the parts of a particle that switches sit where the
+            old posture's heuristics put them, and under the capped part likelihood the switch
+            costs up to 5 δ in log weight, more than the truncated posture likelihood can ever
+            charge a wrong posture: the filter can lock into a wrong posture. Default on,
+            chosen on the validation clips (same run: 5 482 px² re-drawn against 5 926 kept at
+            δ = 25; 5 701 against 5 958 at δ = 9; 5 740 against 5 942 at δ = 100).
     """
 
     postures: PostureModel
@@ -119,7 +123,7 @@ class MixedStateModel(eqx.Module):
     def __init__(self, postures: PostureModel, part_likelihood: PartDistances | None = None, *,
                  position_std: float = 3.0, velocity_std: float = 2.0,
                  initial_std: float = 20.0, initial_velocity_std: float = 2.0,
-                 redetect_probability: float = 0.0, redraw_on_switch: bool = False):
+                 redetect_probability: float = 0.0, redraw_on_switch: bool = True):
         values = dict(position_std=position_std, velocity_std=velocity_std,
                       initial_std=initial_std, initial_velocity_std=initial_velocity_std)
         for name, value in values.items():

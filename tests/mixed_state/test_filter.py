@@ -188,7 +188,9 @@ def _figure_postures(cutoff):
                         jnp.full(NUM_POSTURES, -np.log(NUM_POSTURES)), jnp.asarray(cutoff))
 
 
-def test_temporal_integration_beats_the_instantaneous_estimate():
+@pytest.mark.parametrize("redraw_on_switch", [False, True])
+def test_temporal_integration_beats_the_instantaneous_estimate(redraw_on_switch):
+    # parts carried over a posture switch (the paper's filter) or re-drawn (the default)
     pytest.importorskip("cv2")
     masks, truths = _drawn_clip()
     observations = observations_from_silhouettes(masks, num_bins=8)
@@ -199,16 +201,21 @@ def test_temporal_integration_beats_the_instantaneous_estimate():
     features = jnp.where(jnp.asarray(misfire)[:, None], lying, observations.features)
     observations = MixedStateFrame(features, observations.hypotheses, observations.nearest,
                                    observations.status)
-    model = MixedStateModel(postures, position_std=1.5, velocity_std=1.0, initial_std=5.0)
+    model = MixedStateModel(postures, position_std=1.5, velocity_std=1.0, initial_std=5.0,
+                            redraw_on_switch=redraw_on_switch)
     posture, parts = instantaneous_estimates(model, observations)
     smoothed = smooth(filter_sequence(jr.PRNGKey(1), model, observations, 300))
     truth_posture = POSTURE_NAMES.index("standing")
     instantaneous_error = np.mean(np.asarray(posture) != truth_posture)
     assert instantaneous_error == pytest.approx(misfire.mean())
-    assert np.mean(np.asarray(smoothed.posture) != truth_posture) == 0.0
+    smoothed_error = np.mean(np.asarray(smoothed.posture) != truth_posture)
+    # re-drawn parts make a switch free in the part likelihood, so a misfire costs less
+    assert smoothed_error <= (instantaneous_error / 4 if redraw_on_switch else 0.0)
     head_instantaneous = np.mean(np.sum((np.asarray(parts)[:, 0] - truths[:, 0]) ** 2, -1))
     head_smoothed = np.mean(np.sum((np.asarray(smoothed.parts)[:, 0] - truths[:, 0]) ** 2, -1))
-    assert head_smoothed < head_instantaneous / 5, (head_smoothed, head_instantaneous)
+    # (4.6x with re-drawn parts here: the frames after a misfire start again from hypotheses)
+    factor = 3 if redraw_on_switch else 5
+    assert head_smoothed < head_instantaneous / factor, (head_smoothed, head_instantaneous)
 
 
 def test_frames_without_a_silhouette_are_reported_and_finite():
