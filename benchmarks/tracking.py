@@ -260,10 +260,11 @@ def real_video_table(out: Path, methods: tuple[str, ...], estimates: tuple[str, 
     if code != 0:
         raise RuntimeError(f"benchmarks.real_video failed (exit status {code})")
     result = json.loads(path.read_text())
-    return (f"Real video (a test subject): the four Pose2Sim views, {result['frames'] or 'all'} "
-            f"frames each, the default likelihood, one tracker seed; error against the keypoints "
-            f"triangulated from the four cameras (benchmarks.real_video):\n\n"
-            + result["table"])
+    frames = result["frames"] or "all the reference's"
+    return (f"Real video (a test subject): the four Pose2Sim views, {frames} video frames each, "
+            f"one in {result.get('stride', 1)} tracked, the default likelihood, one tracker "
+            f"seed; error against the keypoints triangulated from the four cameras "
+            f"(benchmarks.real_video):\n\n" + result["table"])
 
 
 def _setting(text: str) -> tuple[str, float]:
