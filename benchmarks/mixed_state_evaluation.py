@@ -60,29 +60,33 @@ def trained_models(folder: Path, ridges) -> dict:
               if path.is_file()}
     missing = [ridge for ridge in ridges if ridge not in models]
     if missing:
-        features, labels = ms.training_features()
+        features, labels, settings = ms.training_features()
         for ridge in missing:
-            models[ridge], description = ms.fit(
-                features, labels, regularisation=ridge, clips=list(ms.TRAINING_CLIPS),
-                azimuths=[float(a) for a in ms.VIEW_AZIMUTHS], backgrounds=["photo"],
-                image_size=[640, 480], num_bins=16)
+            models[ridge], description = ms.fit(features, labels, regularisation=ridge,
+                                                **settings)
             save_posture_model(paths[ridge], models[ridge], description=description)
     return {ridge: models[ridge] for ridge in ridges}
 
 
-def instantaneous_posture_error(model, sequences) -> float:
-    """The extended Ghost posture's error rate over the frames with a silhouette."""
+def labelled_features(sequences, num_bins: int):
+    """The features and true postures of every frame with a silhouette, all sequences pooled."""
     import numpy as np
 
     from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
 
-    wrong = total = 0
+    features, labels = [], []
     for sequence in sequences:
-        features, status = silhouette_features(sequence.masks, model.num_features // 2)
-        ok = status == FRAME_OK
-        wrong += int(np.sum(np.asarray(model.classify(features[ok])) != sequence.labels[ok]))
-        total += int(ok.sum())
-    return wrong / total
+        values, status = silhouette_features(sequence.masks, num_bins)
+        features.append(values[status == FRAME_OK])
+        labels.append(sequence.labels[status == FRAME_OK])
+    return np.concatenate(features), np.concatenate(labels)
+
+
+def instantaneous_posture_error(model, features, labels) -> float:
+    """The extended Ghost posture's error rate over ``labelled_features``' frames."""
+    import numpy as np
+
+    return float(np.mean(np.asarray(model.classify(features)) != labels))
 
 
 def main(argv=None) -> int:
@@ -115,7 +119,8 @@ def main(argv=None) -> int:
     # the evaluation's own rendering of the validation clips, once for every setting
     sequences = ms.render_sequences(ms.VALIDATION_CLIPS, azimuths, ("clutter",), (640, 480),
                                     args.frames, args.seed)
-    posture_errors = {ridge: instantaneous_posture_error(model, sequences)
+    features, labels = labelled_features(sequences, num_bins=16)
+    posture_errors = {ridge: instantaneous_posture_error(model, features, labels)
                       for ridge, model in models.items()}
     for ridge, error in posture_errors.items():
         print(f"validation, regularisation {ridge:g}: instantaneous posture error "

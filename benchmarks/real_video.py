@@ -85,8 +85,6 @@ class View:
                                    num_video_frames=len(video.frames))[camera]
         covered = reference.frame_indices
         stop = len(covered) if frames is None else min(len(covered), frames)
-        if stop < 2:
-            raise SystemExit(f"{camera}: tracking needs at least 2 frames, got {stop}")
         indices = covered[:stop:stride]
         if len(indices) < 2:
             raise SystemExit(f"{camera}: tracking needs at least 2 frames, got {len(indices)} "

@@ -249,9 +249,9 @@ def wants_real_video(args, tag: str, settings: dict) -> bool:
 
 def real_video_table(out: Path, methods: tuple[str, ...], estimates: tuple[str, ...]) -> str:
     """Track the four real Pose2Sim videos with ``methods`` × ``estimates``, one tracker seed
-    (:func:`benchmarks.real_video.main`, both initialisations; about 13 minutes on 2 cores),
-    writing
-    ``out/real_video.json``; its table, headed, for ``table.md``."""
+    (:func:`benchmarks.real_video.main`, both initialisations; 6 minutes on 2 cores for the
+    whole grid on 2026-11-27), writing ``out/real_video.json``; its table, headed, for
+    ``table.md``."""
     from benchmarks import real_video
 
     path = out / "real_video.json"

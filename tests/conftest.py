@@ -7,8 +7,8 @@ most ``vm.max_map_count`` (65 530 by default) mappings: a suite that keeps every
 ever compiled reaches that limit and the compiler crashes (a segmentation fault inside
 ``backend_compile_and_load``). The compiled programs are therefore released after each module.
 
-Many modules compile the same programs (the same tracker on the same tiny shapes), so the
-session shares a persistent compilation cache in a temporary folder: the first module to
+Many modules compile the same programs (the same tracker on the same tiny shapes), so one
+pytest run shares a persistent compilation cache in a temporary folder: the first module to
 compile a program writes it, later modules (in any xdist worker) load it instead of compiling
 again. The folder is made once by the process that imports this file first (pytest's main
 process, before it starts the workers, which inherit its path) and removed when that process

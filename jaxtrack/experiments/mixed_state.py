@@ -179,10 +179,11 @@ def training_features(clips: Sequence[str] = TRAINING_CLIPS, *,
                       backgrounds: Sequence[str] = ("photo",),
                       image_size: tuple[int, int] = (640, 480), num_bins: int = 16,
                       max_frames: int | None = None, seed: int = 0
-                      ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+                      ) -> tuple[list[np.ndarray], list[np.ndarray], dict]:
     """Render the training clips from every azimuth over every background and label them:
     per rendered sequence, the features and labels of its frames with a silhouette (what
-    :func:`jaxtrack.priors.postures.fit_posture_model` takes)."""
+    :func:`jaxtrack.priors.postures.fit_posture_model` takes), and the settings they were
+    rendered with, JSON-able (for :func:`fit`'s description)."""
     from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
 
     sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed)
@@ -192,7 +193,10 @@ def training_features(clips: Sequence[str] = TRAINING_CLIPS, *,
         keep = status == FRAME_OK
         features.append(values[keep])
         labels.append(sequence.labels[keep])
-    return features, labels
+    settings = {"clips": list(clips), "azimuths": [float(a) for a in azimuths],
+                "backgrounds": list(backgrounds), "image_size": list(image_size),
+                "num_bins": num_bins}
+    return features, labels, settings
 
 
 def fit(features: Sequence[np.ndarray], labels: Sequence[np.ndarray], *,
@@ -224,12 +228,11 @@ def train(clips: Sequence[str] = TRAINING_CLIPS, *, azimuths: Sequence[float] = 
     the posture model. Returns the model and a JSON-able description (clips, views, label
     counts, transition counts) to save with it (``regularisation``:
     :data:`DEFAULT_REGULARISATION`)."""
-    features, labels = training_features(clips, azimuths=azimuths, backgrounds=backgrounds,
-                                         image_size=image_size, num_bins=num_bins,
-                                         max_frames=max_frames, seed=seed)
+    features, labels, settings = training_features(
+        clips, azimuths=azimuths, backgrounds=backgrounds, image_size=image_size,
+        num_bins=num_bins, max_frames=max_frames, seed=seed)
     return fit(features, labels, regularisation=regularisation, pseudocount=pseudocount,
-               clips=list(clips), azimuths=[float(a) for a in azimuths],
-               backgrounds=list(backgrounds), image_size=list(image_size), num_bins=num_bins)
+               **settings)
 
 
 def _best_pair_errors(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:

@@ -128,10 +128,9 @@ def _mirrored(function, mask: np.ndarray) -> np.ndarray:
     return points
 
 
-def _crawling(mask: np.ndarray) -> np.ndarray:
-    p = _Pixels(mask)
+def _crawling(mask: np.ndarray, p: _Pixels, standing: np.ndarray, sitting: np.ndarray
+              ) -> np.ndarray:
     if p.height >= TALL_BENDING * p.width:  # a crouch, or a stoop seen from the front
-        standing, sitting = _standing(p), _sitting(p)
         return np.stack([standing[0], sitting[1], sitting[2], standing[3], standing[4]])
     third = p.width / 3
     left_top = p.ys[p.xs < p.x0 + third].min()
@@ -149,10 +148,11 @@ def posture_hypotheses(mask: np.ndarray) -> np.ndarray:
         raise ValueError("mask has no foreground pixel: an empty silhouette has no part "
                          "hypotheses (part_hypotheses reports such frames by their status)")
     p = _Pixels(mask)
+    standing, sitting = _standing(p), _sitting(p)
     hypotheses = np.stack([
-        _standing(p),
-        _sitting(p),
-        _crawling(mask),
+        standing,
+        sitting,
+        _crawling(mask, p, standing, sitting),
         _lying_head_left(p),
         _mirrored(_lying_head_left, mask),
     ])
