@@ -30,6 +30,8 @@ import itertools
 import time
 from pathlib import Path
 
+import numpy as np
+
 from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
@@ -70,8 +72,6 @@ def trained_models(folder: Path, ridges) -> dict:
 
 def labelled_features(sequences, num_bins: int):
     """The features and true postures of every frame with a silhouette, all sequences pooled."""
-    import numpy as np
-
     from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
 
     features, labels = [], []
@@ -84,8 +84,6 @@ def labelled_features(sequences, num_bins: int):
 
 def instantaneous_posture_error(model, features, labels) -> float:
     """The extended Ghost posture's error rate over ``labelled_features``' frames."""
-    import numpy as np
-
     return float(np.mean(np.asarray(model.classify(features)) != labels))
 
 
@@ -107,8 +105,18 @@ def main(argv=None) -> int:
                         "experiments.mixed_state.VIEW_AZIMUTHS; 90 -90: the paper's side views)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_evaluation.json"))
     args = parser.parse_args(argv)
-    import numpy as np
-
+    for name, values, low, high in (("--regularisation", args.regularisation, 0.0, None),
+                                    ("--cutoff", args.cutoff, 0.0, None),
+                                    ("--redetect", args.redetect, None, 1.0)):
+        for value in values:
+            if not np.isfinite(value) or (low is not None and value <= low) or (
+                    high is not None and not 0.0 <= value <= high):
+                bound = f"above {low:g}" if low is not None else f"in [0, {high:g}]"
+                parser.error(f"{name} values must be finite and {bound}, got {value:g}")
+    for name in ("frames", "particles"):
+        if getattr(args, name) < (2 if name == "frames" else 1):
+            parser.error(f"--{name} must be at least {2 if name == 'frames' else 1}, got "
+                         f"{getattr(args, name)}")
     from jaxtrack.experiments import mixed_state as ms
 
     begin = time.perf_counter()
