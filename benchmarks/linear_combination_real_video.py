@@ -21,6 +21,13 @@ give another). Its ``track.json`` is then scored against the reference
   constant, scored as the tracker is.
 
     python -m benchmarks.linear_combination_real_video [--particles 300] [--iterations 5]
+    python -m benchmarks.linear_combination_real_video --demo multiperson
+
+``--demo multiperson`` tracks the two-person take instead
+(``shared/data/pose2sim_demo_multiperson``: the same man in a lunge with his arms out while a
+woman walks through, the same four cameras). It has no reference, so it is not scored: the
+script reports per view the frames observed and the times selected, and leaves the overlay
+(``benchmarks/results/linear_combination_real_video_multiperson/overlay.mp4``) to be looked at.
 
 Prints the tables and writes ``benchmarks/results/linear_combination_real_video.json``; the
 tracker's overlay video (every view's contour, head and hands, the ambiguity bars and the
@@ -117,6 +124,41 @@ def score_track(record: dict, references: dict, world_markers: np.ndarray,
     return scores
 
 
+def unscored_summary(record: dict) -> dict:
+    """What a ``track.json`` of a take without a reference says: per view the frames observed,
+    the times selected and the mean ambiguity where observed."""
+    names = [view["camera"] for view in record["views"]]
+    frames = record["frames"]
+    per_view = {}
+    for index, name in enumerate(names):
+        entries = [entry["views"][index] for entry in frames]
+        ambiguity = [entry["ambiguity"] for entry in entries
+                     if entry["observed"] and entry["ambiguity"] is not None]
+        per_view[name] = {
+            "frames": len(entries), "observed": sum(bool(entry["observed"]) for entry in entries),
+            "selected": sum(entry["selected_view"] == index for entry in frames),
+            "mean_ambiguity": _mean(ambiguity),
+            "crop_from_silhouettes": record["views"][index]["crop_from_silhouettes"]}
+    return {"frames": len(frames), "views": per_view,
+            "no_view_observed": sum(entry["selected_view"] is None for entry in frames)}
+
+
+def _report_unscored(record: dict, args, tracked: Path, seconds: float) -> int:
+    summary = unscored_summary(record)
+    print(f"\n{summary['frames']} frames tracked, not scored (no reference); device: "
+          f"{device_description()}; {seconds:.0f} s")
+    print_table([{"view": name, **values} for name, values in summary["views"].items()],
+                [("view", "view", "s"), ("observed", "observed", "d"),
+                 ("selected", "selected", "d"), ("mean_ambiguity", "mean ambiguity", ".3f")])
+    print(f"overlay: {tracked / 'overlay.mp4'}")
+    write_json(args.out, {"benchmark": "linear_combination_real_video",
+                          "device": device_description(), "arguments": {
+                              key: str(value) for key, value in vars(args).items()},
+                          "tracked": str(tracked), "summary": summary,
+                          "seconds": record.get("seconds")})
+    return 0
+
+
 def _mean(values: np.ndarray) -> float | None:
     values = np.asarray(values, float)
     return float(np.mean(values)) if values.size else None
@@ -130,8 +172,20 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, default=300)
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=RESULTS / "linear_combination_real_video.json")
+    parser.add_argument("--demo", choices=("singleperson", "multiperson"),
+                        default="singleperson",
+                        help="the Pose2Sim take: one man (scored against its reference) or the "
+                             "man and a woman walking through (no reference: not scored)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="JSON output (default benchmarks/results/"
+                             "linear_combination_real_video[_multiperson].json)")
     args = parser.parse_args(argv)
+    if args.particles < 1 or args.iterations < 1:
+        parser.error(f"--particles and --iterations must be at least 1, got {args.particles} "
+                     f"and {args.iterations}")
+    multiperson = args.demo == "multiperson"
+    args.out = args.out or RESULTS / ("linear_combination_real_video"
+                                      + ("_multiperson" if multiperson else "") + ".json")
 
     from jaxtrack.cli import main as jaxtrack
     from jaxtrack.evaluation.reference import (
@@ -144,6 +198,10 @@ def main(argv=None) -> int:
     )
 
     folder = default_folder()
+    calibration = folder / "Calib.qca.txt"
+    if multiperson:  # the same cameras (its Calib.qca.txt is byte-identical)
+        folder = folder.parent / "pose2sim_demo_multiperson"
+        calibration = folder / "calibration" / "Calib.qca.txt"
     videos = [folder / "videos" / f"{camera}.mp4" for camera in CAMERAS]
     if not all(video.is_file() for video in videos):
         raise SystemExit(f"{folder / 'videos'}: the Pose2Sim demo's videos are not there")
@@ -153,13 +211,14 @@ def main(argv=None) -> int:
             raise SystemExit("training the model failed")
     tracked = args.out.with_suffix("")
     code = jaxtrack(["track", "--method", "linear-combination", "--model", str(args.model),
-                     "--video", *map(str, videos), "--calibration",
-                     str(folder / "Calib.qca.txt"),
+                     "--video", *map(str, videos), "--calibration", str(calibration),
                      "--particles", str(args.particles), "--iterations", str(args.iterations),
                      "--seed", str(args.seed), "--out", str(tracked)])
     if code:
         raise SystemExit("tracking failed")
     record = json.loads((tracked / "track.json").read_text())
+    if multiperson:
+        return _report_unscored(record, args, tracked, time.perf_counter() - begin)
     references = load_reference(folder, num_video_frames=100)
     _, positions, _ = read_trc(folder / "reference" / "pose-3d" / TRC_FILES[False])
     world = to_upper_body(trc_to_world(positions))

@@ -60,3 +60,23 @@ def test_a_track_is_scored_in_2d_and_3d_and_its_view_selection_against_best_and_
     assert selection["oracle_mm"] < 1e-6
     assert selection["oracle_mm"] < selection["selected_mm"] < selection["worst_mm"]
     assert scores["constant_mean_skeleton_mm"] > 0.0
+
+
+def test_a_take_without_reference_is_summarised_per_view():
+    from benchmarks.linear_combination_real_video import unscored_summary
+
+    def view(observed, ambiguity):
+        return {"observed": observed, "ambiguity": ambiguity}
+
+    record = {"views": [{"camera": "a", "crop_from_silhouettes": 3},
+                        {"camera": "b", "crop_from_silhouettes": 2}],
+              "frames": [{"views": [view(True, 0.2), view(True, 0.6)], "selected_view": 0},
+                         {"views": [view(True, 0.4), view(False, None)], "selected_view": 0},
+                         {"views": [view(False, None), view(False, None)],
+                          "selected_view": None}]}
+    summary = unscored_summary(record)
+    assert summary["frames"] == 3 and summary["no_view_observed"] == 1
+    a, b = summary["views"]["a"], summary["views"]["b"]
+    assert (a["observed"], a["selected"], b["observed"], b["selected"]) == (2, 2, 1, 0)
+    np.testing.assert_allclose([a["mean_ambiguity"], b["mean_ambiguity"]], [0.3, 0.6])
+    assert a["crop_from_silhouettes"] == 3

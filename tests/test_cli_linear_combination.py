@@ -144,7 +144,13 @@ def test_track_two_views_selects_by_fitness_over_ambiguity(folder, model, crop_v
     assert len(selected) == PERSON
     overlay = read_video(out / "overlay.mp4").frames
     width, height = 2 * np.asarray(lc.CROP_SIZE)
-    assert overlay.shape[1:3] == (height + 18, 2 * width)
+    drawing = round(0.8 * (height + 18))  # the 3-D skeleton from the front and the side
+    assert overlay.shape[1:3] == (height + 18, 2 * width + 2 * drawing)
+    # the selected view's skeleton is drawn where a view observed the frame, not before
+    body = np.s_[(height + 18) // 4:, 2 * width + 8:2 * width + drawing - 8]
+    yellow = lambda image: np.sum(np.abs(image.astype(int) - (255, 224, 0)).max(-1) < 60)  # noqa: E731
+    assert yellow(overlay[EMPTY + 2][body]) > 50
+    assert yellow(overlay[0][body]) == 0
     # the selected view is framed in yellow
     t = EMPTY + 2
     border = overlay[t, 1, selected[2] * width + 20: (selected[2] + 1) * width - 20]
@@ -246,3 +252,21 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, model
     assert code == 2, error
     assert error.count("\n") == 1 and message.format(**names) in error, error
     assert sorted(inputs.rglob("*")) == contents and not (tmp_path / "out").exists()
+
+
+def test_the_overlay_draws_the_selected_views_skeleton_in_one_frame_of_axes():
+    from types import SimpleNamespace
+
+    from jaxtrack.cli._linear_combination import _shown_skeletons
+
+    skeletons = [np.arange(12, dtype=float).reshape(2, 2, 3) + 100 * v for v in range(2)]
+    views = [{"run": SimpleNamespace(estimates=SimpleNamespace(best_skeleton_3d=s))}
+             for s in skeletons]
+    turn = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    cameras = [SimpleNamespace(rotation=np.eye(3)), SimpleNamespace(rotation=turn)]
+    shown = _shown_skeletons(views, [1, None], cameras)
+    np.testing.assert_allclose(shown[0], skeletons[1][0] @ turn)  # world = Rᵀ x, as rows
+    assert np.all(np.isnan(shown[1]))
+    # without a calibration, the camera's y (down) and z (forward) turned up and to the viewer
+    alone = _shown_skeletons(views[:1], [0, 0], None)
+    np.testing.assert_allclose(alone, skeletons[0] * [1.0, -1.0, -1.0])

@@ -477,7 +477,8 @@ def track(args: argparse.Namespace) -> int:
                 args.out / "overlay.mp4", fps=fps, names=[view["name"] for view in views],
                 marker_names=_MARKERS, labels=[_labels(view["status"]) for view in views],
                 ambiguity=ambiguity, selected=None if ambiguity is None else chosen,
-                zoom=_ZOOM))
+                zoom=_ZOOM, skeletons=_shown_skeletons(views, chosen, cameras),
+                skeleton_names=list(trained.description["skeleton"])))
         except OSError as error:
             raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
         record["seconds"] = {
@@ -568,6 +569,25 @@ def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, ski
                        "in the image); skeleton_m in the camera's frame, metres, relative to "
                        "the neck",
         "frames": frames}
+
+
+def _shown_skeletons(views: list[dict], chosen: list[int | None], cameras) -> np.ndarray:
+    """``(time, joints, 3)`` the 3-D skeleton the overlay draws each frame: the selected view's
+    (the only view's), x right, y up, metres from the neck; in the calibration's world axes
+    when there is one (the same axes whichever view is selected), else the camera's axes with y
+    and z turned to point up and toward the viewer. NaN in a frame no view observed."""
+    count = len(chosen)
+    joints = np.asarray(views[0]["run"].estimates.best_skeleton_3d).shape[1]
+    shown = np.full((count, joints, 3), np.nan)
+    for t, index in enumerate(chosen):
+        if index is None:
+            continue
+        skeleton = np.asarray(views[index]["run"].estimates.best_skeleton_3d[t], np.float64)
+        if cameras is not None:
+            shown[t] = skeleton @ np.asarray(cameras[index].rotation, np.float64)
+        else:
+            shown[t] = skeleton * np.array([1.0, -1.0, -1.0])
+    return shown
 
 
 def _labels(status: list[str]) -> list[str]:

@@ -27,7 +27,13 @@ from jaxtrack.vision.overlay import (
     write_overlay_video,
     write_video,
 )
-from jaxtrack.vision.panels import compose_views, contour_panel, draw_contour, write_views_video
+from jaxtrack.vision.panels import (
+    compose_views,
+    contour_panel,
+    draw_contour,
+    skeleton_panel,
+    write_views_video,
+)
 from jaxtrack.vision.video import (
     VideoError,
     VideoFrames,
@@ -43,6 +49,7 @@ __all__ = [
     "detect_face", "detect_faces", "draw_contour", "draw_tracks", "edge_distance_maps",
     "edge_observations", "face_candidates", "face_detector_available", "foreground_mask",
     "head_boxes", "iter_video_chunks", "median_background", "median_grey_background",
-    "read_video", "resample_closed_curve", "signed_area", "silhouette_contour", "to_grey",
+    "read_video", "resample_closed_curve", "signed_area", "silhouette_contour",
+    "skeleton_panel", "to_grey",
     "write_frames", "write_overlay_video", "write_video", "write_views_video",
 ]

@@ -21,14 +21,19 @@ import numpy as np
 from jaxtrack.vision.overlay import METHOD_COLOURS, draw_tracks
 from jaxtrack.vision.video import write_frames
 
-__all__ = ["AMBIGUITY_COLOUR", "SELECTED_COLOUR", "compose_views", "contour_panel",
-           "draw_contour", "write_views_video"]
+__all__ = ["AMBIGUITY_COLOUR", "SELECTED_COLOUR", "SKELETON_REACH", "compose_views",
+           "contour_panel", "draw_contour", "skeleton_panel", "write_views_video"]
 
 AMBIGUITY_COLOUR = (200, 80, 80)
 """RGB of the ambiguity bars."""
 
 SELECTED_COLOUR = (255, 224, 0)
 """RGB of the frame around the selected view."""
+
+SKELETON_REACH = 1.0
+"""Metres from the root joint to the top and bottom edges of :func:`skeleton_panel`'s drawings
+(0.8 of that to their sides): an upper body (about 0.8 m from head to pelvis, hands 0.8 m from
+the neck at full stretch) fits whatever its pose."""
 
 # the 1-pixel offsets each sample is drawn at: a line two pixels wide in x and in y
 _PEN = ((0, 0), (1, 0), (0, 1))
@@ -146,16 +151,67 @@ def compose_views(panels: Sequence[np.ndarray], *, ambiguity: Sequence[float] | 
     return np.concatenate(columns, axis=1)
 
 
+def skeleton_panel(skeleton: np.ndarray, joint_names: Sequence[str], *, height: int,
+                   colour: Sequence[int] = SELECTED_COLOUR, label: str | None = None,
+                   reach: float = SKELETON_REACH) -> np.ndarray:
+    """A recovered 3-D skeleton drawn twice, orthographically: from the front (x right, y up)
+    and from the side (z right, y up), on a dark panel (Ong & Gong 2002, Fig. 17's 3-D
+    skeletons).
+
+    Args:
+        skeleton: ``(joints, 3)`` metres, x right, y up, z toward the viewer, relative to any
+            point near the body (the linear-combination tracker's are relative to the neck);
+            a skeleton with a non-finite joint (a frame without one) leaves the panel empty.
+        joint_names: ``(joints,)`` names (the stick figure is ``jaxtrack.body.marker_edges``).
+        height: rows of the panel; each drawing is ``0.8 × height`` wide.
+        colour: RGB of the figures.
+        label: text for the bottom-left corner, or None.
+        reach: metres from the root joint (``joint_names[1]``, the neck, when there are two
+            or more joints) to the top and the bottom of the panel, the same for every frame
+            so that sizes compare across frames.
+
+    Returns:
+        ``(height, 2 × round(0.8 × height), 3)`` uint8 RGB.
+    """
+    skeleton = np.asarray(skeleton, np.float64)
+    if skeleton.shape != (len(joint_names), 3):
+        raise ValueError(f"skeleton has shape {skeleton.shape}, expected "
+                         f"({len(joint_names)}, 3) for {len(joint_names)} joint names")
+    if not (isinstance(height, int | np.integer) and height >= 16):
+        raise ValueError(f"height must be an integer of at least 16, got {height!r}")
+    if not reach > 0:
+        raise ValueError(f"reach must be > 0 metres, got {reach!r}")
+    half = round(0.8 * height)
+    halves = []
+    for name, across in (("3-D front", 0), ("3-D side", 2)):
+        canvas = np.full((height, half, 3), 24, np.uint8)
+        if np.all(np.isfinite(skeleton)):
+            root = skeleton[1 if len(skeleton) > 1 else 0]
+            scale = (height / 2) / reach
+            points = np.stack([half / 2 + scale * (skeleton[:, across] - root[across]),
+                               height / 2 - scale * (skeleton[:, 1] - root[1])], axis=-1)
+        else:
+            points = np.full((len(joint_names), 2), np.nan)
+        halves.append(draw_tracks(canvas, {name: points}, joint_names,
+                                  colours={name: tuple(int(c) for c in colour)},
+                                  label=label if across == 0 else None))
+    panel = np.concatenate(halves, axis=1)
+    panel[:, half - 1:half + 1] = 80  # a line between the two drawings
+    return panel
+
+
 def write_views_video(images: Sequence[np.ndarray], contours: Sequence[np.ndarray],
                       markers: Sequence[np.ndarray], path: str | os.PathLike, *, fps: float,
                       names: Sequence[str], marker_names: Sequence[str],
                       labels: Sequence[Sequence[str]] | None = None,
                       ambiguity: np.ndarray | None = None,
-                      selected: Sequence[int | None] | None = None, zoom: int = 1) -> Path:
+                      selected: Sequence[int | None] | None = None, zoom: int = 1,
+                      skeletons: np.ndarray | None = None,
+                      skeleton_names: Sequence[str] | None = None) -> Path:
     """Write an ``.mp4`` of one or several views tracked side by side: per frame each view's
     :func:`contour_panel` (view ``v`` in ``METHOD_COLOURS[v]``) put together by
     :func:`compose_views`, the ambiguity bars scaled to the largest finite ambiguity of the
-    clip.
+    clip; with ``skeletons``, the recovered 3-D skeleton at the right (:func:`skeleton_panel`).
 
     Args:
         images: per view ``(time, height, width, 3)`` uint8 RGB (one size; the first ``time``
@@ -170,6 +226,10 @@ def write_views_video(images: Sequence[np.ndarray], contours: Sequence[np.ndarra
         ambiguity: ``(time, views)`` (:func:`compose_views`), or None: no bars.
         selected: per frame the view to frame, or None there; None: none framed.
         zoom: integer enlargement of every panel.
+        skeletons: ``(time, joints, 3)`` the 3-D skeleton to draw per frame (x right, y up,
+            metres; :func:`skeleton_panel`), e.g. the selected view's; NaN where there is
+            none. None: no skeleton panel.
+        skeleton_names: ``(joints,)`` their names; needed with ``skeletons``.
 
     Returns:
         The path.
@@ -186,6 +246,13 @@ def write_views_video(images: Sequence[np.ndarray], contours: Sequence[np.ndarra
         ambiguity = np.asarray(ambiguity, np.float64)
         if ambiguity.shape[1:] != (len(images),) or len(ambiguity) < count:
             raise ValueError(f"ambiguity must be (time, {len(images)}), got {ambiguity.shape}")
+    if skeletons is not None:
+        skeletons = np.asarray(skeletons, np.float64)
+        if skeleton_names is None or skeletons.shape[1:] != (len(skeleton_names), 3) \
+                or len(skeletons) < count:
+            raise ValueError(f"skeletons must be (time >= {count}, joints, 3) with one name per "
+                             f"joint in skeleton_names, got {skeletons.shape} and "
+                             f"{None if skeleton_names is None else len(skeleton_names)} names")
     finite = np.zeros(0) if ambiguity is None else ambiguity[np.isfinite(ambiguity)]
     largest = max(float(finite.max(initial=0.0)), 1e-9)
 
@@ -195,9 +262,13 @@ def write_views_video(images: Sequence[np.ndarray], contours: Sequence[np.ndarra
                                 colour=METHOD_COLOURS[v % len(METHOD_COLOURS)],
                                 label=None if labels is None else labels[v][t], zoom=zoom)
                   for v in range(len(images))]
-        return compose_views(panels, ambiguity=None if ambiguity is None else ambiguity[t],
-                             full_scale=largest, selected=None if selected is None
-                             else selected[t])
+        views = compose_views(panels, ambiguity=None if ambiguity is None else ambiguity[t],
+                              full_scale=largest, selected=None if selected is None
+                              else selected[t])
+        if skeletons is None:
+            return views
+        return np.concatenate([views, skeleton_panel(skeletons[t], skeleton_names,
+                                                     height=views.shape[0])], axis=1)
 
     first = frame(0)
     frames = (first if t == 0 else frame(t) for t in range(count))

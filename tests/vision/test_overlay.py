@@ -17,6 +17,7 @@ from jaxtrack.vision import (
     draw_contour,
     draw_tracks,
     read_video,
+    skeleton_panel,
     write_overlay_video,
     write_video,
     write_views_video,
@@ -248,6 +249,47 @@ def test_views_video_has_every_frame_side_by_side(tmp_path):
     with pytest.raises(ValueError, match="one name per view"):
         write_views_video(images, contours, markers, tmp_path / "no.mp4", fps=10.0,
                           names=["left"], marker_names=("head", "hand", "other_hand"))
+    assert [p.name for p in tmp_path.iterdir()] == ["views.mp4"]
+
+
+def test_skeleton_panel_draws_the_skeleton_from_the_front_and_the_side():
+    names = ("head", "neck", "hand")
+    # the head 0.25 m above the neck; the hand 0.5 m to the right and 0.5 m toward the viewer
+    skeleton = np.array([[0.0, 0.25, 0.0], [0.0, 0.0, 0.0], [0.5, 0.0, 0.5]])
+    panel = skeleton_panel(skeleton, names, height=200, colour=(0, 255, 0))
+    half = 160  # 0.8 of the height per drawing; 100 px per metre (SKELETON_REACH 1 m)
+    assert panel.shape == (200, 2 * half, 3)
+
+    def green(y, x):
+        return bool(np.any(np.all(panel[y - 2:y + 3, x - 2:x + 3] == (0, 255, 0), axis=-1)))
+
+    neck = (100, half // 2)
+    assert green(*neck) and green(neck[0] - 25, neck[1])  # the head above the neck
+    assert green(neck[0], neck[1] + 50)  # the hand, front: 0.5 m to the right
+    assert green(neck[0], half + neck[1] + 50)  # side: 0.5 m toward the viewer, drawn right
+    assert not green(neck[0], half + neck[1] - 50)
+    empty = skeleton_panel(np.full((3, 3), np.nan), names, height=200, colour=(0, 255, 0))
+    assert not np.any(np.all(empty[40:] == (0, 255, 0), axis=-1))  # only the legends
+    with pytest.raises(ValueError, match="expected \\(3, 3\\)"):
+        skeleton_panel(skeleton[:2], names, height=200)
+    with pytest.raises(ValueError, match="height"):
+        skeleton_panel(skeleton, names, height=8)
+
+
+def test_views_video_with_skeletons_adds_their_panel(tmp_path):
+    images = [np.zeros((2, 30, 20, 3), np.uint8)]
+    contours = [np.tile(_square(5.0, 5.0, 15.0, 25.0), (2, 1, 1))]
+    markers = [np.tile([[10.0, 8.0], [6.0, 20.0], [14.0, 20.0]], (2, 1, 1))]
+    names = ("head", "neck", "hand")
+    skeletons = np.array([[[0.0, 0.25, 0.0], [0.0, 0.0, 0.0], [0.5, 0.0, 0.5]]] * 2)
+    path = write_views_video(images, contours, markers, tmp_path / "views.mp4", fps=10.0,
+                             names=["one"], marker_names=names, skeletons=skeletons,
+                             skeleton_names=names, zoom=2)
+    assert read_video(path).frames.shape == (2, 60, 40 + 2 * 48, 3)
+    with pytest.raises(ValueError, match="skeletons must be"):
+        write_views_video(images, contours, markers, tmp_path / "no.mp4", fps=10.0,
+                          names=["one"], marker_names=names, skeletons=skeletons[:, :2],
+                          skeleton_names=names)
     assert [p.name for p in tmp_path.iterdir()] == ["views.mp4"]
 
 
