@@ -172,6 +172,8 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, default=300)
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--view-selection", choices=("fitness", "paper"), default=None,
+                        help="jaxtrack track's rule (default: its own, chosen on validation)")
     parser.add_argument("--demo", choices=("singleperson", "multiperson"),
                         default="singleperson",
                         help="the Pose2Sim take: one man (scored against its reference) or the "
@@ -185,7 +187,9 @@ def main(argv=None) -> int:
                      f"and {args.iterations}")
     multiperson = args.demo == "multiperson"
     args.out = args.out or RESULTS / ("linear_combination_real_video"
-                                      + ("_multiperson" if multiperson else "") + ".json")
+                                      + ("_multiperson" if multiperson else "")
+                                      + (f"_{args.view_selection}" if args.view_selection
+                                         else "") + ".json")
 
     from jaxtrack.cli import main as jaxtrack
     from jaxtrack.evaluation.reference import (
@@ -213,7 +217,9 @@ def main(argv=None) -> int:
     code = jaxtrack(["track", "--method", "linear-combination", "--model", str(args.model),
                      "--video", *map(str, videos), "--calibration", str(calibration),
                      "--particles", str(args.particles), "--iterations", str(args.iterations),
-                     "--seed", str(args.seed), "--out", str(tracked)])
+                     "--seed", str(args.seed), "--out", str(tracked),
+                     *(["--view-selection", args.view_selection] if args.view_selection
+                       else [])])
     if code:
         raise SystemExit("tracking failed")
     record = json.loads((tracked / "track.json").read_text())

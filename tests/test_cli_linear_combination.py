@@ -125,23 +125,42 @@ def test_track_one_calibrated_view_in_video_pixels(folder, model, full_video):
                                    np.linalg.norm(skeleton, axis=1), atol=2e-4)
 
 
-def test_track_two_views_selects_by_fitness_over_ambiguity(folder, model, crop_videos):
+def test_track_two_views_selects_a_view_per_frame_by_the_chosen_rule(folder, model,
+                                                                    crop_videos):
     out = folder / "two"
     assert _track(out, model, *crop_videos) == 0
     record = _strict_json(out / "track.json")
+    assert record["view_selection"] == lc.DEFAULT_VIEW_SELECTION == "fitness"
+    observed = np.array([[view["observed"] for view in frame["views"]]
+                         for frame in record["frames"]])
+    log_fitness = np.array([[view["log_fitness"] for view in frame["views"]]
+                            for frame in record["frames"]])
+    # the default from the file's own numbers: each view's mean log fitness over ±5 frames
+    # of those it observed
+    means = np.full(log_fitness.shape, -np.inf)
+    for t, v in zip(*np.nonzero(observed), strict=True):
+        near = slice(max(0, t - 5), t + 6)
+        means[t, v] = log_fitness[near, v][observed[near, v]].mean()
     selected = []
-    for frame in record["frames"]:
-        views = frame["views"]
-        if not any(view["observed"] for view in views):
+    for t, frame in enumerate(record["frames"]):
+        if not observed[t].any():
             assert frame["selected_view"] is None
             continue
-        # Ong & Gong §5.7 from the file's own numbers (select_views' floor 1e-3)
-        score = [view["log_fitness"] - math.log(view["ambiguity"] + 1e-3)
-                 if view["observed"] else -math.inf for view in views]
-        assert frame["selected_view"] == int(np.argmax(score))
+        assert frame["selected_view"] == int(np.argmax(means[t]))
         assert frame["selected"] == record["views"][frame["selected_view"]]["camera"]
         selected.append(frame["selected_view"])
     assert len(selected) == PERSON
+    # the paper's rule, fitness × 1/ambiguity (select_views' floor 1e-3), on request
+    paper = folder / "two_paper"
+    assert _track(paper, model, *crop_videos, extra=("--view-selection", "paper")) == 0
+    record = _strict_json(paper / "track.json")
+    assert record["view_selection"] == "paper"
+    for frame in record["frames"]:
+        if frame["selected_view"] is None:
+            continue
+        score = [view["log_fitness"] - math.log(view["ambiguity"] + 1e-3)
+                 if view["observed"] else -math.inf for view in frame["views"]]
+        assert frame["selected_view"] == int(np.argmax(score))
     overlay = read_video(out / "overlay.mp4").frames
     width, height = 2 * np.asarray(lc.CROP_SIZE)
     drawing = round(0.8 * (height + 18))  # the 3-D skeleton from the front and the side

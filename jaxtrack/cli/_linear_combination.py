@@ -458,7 +458,8 @@ def track(args: argparse.Namespace) -> int:
         view["run"] = track_observations(tracker, jr.PRNGKey(args.seed), view["observations"])
     tick = time.perf_counter()
     chosen, ambiguity = lc.select_tracked_views(trained,
-                                                [view["run"].estimates for view in views])
+                                                [view["run"].estimates for view in views],
+                                                selection=_view_selection(args))
     selection_seconds = time.perf_counter() - tick
     for view in views:
         estimates = view["run"].estimates
@@ -564,11 +565,19 @@ def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, ski
         "tracked_size": list(views[0]["frames"].shape[2:0:-1]),
         "skin": "fixed chroma box" if skin is None else list(skin),
         "particles": tracker.num_particles, "iterations": tracker.iterations,
+        "view_selection": _view_selection(args) if len(views) > 1 else None,
         "seed": args.seed, "tracker": views[0]["run"].options, "joints": joints,
         "coordinates": "head and hands in the video's own pixels (hands ordered left to right "
                        "in the image); skeleton_m in the camera's frame, metres, relative to "
                        "the neck",
         "frames": frames}
+
+
+def _view_selection(args) -> str:
+    """``--view-selection``, or the rule chosen on validation."""
+    from jaxtrack.experiments import linear_combination as lc
+
+    return getattr(args, "view_selection", None) or lc.DEFAULT_VIEW_SELECTION
 
 
 def _shown_skeletons(views: list[dict], chosen: list[int | None], cameras) -> np.ndarray:

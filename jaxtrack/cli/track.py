@@ -90,6 +90,10 @@ def add_parser(subparsers) -> None:
     group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
                        help="linear-combination: which cameras of --calibration (0-based, in "
                        "its order) filmed the --video files, one per video (default: all)")
+    group.add_argument("--view-selection", choices=("fitness", "paper"), default=None,
+                       help="linear-combination, several videos: pick each frame's view by its "
+                       "fitness over +-5 frames (the default, chosen on validation) or by the "
+                       "paper's fitness x 1/ambiguity")
     group.add_argument("--skin", default=None, metavar="R,G,B",
                        help="linear-combination: a sample of the person's skin colour (default: "
                        "a fixed chroma box)")

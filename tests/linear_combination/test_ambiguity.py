@@ -9,6 +9,7 @@ from jaxtrack.priors.linear_combinations import (
     nearest_ambiguity,
     select_views,
     training_ambiguity,
+    view_scores,
 )
 
 LAYOUT = HybridLayout(num_contour=4, num_skeleton=2)
@@ -48,6 +49,33 @@ def test_view_selection_trades_fitness_against_ambiguity():
     np.testing.assert_array_equal(chosen, [1, 2])
     with pytest.raises(ValueError, match="both be"):
         select_views(log_fitness, ambiguity[:, :2])
+
+
+def test_view_scores_weigh_fitness_and_ambiguity_and_average_over_a_window():
+    log_fitness = np.array([[0.0, -1.0], [0.0, -1.0], [-5.0, -1.0], [0.0, -1.0], [0.0, 0.0]])
+    ambiguity = np.array([[1.0, 0.01]] * 5)
+    found = np.ones((5, 2), bool)
+    found[4, 0] = False
+    # fitness alone: view 0 except where its fitness dips (frame 2) and where it is unseen
+    np.testing.assert_array_equal(
+        select_views(log_fitness, ambiguity, found, ambiguity_weight=0.0), [0, 0, 1, 0, 1])
+    # over ±1 frame the dip is outvoted: frame 2's view-0 mean is −5/3 < −1, frame 1's −5/3
+    # too, but frame 3's (−5 + 0) / 2 = −2.5 (frame 4 unseen does not count): still view 1
+    scores = view_scores(log_fitness, ambiguity, found, ambiguity_weight=0.0, window=1)
+    np.testing.assert_allclose(scores[:, 0][:4], [0.0, -5 / 3, -5 / 3, -2.5])
+    assert scores[4, 0] == -np.inf
+    np.testing.assert_allclose(scores[:, 1], [-1.0, -1.0, -1.0, -2 / 3, -0.5])
+    # ambiguity alone: the unambiguous view 1 wherever it is seen
+    np.testing.assert_array_equal(
+        select_views(log_fitness, ambiguity, found, fitness_weight=0.0), [1] * 5)
+    # the default is the paper's: log f − log(a + 1e-3)
+    np.testing.assert_allclose(view_scores(log_fitness, ambiguity)[0],
+                               [-np.log(1.001), -1.0 - np.log(0.011)])
+    for bad, message in (({"fitness_weight": 0.0, "ambiguity_weight": 0.0}, "not both 0"),
+                         ({"window": -1}, "window"), ({"window": 1.5}, "window"),
+                         ({"floor": 0.0}, "floor")):
+        with pytest.raises(ValueError, match=message):
+            view_scores(log_fitness, ambiguity, **bad)
 
 
 def test_bad_vectors_are_refused():

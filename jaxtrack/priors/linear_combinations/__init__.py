@@ -12,6 +12,7 @@ from jaxtrack.priors.linear_combinations._ambiguity import (
     nearest_ambiguity,
     select_views,
     training_ambiguity,
+    view_scores,
 )
 from jaxtrack.priors.linear_combinations._fit import (
     LinearCombinationFit,
@@ -32,5 +33,5 @@ __all__ = [
     "LinearCombinationFit", "LinearCombinationFormatError", "LinearCombinationModel",
     "SavedLinearCombinations", "fit_linear_combinations", "kmeans", "load_linear_combinations",
     "nearest_ambiguity", "part_weights", "save_linear_combinations", "select_views",
-    "training_ambiguity", "transition_matrix",
+    "training_ambiguity", "transition_matrix", "view_scores",
 ]

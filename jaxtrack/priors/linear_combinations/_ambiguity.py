@@ -24,7 +24,7 @@ import numpy as np
 
 from jaxtrack.body.hybrid import HybridLayout
 
-__all__ = ["nearest_ambiguity", "select_views", "training_ambiguity"]
+__all__ = ["nearest_ambiguity", "select_views", "training_ambiguity", "view_scores"]
 
 _MEMORY_BUDGET = 128 * 2**20  # bytes training_ambiguity's temporaries hold at most by default
 
@@ -116,20 +116,27 @@ def nearest_ambiguity(vectors: np.ndarray, training_vectors: np.ndarray,
     return ambiguities[nearest]
 
 
-def select_views(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarray | None = None,
-                 *, floor: float = 1e-3) -> np.ndarray:
-    """Ong & Gong §5.7: per frame, the view of greatest fitness × 1/ambiguity.
+def view_scores(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarray | None = None,
+                *, fitness_weight: float = 1.0, ambiguity_weight: float = 1.0, window: int = 0,
+                floor: float = 1e-3) -> np.ndarray:
+    """Each view's score per frame: ``fitness_weight`` × log f − ``ambiguity_weight`` ×
+    log(ambiguity + ``floor``), averaged over ±``window`` frames (those that exist). Weights
+    of 1 and 1 are Ong & Gong's fitness × 1/ambiguity (§5.7).
 
     Args:
         log_fitness: ``(time, views)`` log f of each view's estimate.
         ambiguity: ``(time, views)`` its ambiguity (eq. 14).
-        found: ``(time, views)`` whether each view observed the frame; a view that did not is
-            never chosen unless none did (then view 0).
+        found: ``(time, views)`` whether each view observed the frame; a view that did not (or
+            whose log f is not finite) scores −inf there, and its values there do not enter
+            the window of the frames beside it.
+        fitness_weight, ambiguity_weight: ≥ 0, not both 0.
+        window: frames on each side over which a view's score is averaged (0: the frame's
+            own); a single frame's fluke of fitness then does not switch the view.
         floor: added to the ambiguity so that an unambiguous view (a = 0) is not infinitely
             preferred over the fitness.
 
     Returns:
-        ``(time,)`` the chosen view per frame.
+        ``(time, views)`` scores; NaN scores are −inf.
     """
     log_fitness = np.asarray(log_fitness, np.float64)
     ambiguity = np.asarray(ambiguity, np.float64)
@@ -138,8 +145,42 @@ def select_views(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarr
                          "both be (time, views)")
     if not floor > 0:
         raise ValueError(f"floor must be > 0, got {floor}")
-    score = log_fitness - np.log(ambiguity + floor)
+    if not (fitness_weight >= 0 and ambiguity_weight >= 0
+            and fitness_weight + ambiguity_weight > 0):
+        raise ValueError(f"fitness_weight and ambiguity_weight must be >= 0 and not both 0, got "
+                         f"{fitness_weight} and {ambiguity_weight}")
+    if not (isinstance(window, int | np.integer) and window >= 0):
+        raise ValueError(f"window must be a whole number of frames >= 0, got {window!r}")
+    seen = np.isfinite(log_fitness)
     if found is not None:
-        score = np.where(np.asarray(found, bool), score, -np.inf)
-    score = np.where(np.isnan(score), -np.inf, score)
-    return np.argmax(score, axis=1)
+        seen &= np.asarray(found, bool)
+    log_fitness = np.where(seen, log_fitness, 0.0)
+    ambiguity = np.where(seen, np.maximum(ambiguity, 0.0), 0.0)
+    score = fitness_weight * log_fitness - ambiguity_weight * np.log(ambiguity + floor)
+    if window:  # sums over [t − window, t + window] from cumulative sums
+        frames = np.arange(len(score))
+        low, high = np.maximum(frames - window, 0), np.minimum(frames + window + 1, len(score))
+
+        def windowed(values):
+            cumulative = np.concatenate([np.zeros((1, values.shape[1])),
+                                         np.cumsum(values, axis=0)])
+            return cumulative[high] - cumulative[low]
+
+        score = windowed(np.where(seen, score, 0.0)) / np.maximum(windowed(seen * 1.0), 1.0)
+    score = np.where(seen, score, -np.inf)
+    return np.where(np.isnan(score), -np.inf, score)
+
+
+def select_views(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarray | None = None,
+                 *, fitness_weight: float = 1.0, ambiguity_weight: float = 1.0, window: int = 0,
+                 floor: float = 1e-3) -> np.ndarray:
+    """Per frame, the view of greatest :func:`view_scores` (by default Ong & Gong §5.7: the
+    greatest fitness × 1/ambiguity); a view that did not observe the frame is never chosen
+    unless none did (then view 0).
+
+    Returns:
+        ``(time,)`` the chosen view per frame.
+    """
+    return np.argmax(view_scores(log_fitness, ambiguity, found, fitness_weight=fitness_weight,
+                                 ambiguity_weight=ambiguity_weight, window=window, floor=floor),
+                     axis=1)

@@ -1,0 +1,191 @@
+"""View selection (Ong & Gong §5.5–5.7) measured: which per-frame rule picks the view whose 3-D
+skeleton is best, and whether fitness and ambiguity can tell at all.
+
+    python -m benchmarks.view_selection                 # 3 validation clips, then the test clips
+    python -m benchmarks.view_selection --frames 30     # a shorter run
+
+Each clip is rendered through the four Pose2Sim cameras over the real-photo background and
+tracked in each view on its own (``jaxtrack.experiments.linear_combination.multi_view``: the
+model of ``jaxtrack train --method linear-combination``'s training subjects, eq. 9's P = 64,
+Q = 16 and ω = 0.03 as ``benchmarks.linear_combination_evaluation`` chose them on validation).
+Per frame a rule picks one view; its 3-D skeleton error is compared with the best view of the
+frame (an oracle) and the worst. The rules:
+
+- ``paper``: greatest fitness × 1/ambiguity (eq. 14; ``select_views``' defaults);
+- ``fitness``: greatest fitness alone;
+- ``ambiguity``: least ambiguity alone;
+- each of these averaged over ±5 frames (``... ±5``), which ignores one-frame flukes.
+
+The rule with the lowest mean error on the validation clips (the validation subject's three
+Bandai-Namco gestures) is the one to use (it chose ``fitness ±5``,
+``jaxtrack.experiments.linear_combination.DEFAULT_VIEW_SELECTION``); the test clips (the test
+subject's two waves) are scored once with every rule, for the table. Also reported per clip:
+the mean over frames of the Spearman rank correlation, across the four views, between each
+view's 3-D error and its fitness (a good predictor: strongly negative) and its ambiguity
+(strongly positive).
+
+The paper's targets: the selected view ≥ 30 % below the worst and within 10 % of the oracle.
+Writes ``benchmarks/results/view_selection.json`` and prints a markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import device_description, peak_rss_mb
+from jaxtrack._files import write_json_atomically
+
+RESULTS = Path("benchmarks/results")
+VALIDATION = ("bandai/dataset-2_wave-right-hand_normal_001",
+              "bandai/dataset-2_wave-left-hand_normal_001",
+              "bandai/dataset-2_raise-up-right-hand_normal_001")
+"""The validation subject's gestures (the first is ``linear_combination.VALIDATION_CLIPS``)."""
+RULES = {"paper": (1.0, 1.0), "fitness": (1.0, 0.0), "ambiguity": (0.0, 1.0)}
+"""Rule → (weight of log fitness, weight of −log ambiguity)."""
+WINDOW = 5
+
+
+def rule_scores(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarray,
+                rule: str, window: int = 0) -> np.ndarray:
+    """``(time, views)`` the score each view gets from ``rule`` (:data:`RULES`) averaged over
+    ±``window`` frames (``jaxtrack.priors.linear_combinations.view_scores``); −inf where the
+    view did not observe the frame."""
+    from jaxtrack.priors.linear_combinations import view_scores
+
+    fitness_weight, ambiguity_weight = RULES[rule]
+    return view_scores(log_fitness, ambiguity, found, fitness_weight=fitness_weight,
+                       ambiguity_weight=ambiguity_weight, window=window)
+
+
+def selection_errors(errors: np.ndarray, scores: np.ndarray) -> dict:
+    """The mean 3-D error of the view of greatest score per frame, of the best and of the worst
+    view, in metres."""
+    chosen = np.argmax(scores, axis=1)
+    return {"selected_m": float(errors[np.arange(len(errors)), chosen].mean()),
+            "oracle_m": float(errors.min(axis=1).mean()),
+            "worst_m": float(errors.max(axis=1).mean())}
+
+
+def predictor_correlations(errors: np.ndarray, log_fitness: np.ndarray,
+                           ambiguity: np.ndarray, found: np.ndarray) -> dict:
+    """Mean over the frames every view observed of the Spearman correlation, across views,
+    of the 3-D error with the log fitness and with the ambiguity."""
+    from scipy.stats import spearmanr
+
+    with_fitness, with_ambiguity = [], []
+    for t in np.flatnonzero(np.all(found, axis=1)):
+        if np.ptp(errors[t]) == 0:
+            continue
+        if np.ptp(log_fitness[t]) > 0:
+            with_fitness.append(spearmanr(errors[t], log_fitness[t])[0])
+        if np.ptp(ambiguity[t]) > 0:
+            with_ambiguity.append(spearmanr(errors[t], ambiguity[t])[0])
+    mean = lambda values: float(np.mean(values)) if values else None  # noqa: E731
+    return {"error_vs_fitness": mean(with_fitness), "error_vs_ambiguity": mean(with_ambiguity)}
+
+
+def evaluate_clip(result: dict) -> dict:
+    """Every rule's errors and the predictors' correlations on one ``multi_view`` result."""
+    errors = np.asarray(result["errors_m"], np.float64)
+    log_fitness = np.asarray(result["log_fitness"], np.float64)
+    ambiguity = np.asarray(result["ambiguity"], np.float64)
+    found = np.asarray(result["found"], bool)
+    rules = {}
+    for rule in RULES:
+        for window in (0, WINDOW):
+            name = rule + (f" ±{window}" if window else "")
+            rules[name] = selection_errors(
+                errors, rule_scores(log_fitness, ambiguity, found, rule, window))
+    return {"clip": result["clip"], "frames": len(errors), "rules": rules,
+            "single_view_m": result["single_view_m"],
+            **predictor_correlations(errors, log_fitness, ambiguity, found)}
+
+
+def summarise(clips: list[dict]) -> dict:
+    """Per rule the mean over clips of the selected, oracle and worst errors and the two
+    targets' ratios."""
+    rows = {}
+    for rule in clips[0]["rules"]:
+        selected, oracle, worst = (float(np.mean([clip["rules"][rule][key] for clip in clips]))
+                                   for key in ("selected_m", "oracle_m", "worst_m"))
+        rows[rule] = {"selected_m": selected, "oracle_m": oracle, "worst_m": worst,
+                      "below_worst": 1 - selected / worst, "above_oracle": selected / oracle - 1}
+    return rows
+
+
+def table(validation: dict, test: dict, chosen: str) -> str:
+    lines = ["| rule | validation: selected / oracle / worst (mm) | below worst | above oracle "
+             "| test: selected / oracle / worst (mm) | below worst | above oracle |",
+             "|" + "---|" * 7]
+    for rule in validation:
+        cells = []
+        for rows in (validation, test):
+            row = rows[rule]
+            cells += [f"{1e3 * row['selected_m']:.0f} / {1e3 * row['oracle_m']:.0f} / "
+                      f"{1e3 * row['worst_m']:.0f}", f"{100 * row['below_worst']:.0f} %",
+                      f"{100 * row['above_oracle']:.0f} %"]
+        name = f"**{rule}** (chosen)" if rule == chosen else rule
+        lines.append("| " + " | ".join([name, *cells]) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.view_selection",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", type=int, default=90, help="frames per clip (30 fps)")
+    parser.add_argument("--out", type=Path, default=RESULTS / "view_selection.json")
+    args = parser.parse_args(argv)
+    if args.frames < 2 * WINDOW + 1:
+        parser.error(f"--frames must be at least {2 * WINDOW + 1}, got {args.frames}")
+
+    import jax.numpy as jnp
+
+    from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.likelihoods.contour_normals import FitnessSettings
+    from jaxtrack.priors.linear_combinations import training_ambiguity
+
+    started = time.perf_counter()
+    views = (0, 1, 2, 3)
+    trained = lc.train(list(lc.TRAIN_CLIPS), views=views, num_clusters=20)
+    ambiguities = training_ambiguity(trained.vectors, trained.model.layout)
+    fitness = FitnessSettings(contour_tolerance=jnp.asarray(64.0),
+                              hands_tolerance=jnp.asarray(16.0))
+    print(f"trained on {len(trained.vectors)} vectors ({time.perf_counter() - started:.0f} s); "
+          f"{device_description()}", flush=True)
+    results = {}
+    for split, clips in (("validation", VALIDATION), ("test", lc.TEST_CLIPS)):
+        results[split] = []
+        for clip in clips:
+            result = lc.multi_view(trained, clip, views=views, max_frames=args.frames,
+                                   fitness=fitness, step=jnp.asarray(0.03),
+                                   ambiguities=ambiguities)
+            results[split].append(evaluate_clip(result))
+            row = results[split][-1]
+            print(f"  {split} {clip}: paper {1e3 * row['rules']['paper']['selected_m']:.0f} mm, "
+                  f"oracle {1e3 * row['rules']['paper']['oracle_m']:.0f}, worst "
+                  f"{1e3 * row['rules']['paper']['worst_m']:.0f}; error vs fitness "
+                  f"{row['error_vs_fitness']:+.2f}, vs ambiguity "
+                  f"{row['error_vs_ambiguity']:+.2f}", flush=True)
+    validation, test = summarise(results["validation"]), summarise(results["test"])
+    chosen = min(validation, key=lambda rule: validation[rule]["selected_m"])
+    text = table(validation, test, chosen)
+    print(text)
+    seconds = time.perf_counter() - started
+    write_json_atomically(args.out, {
+        "command": "python -m benchmarks.view_selection " + " ".join(argv or []),
+        "device": device_description(), "date": time.strftime("%Y-%m-%d"),
+        "seconds": seconds, "peak_rss_mb": peak_rss_mb(), "frames": args.frames,
+        "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": 20, "particles": 300,
+                     "iterations": 5, "views": list(views)},
+        "chosen_on_validation": chosen, "validation": validation, "test": test,
+        "clips": results, "table": text})
+    print(f"chose {chosen!r} on validation; wrote {args.out} in {seconds:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
