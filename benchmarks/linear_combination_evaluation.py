@@ -7,7 +7,8 @@ subject's wave (Bandai-Namco), and the test subject's two waves (AnimatedDrawing
 only scored. Every clip is rendered through Pose2Sim cameras (``--views``) over the real-photo
 background. The error surface (``--surface``) repeats the test (and a training clip) over a grid
 of cluster counts and sample counts, as the paper's Fig. 10 and 12; ``--multi-view`` tracks each
-test clip in every view and selects a view per frame by fitness × 1/ambiguity (§5.5–5.7).
+test clip in every view and selects a view per frame (§5.5–5.7) by the library's rule
+(``DEFAULT_VIEW_SELECTION``; ``benchmarks.view_selection`` compares it with the paper's).
 
     python -m benchmarks.linear_combination_evaluation [--frames 90] [--surface] [--multi-view]
 """

@@ -108,9 +108,12 @@ print(np.round(surface, 3))
 
 # %% [markdown]
 # ## Choosing a view (§5.5–5.7)
-# Every camera is tracked on its own; each frame is read from the view of greatest
-# fitness × 1/ambiguity, where a view's ambiguity is that of the nearest training vector
-# (eq. 14): how many training vectors look alike there but have different skeletons.
+# Every camera is tracked on its own. Each view's ambiguity is that of the nearest training
+# vector (eq. 14): how many training vectors look alike there but have different skeletons.
+# The paper reads each frame from the view of greatest fitness × 1/ambiguity
+# (`selection="paper"`); jaxtrack's default, chosen on validation subjects
+# (`python -m benchmarks.view_selection`), reads it from the view of greatest fitness over ±5
+# frames, since the ambiguity did not predict which view is right there.
 
 # %%
 selection = lc.multi_view(trained, TEST, views=SIZES["views"], max_frames=FRAMES,

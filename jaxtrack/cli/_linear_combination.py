@@ -10,9 +10,11 @@
   trained at (the calibrated image scaled by ``CAMERA_SCALE``), at the model's frame rate, and
   cut to ``CROP_SIZE`` around the subject; its empty scene is the video's median (a static
   camera); skin is the fixed chroma box or ``--skin``. With several views, each frame is read
-  from the view of greatest fitness × 1/ambiguity (§5.5–5.7). Writes ``overlay.mp4`` and,
-  last, ``track.json``. The model fixes the tracking scale, so ``--max-size`` and the latent
-  tracker's options are not used. Why these choices: ``docs/linear-combination.md``.
+  from the view of greatest fitness over ±5 frames (chosen on validation), or with
+  ``--view-selection paper`` of greatest fitness × 1/ambiguity (§5.5–5.7). Writes
+  ``overlay.mp4`` and, last, ``track.json``. The model fixes the tracking scale, so
+  ``--max-size`` and the latent tracker's options are not used. Why these choices:
+  ``docs/linear-combination.md``.
 
 Every argument is checked before any work; a bad one raises :class:`UserError` (one line).
 """
