@@ -28,6 +28,7 @@ def test_each_rule_is_scored_against_the_oracle_and_the_worst_view():
     assert rules["ambiguity"]["selected_m"] == pytest.approx(0.3)
     assert rules["paper"]["oracle_m"] == pytest.approx(0.1)
     assert rules["paper"]["worst_m"] == pytest.approx(0.3)
+    assert rules["best single view (hindsight)"]["selected_m"] == pytest.approx(0.1)
     # across the two views, the error falls as the fitness rises (except in frame 2) and
     # rises as the ambiguity falls
     assert clip["error_vs_fitness"] == pytest.approx((3 * -1.0 + 1.0) / 4)
