@@ -152,10 +152,13 @@ SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges'
             "jump_probability": "the latent tracker's jump probability epsilon",
             "refine_steps": "the refinement's Gauss-Newton steps",
             "velocity_weight": "MHT's velocity weight", "prior_scale": "MHT's prior scale",
-            "prune_below": "MHT's pruning threshold"}
+            "prune_below": "MHT's pruning threshold",
+            "partitioned": "the latent tracker's partitioned sampling over the prior's parts "
+                           "(1: on; with --parts)"}
 """Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
 _EDGES = ("edge_weight", "edge_tolerance", "foreground_weight")
-_LATENT, _MHT = ("jump_probability",), ("velocity_weight", "prior_scale", "prune_below")
+_LATENT = ("jump_probability", "partitioned")
+_MHT = ("velocity_weight", "prior_scale", "prune_below")
 
 
 def run_one(prior, sequence, config: dict, seed: int, particles: int,
@@ -323,6 +326,11 @@ def main(argv=None) -> int:
         parser.error(f"--max-frames must be at least 2, got {args.max_frames}")
     if args.init == "auto" and args.parts:
         parser.error("--init auto searches one GPLVM's poses; it does not take --parts")
+    partitioned = dict(args.set).get("partitioned")
+    if partitioned is not None and (partitioned not in (0.0, 1.0)
+                                    or (partitioned == 1.0 and not args.parts)):
+        parser.error(f"--set partitioned=1 needs --parts (one GPLVM per body part to partition) "
+                     f"and partitioned is 0 or 1, got {partitioned:g}")
     clips = GESTURE_CLIPS[args.split]
     seeds, views, max_frames = args.seeds, args.views, args.max_frames
     if args.quick:

@@ -67,6 +67,13 @@ def test_a_setting_is_parsed_and_a_bad_one_refused_in_one_line(capsys):
         assert "--set takes NAME=VALUE" in capsys.readouterr().err
 
 
+def test_partitioned_sampling_needs_the_part_priors(capsys):
+    for argv in (["--set", "partitioned=1"], ["--parts", "--set", "partitioned=2"]):
+        with pytest.raises(SystemExit):
+            tracking.main(argv)
+        assert "--set partitioned=1 needs --parts" in capsys.readouterr().err
+
+
 def test_a_setting_reaches_the_tracker_it_belongs_to(monkeypatch):
     built = []
 

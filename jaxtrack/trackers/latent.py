@@ -19,6 +19,10 @@ Departures from the paper, each switchable back (reasons and measurements: ``doc
   followed (0: the paper's random walk).
 * **Local mode.** The estimate averages the particles within ``mode_radius`` ν of the best one
   (``inf``: all, as the paper).
+* **Partitioned sampling** (``partitioned=True``, with a ``PartsGPLVM`` prior; off by
+  default): each frame moves the torso, then each arm, resampling by that part's strips before
+  the next part moves (:mod:`jaxtrack.trackers._partitioned`), so that one arm's sharp evidence
+  does not decide where the other arm goes.
 * **Refinement** (``refinement=Refinement()``, the stage every tracker can take,
   :mod:`jaxtrack.trackers._refinement`): the reported pose refined in the full SPM state; None
   reports the paper's estimate.
@@ -46,7 +50,7 @@ from jaxtrack.priors.poses import (
     pose_features,
     states_from_features,
 )
-from jaxtrack.trackers._options import Engine, Likelihood, Refinement, options_record
+from jaxtrack.trackers._options import RESAMPLERS, Engine, Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import (
     check_initial_pose,
     cloud_estimate,
@@ -56,6 +60,7 @@ from jaxtrack.trackers._particles import (
     frame0_templates,
     initialize_filter,
 )
+from jaxtrack.trackers._partitioned import partitioned_step, stages_of
 from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
@@ -175,6 +180,9 @@ class LatentTracker(Tracker):
             link of μ(x) is stretched by (its length in frame 0's pose) / (its length in μ of
             μ⁻¹(frame 0's pose)), clipped to [1/2, 2], so a person whose proportions differ
             from the training subjects' is not drawn with theirs. False: the paper's decoder.
+        partitioned: partitioned sampling over the prior's parts (module docstring; needs a
+            ``PartsGPLVM`` of ``UPPER_BODY_PARTS`` and a strip likelihood); False: one
+            CONDENSATION step on the whole latent point, as the paper.
     """
 
     prior: GPLVM
@@ -190,6 +198,7 @@ class LatentTracker(Tracker):
     jump_probability: float = eqx.field(static=True, default=DEFAULT_JUMP_PROBABILITY)
     mode_radius: float = eqx.field(static=True, default=3.0)
     subject_lengths: bool = eqx.field(static=True, default=False)
+    partitioned: bool = eqx.field(static=True, default=False)
 
     def __check_init__(self):
         if not 0 <= self.jump_probability < 1:
@@ -212,7 +221,7 @@ class LatentTracker(Tracker):
                 "foreground": self.background is not None,
                 "placement_std": self.placement_std, "initial_spread": self.initial_spread,
                 "jump_probability": self.jump_probability, "mode_radius": self.mode_radius,
-                "subject_lengths": self.subject_lengths}
+                "subject_lengths": self.subject_lengths, "partitioned": self.partitioned}
 
     def start(self, key: PRNGKeyArray, first_frame, initial_pose) -> LatentState:
         markers = check_initial_pose(initial_pose)
@@ -272,7 +281,13 @@ class LatentTracker(Tracker):
     def update(self, key: PRNGKeyArray, state: LatentState, frame: Array | FrameInChunk
                ) -> tuple[LatentState, FrameEstimate]:
         with jax.named_scope("filter"):
-            filtered, info = filter_step(self.engine, key, state.filter, frame, state.model)
+            if self.partitioned:
+                filtered, info = partitioned_step(
+                    key, state.filter, frame, state.model, stages_of(self.prior),
+                    RESAMPLERS[self.engine.resampler]())
+            else:
+                filtered, info = filter_step(self.engine, key, state.filter, frame,
+                                             state.model)
             estimate = self._cloud(state.model, filtered, info)
         return self._report(state, filtered, estimate, frame)
 
@@ -309,6 +324,7 @@ def latent_tracker(
     jump_probability: float = DEFAULT_JUMP_PROBABILITY,
     mode_radius: float = 3.0,
     subject_lengths: bool = False,
+    partitioned: bool = False,
     dtype=jnp.float32,
 ) -> LatentTracker:
     """The latent tracker with a trained prior.
@@ -331,6 +347,7 @@ def latent_tracker(
         jump_probability: see :class:`LatentTracker`.
         mode_radius: see :class:`LatentTracker`.
         subject_lengths: see :class:`LatentTracker`.
+        partitioned: see :class:`LatentTracker`.
         dtype: the filter's float type (μ⁻¹ at the start always runs in float64).
     """
     std = np.asarray(prior.dynamics_std, np.float64)
@@ -353,10 +370,16 @@ def latent_tracker(
                 np.isfinite(value) and value >= 0 for value in placement_std):
             raise ValueError(f"placement_std must be {PLACEMENT_SIZE} numbers >= 0 (log scale, "
                              f"x px, y px), got {placement_std}")
+    if partitioned:
+        stages_of(prior)  # a PartsGPLVM of the three upper-body parts, or a clear error
+        if likelihood.kind not in ("limbs+edges", "limbs"):
+            raise ValueError(f"partitioned sampling weighs each part by its limb strips; the "
+                             f"{likelihood.kind!r} likelihood has none (use 'limbs+edges')")
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     return LatentTracker(
         prior=prior.astype(dtype), template=jax.tree.map(cast, template), likelihood=likelihood,
         latent_std=cast(std), engine=engine, host_prior=_HostPrior(prior),
         refinement=refinement, background=background, placement_std=placement_std,
         initial_spread=float(initial_spread), jump_probability=float(jump_probability),
-        mode_radius=float(mode_radius), subject_lengths=bool(subject_lengths))
+        mode_radius=float(mode_radius), subject_lengths=bool(subject_lengths),
+        partitioned=bool(partitioned))

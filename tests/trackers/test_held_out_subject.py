@@ -73,3 +73,15 @@ def test_a_prior_of_parts_trains_reloads_and_tracks(tmp_path, sequence):
                            frames=sequence.frames[:4], truth=sequence.truth[:4], fps=sequence.fps)
     metrics = _error(loaded, short, "latent", 32, None)
     assert metrics["mean_error_torso"] < 0.5
+    # partitioned sampling over the parts: a proper filter (finite, normalised, no re-seed)
+    import jax.random as jr
+
+    from jaxtrack.experiments.protocol import build_tracker
+    from jaxtrack.trackers import track
+
+    tracker = build_tracker("latent", loaded, short, 32, refinement=None,
+                            latent_options={"partitioned": True})
+    result = track(tracker, jr.PRNGKey(0), short.frames, short.truth[0], progress=False)
+    assert result.options["partitioned"] is True
+    assert not result.degenerate.any() and (result.ess > 0).all() and (result.ess <= 32).all()
+    assert evaluate_track(result.markers, short.truth, UPPER_BODY_12)["mean_error_torso"] < 0.5
