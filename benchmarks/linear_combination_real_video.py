@@ -151,12 +151,16 @@ def _report_unscored(record: dict, args, tracked: Path, seconds: float) -> int:
                 [("view", "view", "s"), ("observed", "observed", "d"),
                  ("selected", "selected", "d"), ("mean_ambiguity", "mean ambiguity", ".3f")])
     print(f"overlay: {tracked / 'overlay.mp4'}")
+    _write(args, tracked, record, summary=summary)
+    return 0
+
+
+def _write(args, tracked: Path, record: dict, **results) -> None:
     write_json(args.out, {"benchmark": "linear_combination_real_video",
                           "device": device_description(), "arguments": {
                               key: str(value) for key, value in vars(args).items()},
-                          "tracked": str(tracked), "summary": summary,
+                          "tracked": str(tracked), **results,
                           "seconds": record.get("seconds")})
-    return 0
 
 
 def _mean(values: np.ndarray) -> float | None:
@@ -251,11 +255,7 @@ def main(argv=None) -> int:
           f"{selection['worst_mm']:.0f} mm; times selected {selection['times_selected']}")
     print(f"the training skeletons' mean, held constant: {scores['constant_mean_skeleton_mm']:.0f} "
           f"mm")
-    write_json(args.out, {"benchmark": "linear_combination_real_video",
-                          "device": device_description(), "arguments": {
-                              key: str(value) for key, value in vars(args).items()},
-                          "tracked": str(tracked), "scores": scores,
-                          "seconds": record.get("seconds")})
+    _write(args, tracked, record, scores=scores)
     return 0
 
 
