@@ -246,18 +246,28 @@ class LatentWalk(eqx.Module):
     placement_std: Float[Array, " 3"]
 
     def sample(self, key: PRNGKeyArray, latent: Float[Array, " latent"],
-               placement: Float[Array, " 3"]) -> tuple[Array, Array]:
-        """One step of ``(latent, placement)``."""
-        latent_dim, placement_dim = latent.shape[0], placement.shape[0]
-        noise = smc.fast_normal(key, (latent_dim + placement_dim + 2,), latent.dtype)
-        step, jump_draw, pick_draw = (noise[:latent_dim + placement_dim], noise[-2], noise[-1])
+               placement: Float[Array, " 3"], dims: tuple[int, ...] | None = None,
+               move_placement: bool = True) -> tuple[Array, Array]:
+        """One step of ``(latent, placement)``; with ``dims`` (static indices), of those latent
+        dimensions alone (a jump lands them on a training latent's), the placement moving only
+        with ``move_placement`` (partitioned sampling, ``jaxtrack.trackers._partitioned``)."""
+        part = latent if dims is None else latent[jnp.asarray(dims)]
+        pool = self.pool if dims is None else self.pool[:, jnp.asarray(dims)]
+        latent_std = self.latent_std if dims is None else self.latent_std[jnp.asarray(dims)]
+        part_dim, placement_dim = part.shape[0], placement.shape[0]
+        noise = smc.fast_normal(key, (part_dim + placement_dim + 2,), latent.dtype)
+        step, jump_draw, pick_draw = (noise[:part_dim + placement_dim], noise[-2], noise[-1])
         # Tian et al. eq. 6: random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) ... or, with
         # probability ε, from a random training latent
-        pick = jnp.minimum((jsp.ndtr(pick_draw) * self.pool.shape[0]).astype(jnp.int32),
-                           self.pool.shape[0] - 1)
-        start = jnp.where(jump_draw < self.jump_threshold, self.pool[pick], latent)
-        return (start + self.latent_std * step[:latent_dim],
-                placement + self.placement_std * step[latent_dim:])
+        pick = jnp.minimum((jsp.ndtr(pick_draw) * pool.shape[0]).astype(jnp.int32),
+                           pool.shape[0] - 1)
+        start = jnp.where(jump_draw < self.jump_threshold, pool[pick], part)
+        moved = start + latent_std * step[:part_dim]
+        if move_placement:
+            placement = placement + self.placement_std * step[part_dim:]
+        if dims is None:
+            return moved, placement
+        return latent.at[jnp.asarray(dims)].set(moved), placement
 
 
 def constant_velocity(current: Float[Array, "... state"], previous: Float[Array, "... state"],

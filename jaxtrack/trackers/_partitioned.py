@@ -22,7 +22,6 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.special as jsp
 import numpy as np
 from jaxtyping import Array, PRNGKeyArray
 
@@ -68,19 +67,9 @@ def stages_of(prior) -> tuple[Stage, ...]:
 
 def _move(walk, key: PRNGKeyArray, particle: dict, stage: Stage) -> dict:
     """The latent walk (eq. 6, with jumps to training latents) on the stage's dimensions only,
-    and the placement's walk in the stage that carries it."""
-    dims = jnp.asarray(stage.dims)
-    latent, placement = particle["latent"], particle["placement"]
-    count = len(stage.dims)
-    noise = smc.fast_normal(key, (count + placement.shape[0] + 2,), latent.dtype)
-    step, jump_draw, pick_draw = noise[:count], noise[-2], noise[-1]
-    pool = walk.pool[:, dims]
-    pick = jnp.minimum((jsp.ndtr(pick_draw) * pool.shape[0]).astype(jnp.int32),
-                       pool.shape[0] - 1)
-    start = jnp.where(jump_draw < walk.jump_threshold, pool[pick], latent[dims])
-    latent = latent.at[dims].set(start + walk.latent_std[dims] * step)
-    if stage.placement:
-        placement = placement + walk.placement_std * noise[count:count + placement.shape[0]]
+    and the placement's walk in the stage that carries it (``LatentWalk.sample``)."""
+    latent, placement = walk.sample(key, particle["latent"], particle["placement"],
+                                    stage.dims, stage.placement)
     return {"latent": latent, "placement": placement}
 
 
