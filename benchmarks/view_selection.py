@@ -104,10 +104,9 @@ def evaluate_clip(result: dict) -> dict:
             rules[name] = selection_errors(
                 errors, rule_scores(log_fitness, ambiguity, found, rule, window))
     # a second oracle: the one view that is best over the whole clip, known in hindsight
-    best_view = int(np.argmin(errors.mean(axis=0)))
+    best_view = np.argmin(errors.mean(axis=0))
     rules["best single view (hindsight)"] = selection_errors(
-        errors, np.where(np.arange(errors.shape[1]) == best_view, 0.0, -1.0)[None].repeat(
-            len(errors), axis=0))
+        errors, np.broadcast_to(np.arange(errors.shape[1]) == best_view, errors.shape))
     return {"clip": result["clip"], "frames": len(errors), "rules": rules,
             "single_view_m": result["single_view_m"],
             **predictor_correlations(errors, log_fitness, ambiguity, found)}
