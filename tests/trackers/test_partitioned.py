@@ -42,6 +42,19 @@ def test_each_part_moves_its_own_dimensions_and_every_strip_weighs_one_stage():
         stages_of(_part(0, 22))
 
 
+def test_a_partitioned_tracker_needs_parts_and_limb_strips():
+    from jaxtrack.body import SPM_MARKERS, build_template
+    from jaxtrack.trackers import Likelihood, latent_tracker
+
+    rng = np.random.default_rng(3)
+    template = build_template(rng.normal(size=(4, len(SPM_MARKERS), 2)) * 20 + 100)
+    with pytest.raises(ValueError, match="limb strips"):
+        latent_tracker(_parts_prior(), template, likelihood=Likelihood("markers"),
+                       partitioned=True)
+    with pytest.raises(ValueError, match="needs a PartsGPLVM"):
+        latent_tracker(_part(0, 22), template, partitioned=True)
+
+
 def test_a_stage_moves_only_its_part_and_the_placement_only_with_the_torso():
     walk = LatentWalk(latent_std=jnp.full(6, 0.5), jump_threshold=jnp.asarray(-jnp.inf),
                       pool=jnp.zeros((4, 6)), placement_std=jnp.full(3, 0.5))
