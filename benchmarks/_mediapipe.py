@@ -62,19 +62,21 @@ def to_upper_body(landmarks: np.ndarray) -> np.ndarray:
 
 
 def run_mediapipe(frames: np.ndarray, *, model_complexity: int = 1,
-                  timeout: float | None = 1800.0) -> dict:
+                  timeout: float | None = 1800.0, segmentation: bool = False) -> dict:
     """MediaPipe Pose on ``frames`` (time, height, width, 3) uint8 RGB, in its venv.
 
     Returns the script's outputs (``landmarks``, ``visibility``, ``found``, ``seconds``,
-    ``first_seconds``, ``version``) plus ``markers`` (time, 12, 2) (frames without a person
-    hold the last detection, or the next one before the first: ``filled`` counts them) and
-    ``summary``, or ``{"skipped": reason}`` when its python is missing or the run fails.
+    ``first_seconds``, ``version``; with ``segmentation`` also ``masks`` (time, height, width)
+    bool, the person by MediaPipe's segmentation) plus ``markers`` (time, 12, 2) (frames without
+    a person hold the last detection, or the next one before the first: ``filled`` counts them)
+    and ``summary``, or ``{"skipped": reason}`` when its python is missing or the run fails.
     """
     python = mediapipe_python()
     if not python.exists():
         return {"skipped": f"no MediaPipe python at {python} (make bench-mediapipe-env)"}
     inputs = {"frames": np.asarray(frames, np.uint8),
-              "model_complexity": np.int64(model_complexity)}
+              "model_complexity": np.int64(model_complexity),
+              "segmentation": np.int64(segmentation)}
     result = run_in_venv(python, SCRIPT, inputs, output="out.npz", read=_read_npz,
                          label="MediaPipe", timeout=timeout)
     if "skipped" in result:
@@ -95,3 +97,21 @@ def _read_npz(path: Path) -> dict:
     with np.load(path, allow_pickle=False) as data:
         return {key: (data[key].item() if data[key].ndim == 0 else data[key])
                 for key in data.files}
+
+
+def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
+    """MediaPipe's person masks for every frame of ``video``, decoded so its longer side is at
+    most ``max_size``, written to ``out`` (:func:`jaxtrack.vision.write_masks`; ``jaxtrack
+    track --masks`` reads it) unless ``out`` is already there. Returns ``out``, or
+    ``{"skipped": reason}`` when MediaPipe cannot run or finds no person."""
+    from jaxtrack.vision import read_video, write_masks
+
+    if out.is_file():
+        return out
+    height, width = read_video(video, max_frames=1).frames.shape[1:3]
+    frames = read_video(video, scale=min(1.0, max_size / max(width, height))).frames
+    result = run_mediapipe(frames, segmentation=True)
+    if "skipped" in result:
+        return result
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return write_masks(out, np.asarray(result["masks"], bool))

@@ -21,7 +21,15 @@ give another). Its ``track.json`` is then scored against the reference
   constant, scored as the tracker is.
 
     python -m benchmarks.linear_combination_real_video [--particles 300] [--iterations 5]
+    python -m benchmarks.linear_combination_real_video --silhouettes mediapipe
     python -m benchmarks.linear_combination_real_video --demo multiperson
+
+``--silhouettes``: ``background`` (the default) takes each view's silhouettes against the
+video's median background, as ``jaxtrack track`` does by default; the man barely leaves his
+place, so the median holds him and the silhouettes are fragments. ``mediapipe`` gives
+``jaxtrack track --masks`` MediaPipe's person segmentation of each video instead
+(``benchmarks/_mediapipe.py``, in its own venv, ``make bench-mediapipe-env``; cached in
+``benchmarks/results/mediapipe_masks/``, shared with ``benchmarks.mixed_state_real_video``).
 
 ``--demo multiperson`` tracks the two-person take instead
 (``shared/data/pose2sim_demo_multiperson``: the same man in a lunge with his arms out while a
@@ -46,6 +54,7 @@ import numpy as np
 from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
+MASKS = RESULTS / "mediapipe_masks"
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 
 
@@ -182,6 +191,10 @@ def main(argv=None) -> int:
                         default="singleperson",
                         help="the Pose2Sim take: one man (scored against its reference) or the "
                              "man and a woman walking through (no reference: not scored)")
+    parser.add_argument("--silhouettes", choices=("background", "mediapipe"),
+                        default="background",
+                        help="the views' silhouettes: against the median background, or "
+                             "MediaPipe's person masks (module docstring)")
     parser.add_argument("--out", type=Path, default=None,
                         help="JSON output (default benchmarks/results/"
                              "linear_combination_real_video[_multiperson].json)")
@@ -193,6 +206,8 @@ def main(argv=None) -> int:
     args.out = args.out or RESULTS / ("linear_combination_real_video"
                                       + ("_multiperson" if multiperson else "")
                                       + (f"_{args.view_selection}" if args.view_selection
+                                         else "")
+                                      + ("_mediapipe" if args.silhouettes == "mediapipe"
                                          else "") + ".json")
 
     from jaxtrack.cli import main as jaxtrack
@@ -217,13 +232,23 @@ def main(argv=None) -> int:
     if not args.model.is_file():
         if jaxtrack(["train", "--method", "linear-combination", "--out", str(args.model)]):
             raise SystemExit("training the model failed")
+    masks = []
+    if args.silhouettes == "mediapipe":
+        from benchmarks._mediapipe import person_masks
+
+        for camera, video in zip(CAMERAS, videos, strict=True):
+            made = person_masks(video, MASKS / f"{folder.name}_{camera}.npz")
+            if isinstance(made, dict):
+                raise SystemExit(f"--silhouettes mediapipe: {made['skipped']}")
+            masks.append(str(made))
     tracked = args.out.with_suffix("")
     code = jaxtrack(["track", "--method", "linear-combination", "--model", str(args.model),
                      "--video", *map(str, videos), "--calibration", str(calibration),
                      "--particles", str(args.particles), "--iterations", str(args.iterations),
                      "--seed", str(args.seed), "--out", str(tracked),
                      *(["--view-selection", args.view_selection] if args.view_selection
-                       else [])])
+                       else []),
+                     *(["--masks", *masks] if masks else [])])
     if code:
         raise SystemExit("tracking failed")
     record = json.loads((tracked / "track.json").read_text())

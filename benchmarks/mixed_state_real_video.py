@@ -4,20 +4,34 @@ integration (filtered and smoothed).
 
 Each camera's video (``shared/data/pose2sim_demo_singleperson/videos``, 100 frames at 60 fps, a
 man balancing on a beam) is downscaled so its longer side is at most ``--max-size`` pixels (640
-by default, the paper's resolution), its silhouettes are taken against the whole video's median
-background (as ``jaxtrack track --method mixed-state`` takes them), and the posture model of
+by default, the paper's resolution), its silhouettes are taken from each source of
+``--silhouettes``, and the posture model of
 ``benchmarks.mixed_state_evaluation`` (trained on the training clips, cached beside its JSON)
 with the tracker's defaults filters and smooths them. The truth is the reference
 (``jaxtrack.evaluation.reference``) projected into each camera: the top of the head (BODY_25B
 ``Head``, where Ghost's head is, at the silhouette's top), the wrists and the ankles, as the
 issue that asked for this score names them; hands and feet under the best left/right assignment
-per frame (the paper's superposition). The man stands throughout, so every frame's posture label
-is ``standing``.
+per frame (the paper's superposition). The true posture of each frame comes from the reference's
+3-D keypoints by the rule that labels the training clips
+(:func:`jaxtrack.priors.postures.posture_labels`): the man stands in 55 of the 100 frames and
+bends (torso more than 30° from vertical, in a lunge) in the other 45.
+
+The silhouettes' sources:
+
+- ``background``: background subtraction against the whole video's median, as ``jaxtrack track
+  --method mixed-state`` takes them by default. The man barely leaves his place, so the median
+  holds him and his silhouette is fragments.
+- ``mediapipe``: MediaPipe's person segmentation (``benchmarks/_mediapipe.py``, in its own venv,
+  ``make bench-mediapipe-env``; skipped where that venv is missing), the masks a user without an
+  empty plate of the scene would bring with ``jaxtrack track --masks``. They are made at 640
+  pixels on the longer side, cached in ``benchmarks/results/mediapipe_masks/`` and resized to
+  the tracked frames.
 
     python -m benchmarks.mixed_state_real_video [--particles 500] [--max-size 640]
+        [--silhouettes background mediapipe]
 
-Prints a table per camera and overall (mean squared error per part in px² at the tracked size,
-the fraction of frames within 20 px, the posture error) and writes
+Prints a table per camera and source and overall per source (mean squared error per part in px²
+at the tracked size, the fraction of frames within 20 px, the posture error) and writes
 ``benchmarks/results/mixed_state_real_video.json``.
 """
 
@@ -32,6 +46,9 @@ import numpy as np
 from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
+MASKS = RESULTS / "mediapipe_masks"
+SOURCES = ("background", "mediapipe")
+"""Where the silhouettes come from (module docstring)."""
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 KINDS = ("instantaneous", "filtered", "smoothed")
 TRUTH_KEYPOINTS = ("Head", "RWrist", "LWrist", "RAnkle", "LAnkle")
@@ -45,6 +62,32 @@ def truth_parts(keypoints: np.ndarray) -> np.ndarray:
     return keypoints[:, [TRC_KEYPOINTS.index(name) for name in TRUTH_KEYPOINTS]]
 
 
+LABEL_KEYPOINTS = {"head": ("Head",), "neck": ("Neck",), "pelvis": ("LHip", "RHip"),
+                   "left_hip": ("LHip",), "left_knee": ("LKnee",), "left_ankle": ("LAnkle",),
+                   "right_hip": ("RHip",), "right_knee": ("RKnee",), "right_ankle": ("RAnkle",)}
+"""The markers :func:`jaxtrack.priors.postures.posture_labels` needs, each the mean of these
+reference keypoints (the pelvis is the hips' midpoint)."""
+
+
+def label_markers(keypoints: np.ndarray) -> np.ndarray:
+    """``(..., 9, D)`` the :data:`LABEL_KEYPOINTS` markers of ``(..., 21, D)`` reference
+    keypoints (``TRC_KEYPOINTS`` order)."""
+    from jaxtrack.evaluation.reference import TRC_KEYPOINTS
+
+    return np.stack([np.mean([keypoints[..., TRC_KEYPOINTS.index(name), :] for name in names],
+                             axis=0) for names in LABEL_KEYPOINTS.values()], axis=-2)
+
+
+def truth_postures(trc_keypoints: np.ndarray, image_keypoints: np.ndarray) -> np.ndarray:
+    """``(rows,)`` the posture of every ``.trc`` row by the training clips' labelling rule, from
+    its ``(rows, 21, 3)`` keypoints (the ``.trc``'s own Y-up axes, metres) and their ``(rows,
+    21, 2)`` image positions in one camera (which only decide a lying figure's side)."""
+    from jaxtrack.priors.postures import posture_labels
+
+    return posture_labels(label_markers(trc_keypoints), label_markers(image_keypoints),
+                          list(LABEL_KEYPOINTS))
+
+
 def posture_model(folder: Path):
     """The training clips' posture model with the default covariance ridge, shared with
     ``benchmarks.mixed_state_evaluation``'s cache in ``folder``."""
@@ -55,22 +98,28 @@ def posture_model(folder: Path):
 
 
 def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles: int,
-                  seed: int) -> dict:
-    """Track one camera's video and score every estimate against the reference."""
+                  seed: int, masks_file: Path | None = None) -> dict:
+    """Track one camera's video and score every estimate against the reference; the
+    silhouettes from ``masks_file`` (:func:`jaxtrack.vision.read_masks`) where given, else
+    against the video's median background."""
     import jax.random as jr
 
-    from jaxtrack.evaluation.reference import load_reference
+    from jaxtrack.evaluation.reference import TRC_FILES, load_reference, read_trc
     from jaxtrack.experiments import mixed_state as ms
-    from jaxtrack.priors.postures import POSTURE_NAMES
     from jaxtrack.trackers.mixed_state import observations_from_silhouettes
-    from jaxtrack.vision import median_background, read_video
+    from jaxtrack.vision import masks_for_frames, median_background, read_masks, read_video
+    from jaxtrack.vision.foreground import largest_component
     from jaxtrack.vision.histograms import FRAME_OK, silhouettes
 
     path = folder / "videos" / f"{camera}.mp4"
     height, width = read_video(path, max_frames=1).frames.shape[1:3]
     video = read_video(path, scale=min(1.0, max_size / max(width, height)))
     scale = video.frames.shape[2] / width  # the decoder rounds the size
-    masks = silhouettes(video.frames, median_background(video.frames))
+    if masks_file is None:
+        masks = silhouettes(video.frames, median_background(video.frames))
+    else:  # the largest blob, as silhouettes() and jaxtrack track --masks keep it
+        masks = np.stack([largest_component(mask) for mask in masks_for_frames(
+            read_masks(masks_file), video.frame_indices, video.image_size, name=str(masks_file))])
     num_bins = (model.postures.num_features - 1) // 2
     observations = observations_from_silhouettes(masks, num_bins=num_bins)
     reference = load_reference(folder, num_video_frames=len(video.frames))[camera]
@@ -78,7 +127,8 @@ def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles:
     truth = truth_parts(reference.scaled(scale).keypoints)
     tracked = ms.track(jr.PRNGKey(seed), model, observations, particles)
     ok = np.asarray(tracked["status"])[indices] == FRAME_OK
-    labels = np.full(len(indices), POSTURE_NAMES.index("standing"))
+    _, trc, _ = read_trc(folder / "reference" / "pose-3d" / TRC_FILES[False])
+    labels = truth_postures(np.asarray(trc, np.float64)[reference.rows], reference.keypoints)
     scores = {kind: ms.score(tracked[kind]["parts"][indices], tracked[kind]["posture"][indices],
                              truth, labels, valid=ok)
               for kind in KINDS}
@@ -93,7 +143,7 @@ def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles:
 
 def truth_in_silhouette(masks: np.ndarray, truth: np.ndarray) -> dict:
     """The fraction of frames whose silhouette covers each reference part (within 5 px): how
-    much of the person the video's median background lets the silhouette see."""
+    much of the person the silhouette sees."""
     import cv2
 
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (11, 11))
@@ -180,6 +230,8 @@ def main(argv=None) -> int:
     parser.add_argument("--max-size", type=int, default=640,
                         help="downscale so the longer side is at most PX")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--silhouettes", nargs="+", choices=SOURCES, default=list(SOURCES),
+                        help="where the silhouettes come from (module docstring)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_real_video.json"))
     args = parser.parse_args(argv)
     from jaxtrack.evaluation.reference import default_folder
@@ -192,38 +244,64 @@ def main(argv=None) -> int:
     from jaxtrack.trackers.mixed_state import MixedStateModel
 
     tracker_model = MixedStateModel(model)
-    per_camera = {}
-    for camera in CAMERAS:
-        per_camera[camera] = camera_scores(folder, camera, tracker_model,
-                                           max_size=args.max_size, particles=args.particles,
-                                           seed=args.seed)
-        result = per_camera[camera]
-        print(f"\n{camera}: {result['frames']} frames at {result['size'][0]}x"
-              f"{result['size'][1]}, {result['frames_with_silhouette']} with a silhouette; "
-              f"px² against the reference's head top, wrists and ankles")
-        covered = result["truth_in_silhouette"]
-        print(f"the silhouette covers the reference's head in {100 * covered['head']:.0f} % "
-              f"of frames, its hands in {100 * covered['hands']:.0f} %, its feet in "
-              f"{100 * covered['feet']:.0f} %")
-        print_table(_rows(result["scores"]), _COLUMNS)
-    pooled = _pooled(per_camera)
-    print(f"\nall four cameras ({pooled['smoothed']['frames']} frames); device: "
-          f"{device_description()}; {time.perf_counter() - begin:.0f} s")
-    print_table(_rows(pooled), _COLUMNS)
+    results, skipped, figures = {}, {}, []
+    for source in dict.fromkeys(args.silhouettes):
+        per_camera = {}
+        for camera in CAMERAS:
+            masks_file = None
+            if source == "mediapipe":
+                from benchmarks._mediapipe import person_masks
+
+                masks_file = person_masks(folder / "videos" / f"{camera}.mp4",
+                                          MASKS / f"{folder.name}_{camera}.npz")
+                if isinstance(masks_file, dict):
+                    skipped[source] = masks_file["skipped"]
+                    print(f"\n{source} silhouettes skipped: {skipped[source]}")
+                    break
+            per_camera[camera] = camera_scores(folder, camera, tracker_model,
+                                               max_size=args.max_size,
+                                               particles=args.particles, seed=args.seed,
+                                               masks_file=masks_file)
+            _print_camera(source, camera, per_camera[camera])
+        if source in skipped:
+            continue
+        results[source] = {"cameras": per_camera, "all": _pooled(per_camera)}
+        figures += [result["figure"] for result in per_camera.values()]
+    for source, result in results.items():
+        pooled = result["all"]
+        print(f"\n{source} silhouettes, all four cameras ({pooled['smoothed']['frames']} "
+              f"frames); device: {device_description()}")
+        print_table(_rows(pooled), _COLUMNS)
+    print(f"{time.perf_counter() - begin:.0f} s")
     figure = Path(args.out).with_suffix(".png")
-    _write_figure(figure, [result["figure"] for result in per_camera.values()])
-    print(f"wrote {figure} (silhouettes and the reference, four frames per camera)")
+    if figures:
+        _write_figure(figure, figures)
+        print(f"wrote {figure} (silhouettes and the reference, four frames per camera, each "
+              f"source's cameras in turn)")
     options = tracker_model
     write_json(args.out, {
         "benchmark": "mixed_state_real_video", "device": device_description(),
         "arguments": vars(args), "truth_keypoints": list(TRUTH_KEYPOINTS),
         "tracker": {"redetect_probability": float(options.redetect_probability),
                     "redraw_on_switch": options.redraw_on_switch},
-        "cameras": {camera: {key: value for key, value in result.items()
-                             if key not in ("squared", "figure")}
-                    for camera, result in per_camera.items()},
-        "all": pooled})
+        "skipped": skipped,
+        "silhouettes": {source: {
+            "cameras": {camera: {key: value for key, value in camera_result.items()
+                                 if key not in ("squared", "figure")}
+                        for camera, camera_result in result["cameras"].items()},
+            "all": result["all"]} for source, result in results.items()}})
     return 0
+
+
+def _print_camera(source: str, camera: str, result: dict) -> None:
+    print(f"\n{camera}, {source} silhouettes: {result['frames']} frames at {result['size'][0]}x"
+          f"{result['size'][1]}, {result['frames_with_silhouette']} with a silhouette; px² "
+          f"against the reference's head top, wrists and ankles")
+    covered = result["truth_in_silhouette"]
+    print(f"the silhouette covers the reference's head in {100 * covered['head']:.0f} % of "
+          f"frames, its hands in {100 * covered['hands']:.0f} %, its feet in "
+          f"{100 * covered['feet']:.0f} %")
+    print_table(_rows(result["scores"]), _COLUMNS)
 
 
 if __name__ == "__main__":

@@ -388,7 +388,15 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers import Engine
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
-    from jaxtrack.vision import VideoError, median_background, read_video, write_views_video
+    from jaxtrack.vision import (
+        MaskFileError,
+        VideoError,
+        masks_for_frames,
+        median_background,
+        read_masks,
+        read_video,
+        write_views_video,
+    )
 
     started = time.perf_counter()
     particles = at_least(args.particles, 1, "--particles", _PARTICLES)
@@ -405,6 +413,15 @@ def track(args: argparse.Namespace) -> int:
     for path in args.video:
         if not path.is_file():
             raise UserError(f"--video {path}: no such file")
+    given_masks = [None] * len(args.video)
+    if args.masks is not None:
+        if len(args.masks) != len(args.video):
+            raise UserError(f"--masks: one file per --video, got {len(args.masks)} for "
+                            f"{len(args.video)}")
+        try:
+            given_masks = [read_masks(path) for path in args.masks]
+        except MaskFileError as error:
+            raise UserError(f"--masks {one_line(error)}") from None
     trained = _load(args.model, "--model", "make one with jaxtrack train --method "
                     "linear-combination")
     joints = trained.description.get("skeleton", [])
@@ -436,14 +453,25 @@ def track(args: argparse.Namespace) -> int:
     views = []
     for index, video in enumerate(videos):
         frames = video.frames[:count]
-        background = median_background(frames)
+        masks = None
+        if given_masks[index] is not None:
+            try:
+                masks = masks_for_frames(given_masks[index], video.frame_indices[:count],
+                                         video.image_size, name=str(args.masks[index]))
+            except MaskFileError as error:
+                raise UserError(f"--masks {one_line(error)}") from None
+        background = median_background(frames) if masks is None else None
         origin, people = np.zeros(2), count
         if cameras is not None:
-            centre, people = lc.subject_centre(frames, background)
+            centre, people = lc.subject_centre(frames, background, masks=masks)
             origin = np.round(centre - np.asarray(lc.CROP_SIZE) / 2)
             frames = lc.cut_window(frames, origin, lc.CROP_SIZE)
-            background = lc.cut_window(background, origin, lc.CROP_SIZE)
-        observations, status = lc.observe(frames, background, skin_reference=skin)
+            if masks is None:
+                background = lc.cut_window(background, origin, lc.CROP_SIZE)
+            else:
+                masks = lc.cut_window(masks[..., None], origin, lc.CROP_SIZE,
+                                      mode="constant")[..., 0]
+        observations, status = lc.observe(frames, background, skin_reference=skin, masks=masks)
         height, width = video.frames.shape[1:3]
         size = probes[index][1]
         views.append({"frames": frames, "observations": observations, "status": status,
@@ -563,7 +591,10 @@ def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, ski
                    "scale": np.round(view["scale"], 5).tolist(),
                    "crop_origin": np.round(view["origin"], 1).tolist(),
                    "crop_from_silhouettes": view["people"],
-                   "background": "median of the video's frames"} for view in views],
+                   "silhouettes": ("background subtraction against the median of the "
+                                   "video's frames" if args.masks is None
+                                   else f"masks {args.masks[index]}")}
+                  for index, view in enumerate(views)],
         "tracked_size": list(views[0]["frames"].shape[2:0:-1]),
         "skin": "fixed chroma box" if skin is None else list(skin),
         "particles": tracker.num_particles, "iterations": tracker.iterations,

@@ -70,7 +70,8 @@ _OTHER_METHODS = {
     "baseline_dynamics": ("training", "it is a CONDENSATION/MHT setting"),
     "allow_same_subject": (False, "the clip split is jaxtrack.experiments.mixed_state's"),
     "likelihood": ("limbs+edges", "the part likelihood is Kwatra et al.'s eq. 4-7"),
-    "foreground": ("median", "silhouettes always come from the median background"),
+    "foreground": ("median", "silhouettes come from the median background (jaxtrack track "
+                   "takes --masks)"),
     "refine_steps": (None, "it is a refinement of the latent tracker's pose"),
     "arm_grid": (None, "it is a refinement of the latent tracker's pose"),
     "arm_momentum": (None, "it is a refinement of the latent tracker's pose"),
@@ -423,6 +424,11 @@ def track(args: argparse.Namespace) -> int:
         raise UserError(f"--video: --method mixed-state tracks one video, got "
                         f"{len(args.video)}")
     video_path = args.video[0]
+    masks_path = None
+    if args.masks is not None:
+        if len(args.masks) != 1:
+            raise UserError(f"--masks: one file per --video, got {len(args.masks)} for 1")
+        masks_path = args.masks[0]
     particles = at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
     check_seed(args.seed)
     if args.max_size < 32:
@@ -445,10 +451,23 @@ def track(args: argparse.Namespace) -> int:
         instantaneous_estimates,
         observations_from_silhouettes,
     )
-    from jaxtrack.vision import VideoError, median_background, read_video, write_overlay_video
+    from jaxtrack.vision import (
+        MaskFileError,
+        VideoError,
+        masks_for_frames,
+        median_background,
+        read_masks,
+        read_video,
+        write_overlay_video,
+    )
+    from jaxtrack.vision.foreground import largest_component
     from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES, silhouettes
     from jaxtrack.vision.parts import PART_NAMES
 
+    try:
+        given_masks = None if masks_path is None else read_masks(masks_path)
+    except MaskFileError as error:
+        raise UserError(f"--masks {one_line(error)}") from None
     try:
         probe = read_video(video_path, start=start, max_frames=1)
         height, width = probe.frames.shape[1:3]
@@ -473,14 +492,24 @@ def track(args: argparse.Namespace) -> int:
           + (f" at {fps:.0f} fps" if fps else "") + f", tracked at {tracked_width}x"
           f"{tracked_height}")
 
-    masks = silhouettes(frames, median_background(frames))
+    if given_masks is None:
+        masks = silhouettes(frames, median_background(frames))
+    else:  # the person's largest blob, as silhouettes() keeps it
+        try:
+            masks = masks_for_frames(given_masks, video.frame_indices,
+                                     (tracked_width, tracked_height), name=str(masks_path))
+        except MaskFileError as error:
+            raise UserError(f"--masks {one_line(error)}") from None
+        masks = np.stack([largest_component(mask) for mask in masks])
     num_bins = (saved.model.num_features - 1) // 2
     observations = observations_from_silhouettes(masks, num_bins=num_bins)
     status = np.asarray(observations.status)
     if not np.any(status == FRAME_OK):
-        raise UserError(f"--video {video_path}: no frame has a silhouette against the video's "
-                        f"median background (a static camera and a person who moves are "
-                        f"needed); nothing written")
+        source = (f"in --masks {masks_path}" if masks_path is not None else "against the "
+                  "video's median background (a static camera and a person who moves are "
+                  "needed)")
+        raise UserError(f"--video {video_path}: no frame has a silhouette {source}; nothing "
+                        f"written")
     observed = time.perf_counter()
 
     model = MixedStateModel(saved.model)
@@ -545,6 +574,8 @@ def track(args: argparse.Namespace) -> int:
     record = {
         "method": "mixed-state", "video": str(video_path), "model": str(args.model),
         "size": [width, height], "tracked_size": [tracked_width, tracked_height], "fps": fps,
+        "silhouettes": ("median background" if masks_path is None
+                        else f"masks {masks_path}"),
         "particles": particles, "seed": args.seed, "num_bins": num_bins,
         "tracker": model.options(),
         "posture_names": list(POSTURE_NAMES), "part_names": list(PART_NAMES),

@@ -94,6 +94,11 @@ def add_parser(subparsers) -> None:
                        help="linear-combination, several videos: pick each frame's view by its "
                        "fitness over +-5 frames (the default, chosen on validation) or by the "
                        "paper's fitness x 1/ambiguity")
+    group.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
+                       help="the person's silhouettes, one .npz ('masks') or .npy of "
+                       "(frames, height, width) bool per --video, in order (a person "
+                       "segmenter's; default: background subtraction against the video's "
+                       "median)")
     group.add_argument("--skin", default=None, metavar="R,G,B",
                        help="linear-combination: a sample of the person's skin colour (default: "
                        "a fixed chroma box)")
@@ -239,6 +244,9 @@ def run(args: argparse.Namespace) -> int:
         return _mixed_state.track(args)
     if len(args.video) != 1:
         raise UserError(f"--video: --method latent tracks one video, got {len(args.video)}")
+    if args.masks is not None:
+        raise UserError("--masks is used by --method linear-combination and mixed-state; the "
+                        "latent tracker's likelihood takes the video's median background")
     args.video = args.video[0]
     if args.particles is None:
         args.particles = 200

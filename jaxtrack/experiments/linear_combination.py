@@ -154,8 +154,9 @@ def _background_of(sequence, size) -> np.ndarray:
     return _backgrounds.make_background(name, size, rng)[0]
 
 
-def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
-            threshold: int = 30, sigma: float = 1.0) -> tuple[ContourObservation, list[str]]:
+def observe(images: np.ndarray, background: np.ndarray | None, *, skin_reference=None,
+            threshold: int = 30, sigma: float = 1.0, masks: np.ndarray | None = None
+            ) -> tuple[ContourObservation, list[str]]:
     """Frames as the linear-combination tracker observes them (Ong & Gong §5.2).
 
     Per frame: background subtraction and the largest connected component (the silhouette),
@@ -163,7 +164,10 @@ def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
 
     Args:
         images: ``(time, height, width, 3)`` uint8 RGB.
-        background: ``(height, width, 3)`` uint8 RGB empty scene.
+        background: ``(height, width, 3)`` uint8 RGB empty scene (unused with ``masks``).
+        masks: ``(time, height, width)`` bool person masks (a segmenter's,
+            :mod:`jaxtrack.vision.masks`) to take the silhouette from instead of background
+            subtraction; their largest connected component is the silhouette.
         skin_reference: an RGB sample of the person's skin (None: the fixed chroma box).
         threshold: grey levels of the background subtraction.
         sigma: smoothing of the gradient map.
@@ -182,6 +186,11 @@ def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
         raise ValueError(f"images must be (time, height, width, 3) uint8 RGB, got shape "
                          f"{images.shape} dtype {images.dtype}")
     count, height, width = images.shape[:3]
+    if masks is None and background is None:
+        raise ValueError("observe needs a background or masks")
+    if masks is not None and np.shape(masks) != images.shape[:3]:
+        raise ValueError(f"masks must be (time, height, width) = {images.shape[:3]}, got "
+                         f"{np.shape(masks)}")
     gradient = np.empty((count, height, width), np.float32)
     head = np.zeros((count, 2))
     hands = np.zeros((count, 2, 2))
@@ -189,9 +198,12 @@ def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
     status = []
     for t, image in enumerate(images):
         gradient[t] = gradient_magnitude(image, sigma=sigma)
-        silhouette = largest_component(foreground_mask(image, background, threshold=threshold))
+        person = (foreground_mask(image, background, threshold=threshold) if masks is None
+                  else np.asarray(masks[t], bool))
+        silhouette = largest_component(person)
         if not silhouette.any():
-            status.append("no silhouette (nothing differs from the background)")
+            status.append("no silhouette (nothing differs from the background)" if masks is None
+                          else "no silhouette (the mask is empty)")
             continue
         blobs = skin_blobs(skin_mask(image, silhouette, reference=skin_reference))
         if not blobs.found:
@@ -202,7 +214,8 @@ def observe(images: np.ndarray, background: np.ndarray, *, skin_reference=None,
     return ContourObservation(gradient, head, hands, found), status
 
 
-def subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarray, int]:
+def subject_centre(frames: np.ndarray, background: np.ndarray | None, *,
+                   masks: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Where training would centre its :data:`CROP_SIZE` window on a video of a static camera
     (the middle of the upper body's extent over the clip), from silhouettes of up to 32 frames:
     horizontally the middle of the silhouettes' extent, vertically a third of the figure's height
@@ -211,7 +224,9 @@ def subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarr
 
     Args:
         frames: ``(time, height, width, 3)`` uint8 RGB.
-        background: ``(height, width, 3)`` uint8 RGB, the empty scene.
+        background: ``(height, width, 3)`` uint8 RGB, the empty scene (unused with ``masks``).
+        masks: ``(time, height, width)`` bool person masks to use instead of background
+            subtraction (:func:`observe`'s).
 
     Returns:
         ``(centre (x, y), frames with a person)``; the image's centre when no frame has one.
@@ -219,8 +234,10 @@ def subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarr
     from jaxtrack.vision.foreground import foreground_mask, largest_component
 
     boxes = []
-    for frame in frames[np.unique(np.linspace(0, len(frames) - 1, 32).round().astype(int))]:
-        rows, columns = np.nonzero(largest_component(foreground_mask(frame, background)))
+    for t in np.unique(np.linspace(0, len(frames) - 1, 32).round().astype(int)):
+        person = (foreground_mask(frames[t], background) if masks is None
+                  else np.asarray(masks[t], bool))
+        rows, columns = np.nonzero(largest_component(person))
         if rows.size:
             boxes.append((columns.min(), rows.min(), columns.max(), rows.max()))
     if not boxes:
@@ -231,16 +248,18 @@ def subject_centre(frames: np.ndarray, background: np.ndarray) -> tuple[np.ndarr
     return np.array([x, y]), len(boxes)
 
 
-def cut_window(images: np.ndarray, origin: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+def cut_window(images: np.ndarray, origin: np.ndarray, size: tuple[int, int], *,
+               mode: str = "edge") -> np.ndarray:
     """``images[..., y0:y0+h, x0:x0+w, :]`` for ``origin`` ``(x0, y0)`` and ``size``
     ``(w, h)``, the image's edge repeated where the window leaves it (the same for every frame
-    and the background, so it is never foreground)."""
+    and the background, so it is never foreground); ``mode="constant"`` pads with zeros
+    instead (for masks: never the person)."""
     x0, y0 = (int(v) for v in origin)
     width, height = size
     full_height, full_width = images.shape[-3:-1]
     pad = [(0, 0)] * (images.ndim - 3) + [(max(0, -y0), max(0, y0 + height - full_height)),
                                           (max(0, -x0), max(0, x0 + width - full_width)), (0, 0)]
-    padded = np.pad(images, pad, mode="edge")
+    padded = np.pad(images, pad, mode=mode)
     x0, y0 = x0 + pad[-2][0], y0 + pad[-3][0]
     return np.ascontiguousarray(padded[..., y0:y0 + height, x0:x0 + width, :])
 
