@@ -27,6 +27,9 @@ def test_each_command_is_served_by_its_own_module():
       "--json", "{tmp}/out.json"], "must be held out, but cmu_amc/07_01 is also in --train"),
     (["track", "--model", "{tmp}/missing.npz", "--video", "{tmp}/v.mp4", "--out", "{tmp}/o"],
      "jaxtrack track: error: --model"),
+    (["track", "--model", "{tmp}/missing.npz", "--video", "{tmp}/v.mp4", "--masks",
+      "{tmp}/m.npz", "--out", "{tmp}/o"],
+     "jaxtrack track: error: --masks is used by --method linear-combination and mixed-state"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, arguments, message):
     code = main([argument.format(tmp=tmp_path) for argument in arguments])

@@ -18,7 +18,7 @@ from jaxtrack.cli import main
 from jaxtrack.data import path as data_path
 from jaxtrack.data import resolve_clip
 from jaxtrack.experiments import linear_combination as lc
-from jaxtrack.vision import median_background, read_video, write_frames
+from jaxtrack.vision import median_background, read_video, write_frames, write_masks
 
 TRAIN = "animateddrawings/fair1_wave_hello"
 TEST = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_1"
@@ -123,6 +123,27 @@ def test_track_one_calibrated_view_in_video_pixels(folder, model, full_video):
         # a rotation: the same distances from the neck in the world's axes
         np.testing.assert_allclose(np.linalg.norm(world, axis=1),
                                    np.linalg.norm(skeleton, axis=1), atol=2e-4)
+
+
+def test_track_takes_the_silhouettes_from_masks_the_user_brings(folder, model, full_video):
+    from jaxtrack.vision import foreground_mask
+
+    frames = read_video(full_video).frames
+    masks = np.stack([foreground_mask(frame, frames[0]) for frame in frames])
+    masks[EMPTY + 2] = False  # a segmenter that missed the person in one frame
+    path = write_masks(folder / "masks.npz", masks)
+    out = folder / "masked"
+    assert _track(out, model, full_video, extra=("--calibration", str(data_path(
+        "pose2sim/Calib.qca.txt")), "--cameras", "2", "--masks", str(path))) == 0
+    record = _strict_json(out / "track.json")
+    assert record["views"][0]["silhouettes"] == f"masks {path}"
+    for t, frame in enumerate(record["frames"]):
+        entry = frame["views"][0]
+        if t < EMPTY or t == EMPTY + 2:
+            assert entry["status"] == "no silhouette (the mask is empty)", (t, entry)
+            assert entry["head"] is None
+        else:
+            assert entry["observed"], (t, entry)
 
 
 def test_track_two_views_selects_a_view_per_frame_by_the_chosen_rule(folder, model,
@@ -236,6 +257,12 @@ CALIBRATION = str(data_path("pose2sim/Calib.qca.txt"))
      "--skin must be R,G,B"),
     (["track", "--model", "{model}", "--video", "{inputs}/none.mp4"],
      "--video {inputs}/none.mp4: no such file"),
+    (["track", "--model", "{model}", "--video", "{crop}", "--masks", "{inputs}/short.npz",
+      "{inputs}/short.npz"], "--masks: one file per --video, got 2 for 1"),
+    (["track", "--model", "{model}", "--video", "{crop}", "--masks", "{model}"],
+     "--masks {model}: no array 'masks'"),
+    (["track", "--model", "{model}", "--video", "{crop}", "--masks", "{inputs}/short.npz"],
+     "--masks {inputs}/short.npz: holds 3 masks, but video frame 10 is tracked"),
     (["train", "--clips", TEST], "--clips " + TEST + ": subject animateddrawings:cmu_1006 is a "
      "test subject"),
     (["train", "--clips", TRAIN, "--cameras", "0", "4"], "--cameras must be Pose2Sim camera "
@@ -255,6 +282,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, model
     inputs = tmp_path / "inputs"
     (inputs / "damaged").mkdir(parents=True)
     (inputs / "damaged" / "lc_cache.npz").write_bytes(model.read_bytes()[:500])
+    write_masks(inputs / "short.npz", np.zeros((3, *lc.CROP_SIZE[::-1]), bool))
     names = {"gplvm": _fake_model(inputs / "gplvm.npz", "jaxtrack.gplvm"),
              "postures": _fake_model(inputs / "postures.npz", "jaxtrack.postures"),
              "model": model, "crop": crop_videos[0], "full": full_video, "inputs": inputs}

@@ -48,8 +48,9 @@ def trained(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def walk(tmp_path_factory):
-    """A 30-frame side view of a real walk (CMU 07_01, bundled) as an mp4, and its true
-    markers: the walker crosses the image, so the median background is the empty scene."""
+    """A 30-frame side view of a real walk (CMU 07_01, bundled) as an mp4, its true markers
+    and its drawn silhouettes: the walker crosses the image, so the median background is the
+    empty scene."""
     pytest.importorskip("cv2")
     from jaxtrack.body._backgrounds import make_background
     from jaxtrack.body._staging import frontal_camera
@@ -66,7 +67,7 @@ def walk(tmp_path_factory):
                              markers=HUMANEVA_15, seed=0, progress=False)
     path = write_frames(rendered.images, tmp_path_factory.mktemp("walk") / "walk.mp4", 30.0,
                         SIZE)
-    return path, np.asarray(rendered.markers_2d)
+    return path, np.asarray(rendered.markers_2d), np.asarray(rendered.silhouettes, bool)
 
 
 @pytest.fixture
@@ -101,7 +102,7 @@ def test_train_reuses_a_model_of_the_same_settings(trained, capsys, tmp_path):
 def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp_path, capsys):
     from jaxtrack.vision import read_video
 
-    video, markers = walk
+    video, markers, _ = walk
     out = tmp_path / "out"
     # tracked at 80x60: every position must come back in the 160x120 video's pixels
     code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
@@ -131,6 +132,35 @@ def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp
             assert 0.0 < frame["posture_probability"][kind] <= 1.0
     assert max(np.array(list(frame["parts"]["smoothed"].values()))[:, 0].max()
                for frame in record["frames"]) > 80
+
+
+def test_track_takes_the_silhouettes_from_masks_the_user_brings(trained, walk, tmp_path,
+                                                                 capsys):
+    from jaxtrack.vision import write_masks
+
+    video, _, silhouettes = walk
+    masks = silhouettes.copy()
+    masks[10:15] = False  # a segmenter that missed the person in five frames
+    path = write_masks(tmp_path / "masks.npz", masks)
+    out = tmp_path / "out"
+    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
+                              "--video", video, "--masks", path, "--out", out, "--particles",
+                              64, "--max-size", 80, "--seed", 3)
+    assert code == 0, error
+    assert "tracked 30 frames (25 with a silhouette)" in stdout
+    record = json.loads((out / "track.json").read_text())
+    assert record["silhouettes"] == f"masks {path}"
+    statuses = [frame["status"] for frame in record["frames"]]
+    assert statuses == ["ok"] * 10 + ["empty silhouette"] * 5 + ["ok"] * 15
+    # masks for fewer frames than the video: refused in one line, nothing written
+    write_masks(tmp_path / "short.npz", masks[:12])
+    code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
+                         "--video", video, "--masks", tmp_path / "short.npz", "--out",
+                         tmp_path / "short", "--max-size", 80)
+    assert code == 2 and error.count("\n") == 1
+    assert (f"--masks {tmp_path}/short.npz: holds 12 masks, but video frame 29 is tracked"
+            in error)
+    assert not (tmp_path / "short").exists()
 
 
 def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, capsys):
@@ -187,6 +217,8 @@ def _gplvm_file(path):
     ("manual init", "--init does not apply to --method mixed-state"),
     ("no particles", "--particles must be at least 1, got 0"),
     ("out is a file", "--out {tmp}/v.mp4 is a file; give a folder"),
+    ("two masks", "--masks: one file per --video, got 2 for 1"),
+    ("not masks", "--masks {tmp}/v.mp4: not a .npz or .npy file"),
 ])
 def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, case, message):
     (tmp_path / "v.mp4").write_text("not a video")
@@ -206,6 +238,10 @@ def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, cas
         extra = ["--particles", "0"]
     elif case == "out is a file":
         out = tmp_path / "v.mp4"
+    elif case == "two masks":
+        extra = ["--masks", tmp_path / "v.mp4", tmp_path / "v.mp4"]
+    elif case == "not masks":
+        extra = ["--masks", tmp_path / "v.mp4"]
     before = sorted(tmp_path.iterdir())
     code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", model,
                          "--video", *videos, "--out", out, *extra)
