@@ -134,11 +134,23 @@ def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles:
               for kind in KINDS}
     squared = {kind: ms.part_squared_errors(tracked[kind]["parts"][indices], truth)[ok]
                for kind in KINDS}
+    confusion = {kind: posture_confusion(labels[ok], tracked[kind]["posture"][indices][ok])
+                 for kind in KINDS}
     return {"size": [int(video.frames.shape[2]), int(video.frames.shape[1])],
             "frames": int(len(indices)), "frames_with_silhouette": int(ok.sum()),
             "truth_in_silhouette": truth_in_silhouette(masks[indices], truth),
-            "scores": scores, "squared": squared, "seconds": tracked["seconds"],
+            "scores": scores, "squared": squared, "confusion": confusion,
+            "seconds": tracked["seconds"],
             "figure": _figure(video.frames[indices], masks[indices], truth)}
+
+
+def posture_confusion(truth: np.ndarray, estimate: np.ndarray) -> list[list[int]]:
+    """``(postures, postures)`` frame counts, rows the true posture, columns the estimate."""
+    from jaxtrack.priors.postures import NUM_POSTURES
+
+    counts = np.zeros((NUM_POSTURES, NUM_POSTURES), int)
+    np.add.at(counts, (np.asarray(truth, int), np.asarray(estimate, int)), 1)
+    return counts.tolist()
 
 
 def truth_in_silhouette(masks: np.ndarray, truth: np.ndarray) -> dict:
@@ -204,7 +216,9 @@ def _pooled(per_camera: dict) -> dict:
             "mse": {name: float(squared[:, idx].mean()) for name, idx in groups.items()},
             "within": {name: {"20": float(np.mean(distance[:, idx] <= 20))}
                        for name, idx in groups.items()},
-            "posture_error": float(sum(errors) / len(squared)), "frames": int(len(squared))}
+            "posture_error": float(sum(errors) / len(squared)), "frames": int(len(squared)),
+            "confusion": np.sum([camera["confusion"][kind] for camera in per_camera.values()],
+                                axis=0).tolist()}
     return pooled
 
 
@@ -272,6 +286,7 @@ def main(argv=None) -> int:
         print(f"\n{source} silhouettes, all four cameras ({pooled['smoothed']['frames']} "
               f"frames); device: {device_description()}")
         print_table(_rows(pooled), _COLUMNS)
+        _print_confusion(pooled)
     print(f"{time.perf_counter() - begin:.0f} s")
     figure = Path(args.out).with_suffix(".png")
     if figures:
@@ -291,6 +306,20 @@ def main(argv=None) -> int:
                         for camera, camera_result in result["cameras"].items()},
             "all": result["all"]} for source, result in results.items()}})
     return 0
+
+
+def _print_confusion(pooled: dict) -> None:
+    """The instantaneous and smoothed postures against the truth, over the postures that occur."""
+    from jaxtrack.priors.postures import POSTURE_NAMES
+
+    for kind in ("instantaneous", "smoothed"):
+        counts = np.asarray(pooled[kind]["confusion"])
+        seen = [q for q in range(len(POSTURE_NAMES)) if counts[q].sum() or counts[:, q].sum()]
+        print(f"{kind} posture (rows: the truth; columns: the estimate)")
+        print_table([{"truth": POSTURE_NAMES[q], **{POSTURE_NAMES[r]: int(counts[q, r])
+                                                  for r in seen}} for q in seen],
+                    [("truth", "truth", "s"), *((POSTURE_NAMES[r], POSTURE_NAMES[r], "d")
+                                                for r in seen)])
 
 
 def _print_camera(source: str, camera: str, result: dict) -> None:

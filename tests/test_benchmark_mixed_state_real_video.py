@@ -9,6 +9,7 @@ import pytest
 from benchmarks.mixed_state_real_video import (
     LABEL_KEYPOINTS,
     label_markers,
+    posture_confusion,
     truth_in_silhouette,
     truth_parts,
     truth_postures,
@@ -83,3 +84,9 @@ def test_mediapipe_masks_are_skipped_with_a_reason_without_its_python(tmp_path, 
     result = person_masks(video, tmp_path / "masks.npz")
     assert isinstance(result, dict) and "no MediaPipe python" in result["skipped"]
     assert not (tmp_path / "masks.npz").exists()
+
+
+def test_the_confusion_counts_frames_by_true_and_estimated_posture():
+    counts = np.asarray(posture_confusion(np.array([0, 0, 2, 2, 2]), np.array([0, 2, 2, 2, 4])))
+    assert counts.shape == (5, 5) and counts.sum() == 5
+    assert counts[0, 0] == 1 and counts[0, 2] == 1 and counts[2, 2] == 2 and counts[2, 4] == 1
