@@ -12,8 +12,8 @@ from pathlib import Path
 
 __all__ = ["MAX_SEED", "UserError", "add_asf_option", "available_memory", "check_clips",
            "check_held_out", "check_json_and_plots",
-           "check_memory", "check_prior_file", "check_seed", "format_bytes", "load_clip_sources",
-           "output_folder"]
+           "check_memory", "check_prior_file", "check_seed", "fit_mask_file", "format_bytes",
+           "load_clip_sources", "output_folder", "read_mask_files"]
 
 MAX_SEED = 2**63 - 1
 """The largest seed: JAX keys and NumPy generators take 0 to 2**63 - 1."""
@@ -55,6 +55,32 @@ def add_asf_option(parser: argparse.ArgumentParser) -> None:
                              ".asf beside each, named like 07.asf for 07_01.amc, or with the "
                              "same stem, or the only .asf in its folder); catalogue clips keep "
                              "their own")
+
+
+def read_mask_files(paths: Sequence[Path] | None, videos: int) -> list:
+    """``--masks``: one ``(frames, height, width)`` bool array per video, or None for each
+    without the option (:func:`jaxtrack.vision.read_masks`); refused in one line."""
+    from jaxtrack.vision import MaskFileError, read_masks
+
+    if paths is None:
+        return [None] * videos
+    if len(paths) != videos:
+        raise UserError(f"--masks: one file per --video, got {len(paths)} for {videos}")
+    try:
+        return [read_masks(path) for path in paths]
+    except MaskFileError as error:
+        raise UserError(f"--masks {one_line(error)}") from None
+
+
+def fit_mask_file(masks, path: Path, frame_indices, size: tuple[int, int]):
+    """The masks of one ``--masks`` file for the tracked ``frame_indices`` at ``size``
+    ``(width, height)`` (:func:`jaxtrack.vision.masks_for_frames`); refused in one line."""
+    from jaxtrack.vision import MaskFileError, masks_for_frames
+
+    try:
+        return masks_for_frames(masks, frame_indices, size, name=str(path))
+    except MaskFileError as error:
+        raise UserError(f"--masks {one_line(error)}") from None
 
 
 def check_seed(seed: int) -> None:

@@ -37,9 +37,11 @@ from jaxtrack.cli._common import (
     check_json_and_plots,
     check_seed,
     finite_json,
+    fit_mask_file,
     load_clip_sources,
     one_line,
     output_folder,
+    read_mask_files,
 )
 
 __all__ = ["CACHE_NAME", "evaluate", "track", "train"]
@@ -388,15 +390,7 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers import Engine
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
-    from jaxtrack.vision import (
-        MaskFileError,
-        VideoError,
-        masks_for_frames,
-        median_background,
-        read_masks,
-        read_video,
-        write_views_video,
-    )
+    from jaxtrack.vision import VideoError, median_background, read_video, write_views_video
 
     started = time.perf_counter()
     particles = at_least(args.particles, 1, "--particles", _PARTICLES)
@@ -413,15 +407,7 @@ def track(args: argparse.Namespace) -> int:
     for path in args.video:
         if not path.is_file():
             raise UserError(f"--video {path}: no such file")
-    given_masks = [None] * len(args.video)
-    if args.masks is not None:
-        if len(args.masks) != len(args.video):
-            raise UserError(f"--masks: one file per --video, got {len(args.masks)} for "
-                            f"{len(args.video)}")
-        try:
-            given_masks = [read_masks(path) for path in args.masks]
-        except MaskFileError as error:
-            raise UserError(f"--masks {one_line(error)}") from None
+    given_masks = read_mask_files(args.masks, len(args.video))
     trained = _load(args.model, "--model", "make one with jaxtrack train --method "
                     "linear-combination")
     joints = trained.description.get("skeleton", [])
@@ -455,11 +441,8 @@ def track(args: argparse.Namespace) -> int:
         frames = video.frames[:count]
         masks = None
         if given_masks[index] is not None:
-            try:
-                masks = masks_for_frames(given_masks[index], video.frame_indices[:count],
-                                         video.image_size, name=str(args.masks[index]))
-            except MaskFileError as error:
-                raise UserError(f"--masks {one_line(error)}") from None
+            masks = fit_mask_file(given_masks[index], args.masks[index],
+                                  video.frame_indices[:count], video.image_size)
         background = median_background(frames) if masks is None else None
         origin, people = np.zeros(2), count
         if cameras is not None:

@@ -34,8 +34,10 @@ from jaxtrack.cli._common import (
     check_memory,
     check_seed,
     finite_json,
+    fit_mask_file,
     one_line,
     output_folder,
+    read_mask_files,
 )
 
 __all__ = ["evaluate", "track", "train"]
@@ -424,11 +426,8 @@ def track(args: argparse.Namespace) -> int:
         raise UserError(f"--video: --method mixed-state tracks one video, got "
                         f"{len(args.video)}")
     video_path = args.video[0]
-    masks_path = None
-    if args.masks is not None:
-        if len(args.masks) != 1:
-            raise UserError(f"--masks: one file per --video, got {len(args.masks)} for 1")
-        masks_path = args.masks[0]
+    given_masks = read_mask_files(args.masks, 1)[0]
+    masks_path = None if args.masks is None else args.masks[0]
     particles = at_least(args.particles, 1, "--particles", DEFAULT_PARTICLES)
     check_seed(args.seed)
     if args.max_size < 32:
@@ -451,23 +450,11 @@ def track(args: argparse.Namespace) -> int:
         instantaneous_estimates,
         observations_from_silhouettes,
     )
-    from jaxtrack.vision import (
-        MaskFileError,
-        VideoError,
-        masks_for_frames,
-        median_background,
-        read_masks,
-        read_video,
-        write_overlay_video,
-    )
+    from jaxtrack.vision import VideoError, median_background, read_video, write_overlay_video
     from jaxtrack.vision.foreground import largest_component
     from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES, silhouettes
     from jaxtrack.vision.parts import PART_NAMES
 
-    try:
-        given_masks = None if masks_path is None else read_masks(masks_path)
-    except MaskFileError as error:
-        raise UserError(f"--masks {one_line(error)}") from None
     try:
         probe = read_video(video_path, start=start, max_frames=1)
         height, width = probe.frames.shape[1:3]
@@ -495,11 +482,8 @@ def track(args: argparse.Namespace) -> int:
     if given_masks is None:
         masks = silhouettes(frames, median_background(frames))
     else:  # the person's largest blob, as silhouettes() keeps it
-        try:
-            masks = masks_for_frames(given_masks, video.frame_indices,
-                                     (tracked_width, tracked_height), name=str(masks_path))
-        except MaskFileError as error:
-            raise UserError(f"--masks {one_line(error)}") from None
+        masks = fit_mask_file(given_masks, masks_path, video.frame_indices,
+                              (tracked_width, tracked_height))
         masks = np.stack([largest_component(mask) for mask in masks])
     num_bins = (saved.model.num_features - 1) // 2
     observations = observations_from_silhouettes(masks, num_bins=num_bins)
