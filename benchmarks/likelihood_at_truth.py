@@ -24,6 +24,11 @@ moved: does the likelihood see where to?). Near 100 % the likelihood knows the p
 search or the dynamics lose it; near 50 % or below it cannot tell, and no prior or search can
 follow the person with it.
 
+With ``--masks mediapipe`` the foreground term reads MediaPipe's person segmentation of each
+frame (a fourth observation channel, ``jaxtrack.vision.edge_observations(masks=...)``; its
+venv as ``benchmarks/_mediapipe.py`` says) instead of the median background, which on the real
+videos holds the man; ``--foreground-weight`` sets its μ (default the likelihood's).
+
 The rendered sequences are the scripted comparison's validation clips (``benchmarks.tracking``
 ``GESTURE_CLIPS["validation"]``, frontal view, real-photo background, 30 fps); the real ones the
 four Pose2Sim views tracked as ``benchmarks.real_video`` does (every second frame). The prior is
@@ -134,19 +139,33 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def person_masks_of(images: np.ndarray, name: str) -> np.ndarray:
+    """MediaPipe's person masks of ``images`` ``(time, height, width, 3)`` uint8 RGB; exits
+    with the reason where MediaPipe cannot run."""
+    from benchmarks._mediapipe import run_mediapipe
+
+    result = run_mediapipe(images, segmentation=True)
+    if "skipped" in result:
+        raise SystemExit(f"--masks mediapipe, {name}: {result['skipped']}")
+    return np.asarray(result["masks"], bool)
+
+
 def _check_sequence(prior, name: str, kind: str, frames: np.ndarray, truth: np.ndarray,
-                    fps: float, background: np.ndarray | None, likelihood: str
+                    fps: float, background: np.ndarray | None, likelihood: str,
+                    masks: np.ndarray | None = None, foreground_weight: float | None = None
                     ) -> tuple[dict, dict]:
     import jax.random as jr
 
     from jaxtrack import trackers
     from jaxtrack.vision import edge_observations
 
+    options = {} if foreground_weight is None else {"foreground_weight": foreground_weight}
     tracker = trackers.latent_tracker(prior.model, prior.template,
                                       engine=trackers.Engine(200), fps=fps,
-                                      likelihood=trackers.Likelihood(likelihood),
+                                      likelihood=trackers.Likelihood(likelihood, **options),
                                       refinement=trackers.Refinement(), background=background)
-    observations = edge_observations(frames) if tracker.likelihood.needs_edges else frames
+    observations = (edge_observations(frames, masks=masks) if tracker.likelihood.needs_edges
+                    else frames)
     result = trackers.track(tracker, jr.PRNGKey(0), observations, truth[0], progress=False)
     check = truth_preference(tracker, observations[0], observations, truth, result.markers)
     row = summarise(name, kind, check)
@@ -171,21 +190,39 @@ def main(argv=None) -> int:
                                                     "trackers' default, limbs+edges)")
     parser.add_argument("--no-background", action="store_true",
                         help="limbs+edges without its foreground term (no median background)")
+    parser.add_argument("--masks", choices=("none", "mediapipe"), default="none",
+                        help="limbs+edges' foreground from MediaPipe's person masks per frame "
+                             "instead of the median background")
+    parser.add_argument("--foreground-weight", type=float, default=None, metavar="MU",
+                        help="limbs+edges' foreground weight (default the likelihood's)")
     parser.add_argument("--out", type=Path, default=None,
                         help="JSON output (default benchmarks/results/likelihood_at_truth"
-                             "[-LIKELIHOOD][-no-background].json)")
+                             "[-LIKELIHOOD][-no-background][-masks][-muMU].json)")
     args = parser.parse_args(argv)
     if args.frames < 2:
         parser.error(f"--frames must be at least 2, got {args.frames}")
     if args.no_rendered and not args.views:
         parser.error("nothing to check: --no-rendered and no --views")
-    if args.no_background and args.likelihood != "limbs+edges":
-        parser.error("--no-background leaves out limbs+edges' foreground term; "
-                     f"--likelihood {args.likelihood} has none")
+    if args.likelihood != "limbs+edges":
+        for given, option in ((args.no_background, "--no-background"),
+                              (args.masks != "none", "--masks"),
+                              (args.foreground_weight is not None, "--foreground-weight")):
+            if given:
+                parser.error(f"{option} is about limbs+edges' foreground term; --likelihood "
+                             f"{args.likelihood} has none")
+    if args.no_background and args.masks != "none":
+        parser.error("--no-background leaves the foreground term out; --masks gives it masks")
+    if args.foreground_weight is not None and not (np.isfinite(args.foreground_weight)
+                                                   and args.foreground_weight >= 0):
+        parser.error(f"--foreground-weight must be a non-negative number, got "
+                     f"{args.foreground_weight}")
     out = args.out or RESULTS / ("likelihood_at_truth"
                                  + ("" if args.likelihood == "limbs+edges"
                                     else "-" + args.likelihood.replace("+", "_"))
-                                 + ("-no-background" if args.no_background else "") + ".json")
+                                 + ("-no-background" if args.no_background else "")
+                                 + ("-masks" if args.masks != "none" else "")
+                                 + (f"-mu{args.foreground_weight:g}"
+                                    if args.foreground_weight is not None else "") + ".json")
     use_background = args.likelihood == "limbs+edges" and not args.no_background
 
     from benchmarks.real_video import View
@@ -205,20 +242,25 @@ def main(argv=None) -> int:
         for index, clip in enumerate(GESTURE_CLIPS["validation"]):
             sequence = render_test_sequences(clip, views=1, seed=index,
                                              max_frames=args.frames)[0]
+            masks = (person_masks_of(sequence.images, sequence.name)
+                     if args.masks == "mediapipe" else None)
             row, record = _check_sequence(prior, sequence.name, "rendered, validation",
                                           sequence.frames, sequence.truth, sequence.fps,
                                           median_grey_background(sequence.frames)
-                                          if use_background else None, args.likelihood)
+                                          if use_background else None, args.likelihood,
+                                          masks, args.foreground_weight)
             rows.append(row)
             records.append(record)
     if args.views:
         folder = default_folder()
         for camera in args.views:
             view = View(folder, camera, None, 960, stride=2)
+            masks = (person_masks_of(view.images, camera) if args.masks == "mediapipe"
+                     else None)
             row, record = _check_sequence(prior, f"Pose2Sim {camera}", "real, test",
                                           view.frames, view.truth, view.fps,
                                           view.background if use_background else None,
-                                          args.likelihood)
+                                          args.likelihood, masks, args.foreground_weight)
             rows.append(row)
             records.append(record)
     text = table(rows)
@@ -228,7 +270,8 @@ def main(argv=None) -> int:
         "command": "python -m benchmarks.likelihood_at_truth " + " ".join(argv or []),
         "device": device_description(), "date": time.strftime("%Y-%m-%d"),
         "seconds": seconds, "peak_rss_mb": peak_rss_mb(), "likelihood": args.likelihood,
-        "background": use_background, "lost": LOST, "rows": rows,
+        "background": use_background, "masks": args.masks,
+        "foreground_weight": args.foreground_weight, "lost": LOST, "rows": rows,
         "table": text, "sequences": records})
     print(f"wrote {out} in {seconds:.0f} s")
     return 0

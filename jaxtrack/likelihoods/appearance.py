@@ -92,7 +92,8 @@ def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, .
 
     Grey frames ``(time, height, width)`` suit every likelihood; the edge-limb templates also
     take ``(time, 3, height, width)`` grey frames with their edge maps
-    (``jaxtrack.vision.edge_observations``). Anything else raises a ValueError.
+    (``jaxtrack.vision.edge_observations``), and ``(time, 4, height, width)`` with the
+    person's mask too. Anything else raises a ValueError.
 
     Returns:
         True when ``templates`` need edge maps and the frames are grey.
@@ -102,9 +103,10 @@ def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, .
              else isinstance(templates, EdgeLimbTemplates))
     if len(shape) == 3:
         return edges
-    if edges and len(shape) == 4 and shape[1] == 3:
+    if edges and len(shape) == 4 and shape[1] in (3, 4):
         return False
     expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
-                "with their edge maps (jaxtrack.vision.edge_observations)" if edges
+                "with their edge maps, or (time, 4, height, width) with the person's mask too "
+                "(jaxtrack.vision.edge_observations)" if edges
                 else "(time, height, width) grey images")
     raise ValueError(f"frames must be {expected}, got shape {shape}")

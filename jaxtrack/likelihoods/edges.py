@@ -35,12 +35,16 @@ not:
 
 on the four arm strips only (:data:`FOREGROUND_SEGMENTS`). ``b_s`` is piecewise constant in
 the pose; Gauss–Newton sees it in the cost, not in the Jacobian. Without a background there is
-no term.
+no term. Where the person never leaves their place the median holds them; a person segmenter's
+mask per frame then says what the background cannot: an observation with a fourth channel, the
+mask (:func:`jaxtrack.vision.edge_observations` ``masks=``), makes ``b_s`` the fraction of the
+centre line where the mask is below one half, frame by frame, with or without a background.
 
 Observations are ``(3, height, width)``: the grey frame, its edge distance map and the nearest
 edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
-sequence). Trackers take grey frames as with the other likelihoods:
-``jaxtrack.trackers.track`` adds the edge maps chunk by chunk.
+sequence), or ``(4, height, width)`` with the person's mask as the fourth. Trackers take grey
+frames as with the other likelihoods: ``jaxtrack.trackers.track`` adds the edge maps chunk by
+chunk (the mask channel is given with precomputed observations).
 
 Why, and the measurements behind each choice: see docs/likelihoods.md, "Edges".
 """
@@ -116,14 +120,17 @@ The torso of a subject who stands still is part of a median background, so the s
 shoulders' and hips' strips would be scored against nothing."""
 
 _CHANNELS = 3
+MASK_CHANNEL = 3
+"""The observation channel that holds the person's mask, where there is one."""
 
 
 def _check_observation(observation: Array) -> Array:
     observation = jnp.asarray(observation)
-    if observation.ndim != 3 or observation.shape[0] != _CHANNELS:
+    if observation.ndim != 3 or observation.shape[0] not in (_CHANNELS, _CHANNELS + 1):
         raise ValueError(f"observation must be (3, height, width): the grey frame, its edge "
-                         f"distance map and the edges' orientation (edge_observations), got "
-                         f"shape {observation.shape}")
+                         f"distance map and the edges' orientation (edge_observations), or "
+                         f"(4, height, width) with the person's mask, got shape "
+                         f"{observation.shape}")
     return observation
 
 
@@ -237,15 +244,18 @@ class EdgeLimbTemplates(PartTemplates):
         if segments is not None:
             widths = widths[jnp.asarray(select_segments(segments))]
         borders = _border_values(markers, observation, widths, self, nearest, segments, spine)
-        return samples, borders, self._off_foreground(samples, x, y, nearest, segments)
+        return samples, borders, self._off_foreground(observation, samples, x, y, nearest,
+                                                      segments)
 
-    def _off_foreground(self, samples: Array, x: Array, y: Array, nearest: bool,
-                        segments: tuple[int, ...] | None) -> Array | None:
+    def _off_foreground(self, observation: Array, samples: Array, x: Array, y: Array,
+                        nearest: bool, segments: tuple[int, ...] | None) -> Array | None:
         """``b_s``: the fraction of each arm strip's centre line (its middle sample across)
-        whose grey level is within ``foreground_threshold`` of the background's there; 0 for
-        the other strips; None without a background. Piecewise constant in the pose, so its
-        gradient is taken as 0."""
-        if self.background is None:
+        that is background: where the observation's mask channel is below one half, else where
+        the grey level is within ``foreground_threshold`` of the background's; 0 for the other
+        strips; None with neither. Piecewise constant in the pose, so its gradient is taken as
+        0."""
+        has_mask = observation.shape[0] > MASK_CHANNEL
+        if self.background is None and not has_mask:
             return None
         dtype = samples.dtype
         off = jnp.zeros(samples.shape[0], dtype)
@@ -254,9 +264,12 @@ class EdgeLimbTemplates(PartTemplates):
         if arms.size == 0:
             return off
         centre = samples.shape[-1] // 2
-        background = sample_points(self.background.astype(dtype), x[arms, :, centre],
-                                  y[arms, :, centre], nearest)
-        still = jnp.abs(samples[arms, :, centre] - background) <= self.foreground_threshold
+        x, y = x[arms, :, centre], y[arms, :, centre]
+        if has_mask:
+            still = sample_points(observation, x, y, nearest, channel=MASK_CHANNEL) < 0.5
+        else:
+            background = sample_points(self.background.astype(dtype), x, y, nearest)
+            still = jnp.abs(samples[arms, :, centre] - background) <= self.foreground_threshold
         return jax.lax.stop_gradient(off.at[arms].set(jnp.mean(still.astype(dtype), axis=-1)))
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True

@@ -31,10 +31,11 @@ def frame0_templates(likelihood: Likelihood, first_frame: Float[ArrayLike, "..."
     """The likelihood's templates cut from frame 0 (as the likelihood observes it) at its
     markers, in ``dtype``."""
     first_frame = np.asarray(first_frame)
-    if likelihood.needs_edges and (first_frame.ndim != 3 or first_frame.shape[0] != 3):
+    if likelihood.needs_edges and (first_frame.ndim != 3 or first_frame.shape[0] not in (3, 4)):
         raise ValueError(f"first_frame must be the {likelihood.kind!r} likelihood's observation, "
                          f"(3, height, width): the grey frame and its edge maps "
-                         f"(jaxtrack.vision.edge_observations), got shape {first_frame.shape}")
+                         f"(jaxtrack.vision.edge_observations), or (4, height, width) with the "
+                         f"person's mask, got shape {first_frame.shape}")
     if not likelihood.needs_edges and first_frame.ndim != 2:
         raise ValueError(f"first_frame must be a (height, width) grey frame for the "
                          f"{likelihood.kind!r} likelihood, got shape {first_frame.shape}")

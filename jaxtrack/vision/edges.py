@@ -121,19 +121,32 @@ def edge_distance_maps(frames: np.ndarray, *, low: float = 40.0, high: float = 1
 
 
 def edge_observations(frames: np.ndarray, *, out: np.ndarray | None = None, low: float = 40.0,
-                      high: float = 120.0, blur: float = 1.0, workers: int | None = None
-                      ) -> np.ndarray:
+                      high: float = 120.0, blur: float = 1.0, workers: int | None = None,
+                      masks: np.ndarray | None = None) -> np.ndarray:
     """``(time, 3, height, width)`` float32: each grey frame, its edge distance map and the
     tangent direction (radians in [0, π), image coordinates) of the nearest edge pixel: the
     observations of ``jaxtrack.likelihoods.EdgeLimbTemplates`` (``likelihood="limbs+edges"``).
+    With ``masks``, ``(time, 4, height, width)``: the person's mask (1 on the person, 0 off)
+    as a fourth channel, which the likelihood's foreground term then reads frame by frame.
 
     Args:
         frames: ``(time, height, width)`` grey frames (floats in [0, 1], or uint8).
-        out: optional ``(time, 3, height, width)`` float32 array to write into.
+        out: optional ``(time, 3 or 4, height, width)`` float32 array to write into.
         low, high, blur, workers: as in :func:`edge_distance_maps`.
+        masks: optional ``(time, height, width)`` bool person masks
+            (:mod:`jaxtrack.vision.masks`).
     """
     frames = _check_frames(frames, low, high, blur)
-    out = _check_out(out, (frames.shape[0], 3, *frames.shape[1:]))
+    channels = 3
+    if masks is not None:
+        masks = np.asarray(masks)
+        if masks.shape != frames.shape or masks.dtype != np.bool_:
+            raise ValueError(f"masks must be (time, height, width) bool like the frames "
+                             f"{frames.shape}, got {masks.dtype} {masks.shape}")
+        channels = 4
+    out = _check_out(out, (frames.shape[0], channels, *frames.shape[1:]))
+    if masks is not None:
+        out[:, 3] = masks
     _for_each_frame(lambda index: _edge_maps(frames[index], low, high, blur, out[index, 1],
                                              out[index, 2]), len(frames), workers)
     if frames.dtype == np.uint8:

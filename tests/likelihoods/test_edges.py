@@ -304,6 +304,50 @@ def test_foreground_term_scores_the_arm_strips_centre_lines_against_the_backgrou
     np.testing.assert_allclose(gradient, 0, atol=1e-5)
 
 
+def test_a_mask_channel_makes_the_foreground_term_read_the_mask_frame_by_frame():
+    """An observation's fourth channel, the person's mask, decides b_s where it is given:
+    without a background the term appears; with one the mask wins (a background equal to
+    the frame would cost μ per arm strip); the mask's 0.5 level splits person from scene;
+    the residuals still give the cost; the term stays constant in the pose."""
+    observations, markers, templates = wave()
+    pose = jnp.asarray(markers[5] + np.float32(0.6))
+    observation = np.asarray(observations[5])
+    plain = templates.log_likelihood(pose, observation, 4.0)
+    grey = observation[0]
+    # a mask that is the person nowhere, everywhere, and on the left 40 % of the frame
+    nowhere, everywhere = np.zeros_like(grey), np.ones_like(grey)
+    left = np.zeros_like(grey)
+    left[:, : int(0.4 * grey.shape[1])] = 1.0
+    still = _centre_lines_still(templates, np.asarray(pose), left, np.zeros_like(grey))
+    arms = np.isin(np.arange(len(LIMB_SEGMENTS)), FOREGROUND_SEGMENTS)
+    assert 0 < still[arms].sum() < 4 and still[arms].sum() != 2  # an arm across its edge
+    weighted = make_edge_limb_templates(observations[0], markers[0], foreground_weight=3.0)
+    background_is_frame = make_edge_limb_templates(observations[0], markers[0], background=grey,
+                                                   foreground_weight=3.0)
+    for mask, off in ((nowhere, 4.0), (everywhere, 0.0), (left, still[arms].sum()),
+                      (0.49 * everywhere, 4.0), (0.51 * everywhere, 0.0)):
+        with_mask = np.concatenate([observation, mask[None]])
+        for scored in (weighted, background_is_frame):
+            np.testing.assert_allclose(scored.log_likelihood(pose, with_mask, 4.0),
+                                       plain - 3.0 * off, rtol=1e-5)
+    with_mask = np.concatenate([observation, left[None]])
+    residuals = residuals_of(weighted, pose, with_mask, 4.0)
+    np.testing.assert_allclose(0.5 * jnp.sum(residuals**2),
+                               -weighted.log_likelihood(pose, with_mask, 4.0, nearest=False),
+                               rtol=1e-4)
+    gradient = jax.grad(lambda m: weighted.log_likelihood(m, with_mask, 4.0, False)
+                        - templates.log_likelihood(m, observation, 4.0, False))(pose)
+    np.testing.assert_allclose(gradient, 0, atol=1e-5)
+    masks = np.zeros(observations[:2, 0].shape, bool)
+    masks[:, :, :40] = True
+    with_channel = edge_observations((255 * np.asarray(observations[:2, 0])).astype(np.uint8),
+                                     masks=masks)
+    assert with_channel.shape == (2, 4, *grey.shape)
+    np.testing.assert_array_equal(with_channel[:, 3], masks)
+    with pytest.raises(ValueError, match="masks must be"):
+        edge_observations(np.asarray(observations[:2, 0]), masks=masks[:1])
+
+
 def test_foreground_term_misuse_is_reported():
     observations, markers, _ = wave()
     grey = observations[0, 0]

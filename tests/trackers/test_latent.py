@@ -43,7 +43,9 @@ def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
 
 def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior, sequence):
     """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
-    frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before."""
+    frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before, or
+    ``(time, 4, height, width)`` with the person's mask (a mask that is the person everywhere
+    adds no foreground cost: the same track)."""
 
     tracker = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps,
                              likelihood=Likelihood("limbs+edges"))
@@ -53,6 +55,10 @@ def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior
     given = track(tracker, jr.PRNGKey(0), edge_observations(sequence.frames), truth,
                   chunk_size=8, progress=False)
     np.testing.assert_array_equal(from_grey.markers, given.markers)
+    masked = track(tracker, jr.PRNGKey(0), edge_observations(
+        sequence.frames, masks=np.ones(sequence.frames.shape, bool)), truth, chunk_size=8,
+        progress=False)
+    np.testing.assert_array_equal(from_grey.markers, masked.markers)
     metrics = evaluate_track(from_grey.markers, sequence.truth, UPPER_BODY_12)
     assert np.all(np.isfinite(from_grey.log_likelihood))
     assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
