@@ -99,6 +99,13 @@ def _read_npz(path: Path) -> dict:
                 for key in data.files}
 
 
+def mask_array(images: np.ndarray) -> np.ndarray | dict:
+    """MediaPipe's person masks ``(time, height, width)`` bool of ``images`` ``(time, height,
+    width, 3)`` uint8 RGB, or ``{"skipped": reason}`` when MediaPipe cannot run."""
+    result = run_mediapipe(images, segmentation=True)
+    return result if "skipped" in result else np.asarray(result["masks"], bool)
+
+
 def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
     """MediaPipe's person masks for every frame of ``video``, decoded so its longer side is at
     most ``max_size``, written to ``out`` (:func:`jaxtrack.vision.write_masks`; ``jaxtrack
@@ -110,8 +117,8 @@ def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
         return out
     height, width = read_video(video, max_frames=1).frames.shape[1:3]
     frames = read_video(video, scale=min(1.0, max_size / max(width, height))).frames
-    result = run_mediapipe(frames, segmentation=True)
-    if "skipped" in result:
-        return result
+    masks = mask_array(frames)
+    if isinstance(masks, dict):
+        return masks
     out.parent.mkdir(parents=True, exist_ok=True)
-    return write_masks(out, np.asarray(result["masks"], bool))
+    return write_masks(out, masks)

@@ -142,12 +142,12 @@ def table(rows: list[dict]) -> str:
 def person_masks_of(images: np.ndarray, name: str) -> np.ndarray:
     """MediaPipe's person masks of ``images`` ``(time, height, width, 3)`` uint8 RGB; exits
     with the reason where MediaPipe cannot run."""
-    from benchmarks._mediapipe import run_mediapipe
+    from benchmarks._mediapipe import mask_array
 
-    result = run_mediapipe(images, segmentation=True)
-    if "skipped" in result:
-        raise SystemExit(f"--masks mediapipe, {name}: {result['skipped']}")
-    return np.asarray(result["masks"], bool)
+    masks = mask_array(images)
+    if isinstance(masks, dict):
+        raise SystemExit(f"--masks mediapipe, {name}: {masks['skipped']}")
+    return masks
 
 
 def _check_sequence(prior, name: str, kind: str, frames: np.ndarray, truth: np.ndarray,

@@ -96,28 +96,33 @@ class View:
         # the whole video's median, as `jaxtrack track` takes over the frames it reads
         self.background_rgb = median_background(video.frames)
         self.background = median_grey_background(to_grey(video.frames))
+        self.masks = None  # person masks of the tracked frames, where a run gives them
 
 
-def make_tracker(method: str, estimate: str, prior, view: View):
+def make_tracker(method: str, estimate: str, prior, view: View,
+                 foreground_weight: float | None = None):
     """The tracker of one configuration (the protocol's ``build_tracker``, with the whole
-    video's background)."""
+    video's background; ``foreground_weight``: the likelihood's μ, None its default)."""
     from jaxtrack import trackers
 
     refinement = trackers.Refinement() if estimate == "refined" else None
     particles = DEFAULT_PARTICLES[method]
+    likelihood = trackers.Likelihood(**({} if foreground_weight is None
+                                        else {"foreground_weight": foreground_weight}))
     if method == "latent":
         return trackers.latent_tracker(prior.model, prior.template,
                                        engine=trackers.Engine(particles), fps=view.fps,
-                                       refinement=refinement, background=view.background)
+                                       refinement=refinement, background=view.background,
+                                       likelihood=likelihood)
     states, ids = prior.training_states, prior.training_sequence_ids
     if method == "condensation":
         return trackers.condensation_tracker(prior.template, states,
                                              engine=trackers.Engine(particles),
                                              refinement=refinement, background=view.background,
-                                             sequence_ids=ids)
+                                             sequence_ids=ids, likelihood=likelihood)
     return trackers.mht_tracker(prior.template, states, num_modes=particles,
                                 refinement=refinement, background=view.background,
-                                sequence_ids=ids)
+                                sequence_ids=ids, likelihood=likelihood)
 
 
 def score(markers: np.ndarray, view: View, **timing) -> dict:
@@ -127,11 +132,17 @@ def score(markers: np.ndarray, view: View, **timing) -> dict:
 
 
 def run_tracker(prior, view: View, method: str, estimate: str, init: str,
-                initial_pose: np.ndarray, seed: int) -> dict:
+                initial_pose: np.ndarray, seed: int, foreground_weight: float | None = None
+                ) -> dict:
+    """One configuration on one view; with ``view.masks`` the observations carry them as the
+    foreground term's per-frame mask."""
     from jaxtrack.trackers import track
+    from jaxtrack.vision import edge_observations
 
-    tracker = make_tracker(method, estimate, prior, view)
-    result = track(tracker, jr.PRNGKey(seed), view.frames, initial_pose, progress=False)
+    tracker = make_tracker(method, estimate, prior, view, foreground_weight)
+    frames = (view.frames if view.masks is None
+              else edge_observations(view.frames, masks=view.masks))
+    result = track(tracker, jr.PRNGKey(seed), frames, initial_pose, progress=False)
     if not np.all(np.isfinite(result.markers)):
         return {"method": method, "estimate": estimate, "init": init, "view": view.name,
                 "seed": seed, "skipped": "non-finite markers"}
@@ -224,6 +235,11 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true",
                         help="cam02, 10 frames, the latent tracker with refinement, both inits, "
                              "a small prior (a smoke run)")
+    parser.add_argument("--masks", choices=("none", "mediapipe"), default="none",
+                        help="the likelihood's foreground from MediaPipe's person masks per "
+                             "frame (its venv) instead of the median background")
+    parser.add_argument("--foreground-weight", type=float, default=None, metavar="MU",
+                        help="the likelihood's foreground weight (default its own)")
     parser.add_argument("--data", type=Path, default=None,
                         help="the pose2sim_demo_singleperson folder (default: shared data)")
     parser.add_argument("--out", type=Path, default=None,
@@ -238,6 +254,10 @@ def main(argv=None) -> int:
         parser.error(f"--stride must be at least 1, got {args.stride}")
     if args.max_size < 32:
         parser.error(f"--max-size must be at least 32, got {args.max_size}")
+    if args.foreground_weight is not None and not (np.isfinite(args.foreground_weight)
+                                                   and args.foreground_weight >= 0):
+        parser.error(f"--foreground-weight must be a non-negative number, got "
+                     f"{args.foreground_weight}")
     views, frames = tuple(args.views), args.frames
     methods, estimates = tuple(args.methods), tuple(args.estimates)
     if args.quick:
@@ -247,7 +267,10 @@ def main(argv=None) -> int:
         folder = args.data or default_folder()
     except FileNotFoundError as error:
         parser.error(str(error))
-    out = args.out or RESULTS / ("real_video_quick.json" if args.quick else "real_video.json")
+    suffix = (("_masks" if args.masks != "none" else "")
+              + (f"_mu{args.foreground_weight:g}" if args.foreground_weight is not None else ""))
+    out = args.out or RESULTS / (("real_video_quick" if args.quick else "real_video") + suffix
+                                 + ".json")
 
     from benchmarks.tracking import QUICK_TRAINING, TRAINING_CLIPS
     from jaxtrack.priors.train import train_prior
@@ -266,6 +289,12 @@ def main(argv=None) -> int:
     for camera in views:
         view = View(folder, camera, frames, args.max_size, filtered=args.filtered,
                     stride=args.stride)
+        if args.masks == "mediapipe":
+            from benchmarks._mediapipe import mask_array
+
+            view.masks = mask_array(view.images)
+            if isinstance(view.masks, dict):
+                raise SystemExit(f"--masks mediapipe, {camera}: {view.masks['skipped']}")
         height, width = view.frames.shape[1:]
         print(f"{camera}: video frames {view.frame_indices[0]}..{view.frame_indices[-1]} at "
               f"{width}x{height}, reference torso "
@@ -288,7 +317,8 @@ def main(argv=None) -> int:
                 poses["auto"] = pose
         for method, estimate, (init, pose), seed in itertools.product(
                 methods, estimates, poses.items(), range(args.seeds)):
-            run = run_tracker(prior, view, method, estimate, init, pose, seed)
+            run = run_tracker(prior, view, method, estimate, init, pose, seed,
+                              args.foreground_weight)
             runs.append(run)
             print(f"  {method:12s} {estimate:7s} {init:9s} seed {seed}: "
                   + (run["skipped"] if "skipped" in run else
@@ -310,7 +340,8 @@ def main(argv=None) -> int:
         "device": device_description(), "date": time.strftime("%Y-%m-%d"),
         "seconds": seconds, "peak_rss_mb": peak_rss_mb(),
         "data": str(folder), "views": list(views), "frames": frames, "stride": args.stride,
-        "max_size": args.max_size,
+        "max_size": args.max_size, "masks": args.masks,
+        "foreground_weight": args.foreground_weight,
         "methods": list(methods), "estimates": list(estimates), "inits": list(args.inits),
         "seeds": args.seeds, "training_clips": list(TRAINING_CLIPS),
         "prior": "quick" if args.quick else "full",

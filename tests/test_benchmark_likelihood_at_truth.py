@@ -40,8 +40,18 @@ def test_a_tracker_never_off_reports_no_share_rather_than_a_number():
     (["--frames", "1"], "--frames must be at least 2"),
     (["--no-rendered", "--views"], "nothing to check"),
     (["--likelihood", "markers", "--no-background"], "has none"),
+    (["--likelihood", "limbs", "--masks", "mediapipe"], "--masks is about limbs+edges"),
+    (["--likelihood", "markers", "--foreground-weight", "3"], "--foreground-weight is about"),
+    (["--no-background", "--masks", "mediapipe"], "--masks gives it masks"),
+    (["--foreground-weight", "-1"], "--foreground-weight must be a non-negative number"),
 ])
 def test_bad_arguments_are_refused_in_one_line(argv, message, capsys):
     with pytest.raises(SystemExit):
         check.main(argv)
     assert message in capsys.readouterr().err
+
+
+def test_masks_without_mediapipe_stop_the_run_with_the_reason(tmp_path, monkeypatch):
+    monkeypatch.setenv("JAXTRACK_MEDIAPIPE_PYTHON", str(tmp_path / "no-python"))
+    with pytest.raises(SystemExit, match="--masks mediapipe, cam01: no MediaPipe python"):
+        check.person_masks_of(np.zeros((2, 8, 8, 3), np.uint8), "cam01")

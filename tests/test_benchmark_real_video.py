@@ -29,7 +29,9 @@ def test_a_stride_tracks_every_other_frame_at_the_rate_it_tracks():
 
 def test_bad_arguments_are_refused_in_one_line(capsys):
     for argv, message in ((["--stride", "0"], "--stride must be at least 1"),
-                          (["--frames", "1"], "--frames must be at least 2")):
+                          (["--frames", "1"], "--frames must be at least 2"),
+                          (["--foreground-weight", "nan"],
+                           "--foreground-weight must be a non-negative number")):
         with pytest.raises(SystemExit):
             real_video.main(argv)
         assert message in capsys.readouterr().err
