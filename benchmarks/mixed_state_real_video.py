@@ -13,8 +13,8 @@ with the tracker's defaults filters and smooths them. The truth is the reference
 issue that asked for this score names them; hands and feet under the best left/right assignment
 per frame (the paper's superposition). The true posture of each frame comes from the reference's
 3-D keypoints by the rule that labels the training clips
-(:func:`jaxtrack.priors.postures.posture_labels`): the man stands in 55 of the 100 frames and
-bends (torso more than 30° from vertical, in a lunge) in the other 45.
+(:func:`jaxtrack.priors.postures.posture_labels`): the man stands in 54 of the 99 scored frames
+and bends (torso more than 30° from vertical, in a lunge) in the other 45.
 
 The silhouettes' sources:
 

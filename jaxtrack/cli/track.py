@@ -245,8 +245,9 @@ def run(args: argparse.Namespace) -> int:
     if len(args.video) != 1:
         raise UserError(f"--video: --method latent tracks one video, got {len(args.video)}")
     if args.masks is not None:
-        raise UserError("--masks is used by --method linear-combination and mixed-state; the "
-                        "latent tracker's likelihood takes the video's median background")
+        raise UserError("--masks is used by --method linear-combination and mixed-state; "
+                        "--method latent takes the video's median background (in Python its "
+                        "likelihood takes masks: jaxtrack.vision.edge_observations)")
     args.video = args.video[0]
     if args.particles is None:
         args.particles = 200
