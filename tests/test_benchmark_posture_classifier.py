@@ -1,0 +1,48 @@
+"""The posture-classifier benchmark's scoring on made-up features (the benchmark itself renders
+clips and is a script, not a test): errors per true posture, leave-one-clip-out, and a clip
+that alone shows a posture reported as unfit rather than raised."""
+
+import numpy as np
+import pytest
+
+from benchmarks import posture_classifier as pc
+from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES
+
+
+def _clip(name, postures, rng, frames=30, shift=0.0):
+    """Features around a mean per posture (well apart), labelled."""
+    labels = np.repeat(np.asarray(postures), frames)
+    means = 3.0 * np.eye(NUM_POSTURES, 33)
+    return name, means[labels] + shift + 0.3 * rng.standard_normal((len(labels), 33)), labels
+
+
+def test_errors_are_counted_overall_and_per_true_posture():
+    rng = np.random.default_rng(0)
+    training = [_clip("a", range(NUM_POSTURES), rng), _clip("b", range(NUM_POSTURES), rng)]
+    model = pc.fit(training, 0.2)
+    name, values, labels = _clip("c", [0, 2], rng)
+    right = pc.posture_errors(model, [(name, values, labels)])
+    assert right["error"] == 0.0 and right["frames"] == 60
+    assert right["per_posture"]["standing"] == 0.0 and right["per_posture"]["sitting"] is None
+    wrong = pc.posture_errors(model, [(name, values, np.where(labels == 0, 1, labels))])
+    assert wrong["error"] == pytest.approx(0.5)
+    assert wrong["per_posture"][POSTURE_NAMES[1]] == 1.0
+    assert wrong["per_posture"][POSTURE_NAMES[2]] == 0.0
+
+
+def test_leave_one_clip_out_holds_each_clip_out_and_reports_an_unfit_model():
+    rng = np.random.default_rng(1)
+    everyday = list(range(4))  # standing, sitting, crawling, lying left
+    training = [_clip("a", everyday, rng), _clip("a", everyday, rng),  # two views of one clip
+                _clip("b", everyday, rng), _clip("only_b", [*everyday, 4], rng)]
+    rows = pc.leave_one_clip_out(training, 0.2)
+    assert [row["held_out"] for row in rows] == ["a", "b", "only_b"]
+    assert rows[0]["frames"] == 2 * 4 * 30 and rows[0]["error"] == 0.0
+    # without the only clip that shows lying right, that posture has no training frame
+    assert "lying_right" in rows[2]["unfit"] and "error" not in rows[2]
+
+
+def test_bad_ridges_are_refused_in_one_line(capsys):
+    with pytest.raises(SystemExit):
+        pc.main(["--ridges", "0"])
+    assert "--ridges must be positive numbers" in capsys.readouterr().err
