@@ -169,8 +169,8 @@ def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, ca
     shutil.copy(trained, folder / "posture_cache.npz")  # the same settings: reused
     code, out, error = run(capsys, "evaluate", "--method", "mixed-state", "--test",
                            "cmu_posture_bvh/75_20", "--max-frames", 12, "--train-max-frames",
-                           45, "--size", "160x120", "--azimuths", 90, -90, "--backgrounds",
-                           "plain", "--particles", 32, "--lag", 3, "--json",
+                           45, "--size", "160x120", "--azimuths", 90, -90, "--cameras", 2,
+                           "--backgrounds", "plain", "--particles", 32, "--lag", 3, "--json",
                            folder / "metrics.json", "--plots", tmp_path / "plots")
     assert code == 0, error
     assert "reused" in out.splitlines()[0]
@@ -181,15 +181,18 @@ def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, ca
     record = json.loads((folder / "metrics.json").read_text())
     assert record["train"][0] == "cmu_posture_bvh/75_19"
     assert record["test"] == ["cmu_posture_bvh/75_20"] and record["lag"] == 3
-    assert len(record["sequences"]) == 2
+    # two azimuths and the real Pose2Sim camera 3 (its portrait frame at a third)
+    assert len(record["sequences"]) == 3 and record["pose2sim_cameras"] == [2]
+    assert sorted(name.split("_")[2] for name in record["sequences"]) == [
+        "az-90", "az90", "cam03"]
     for kind in ESTIMATES:
         score = record["overall"][kind]
-        assert score["frames"] == 24
+        assert score["frames"] == 36
         assert set(score["mse"]) == {"head", "hands", "feet", "all"}
         assert all(value >= 0 and math.isfinite(value) for value in score["mse"].values())
         assert 0 <= score["posture_error"] <= 1 and score["max_head_error"] >= 0
         assert set(score["within"]["head"]) == {"10", "20", "30", "50"}
-    assert np.sum(record["smoothed_confusion"]) == 24
+    assert np.sum(record["smoothed_confusion"]) == 36
     assert sorted(path.name for path in (tmp_path / "plots").iterdir()) == [
         "fraction_within.png", "posture_confusion.png"]
     assert sorted(path.name for path in folder.iterdir()) == ["metrics.json",
@@ -264,6 +267,10 @@ def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, cas
      "--max-frames must be at least 2, got 1"),
     (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--views", "3"],
      "--views does not apply to --method mixed-state (use --azimuths)"),
+    (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--cameras", "1"],
+     "--cameras does not apply to --method mixed-state"),
+    (["evaluate", "--test", "cmu_amc/07_02", "--json", "{tmp}/out.json", "--cameras", "4"],
+     "--cameras must be Pose2Sim camera indices 0-3, got 4"),
     (["evaluate", "--train", "cmu_amc/07_01", "--test", "cmu_amc/07_01", "--json",
       "{tmp}/out.json"], "--test clips must be held out, but cmu_amc/07_01 is also in --train"),
     (["evaluate", "--train", "cmu_bvh/131_01", "--test", "cmu_amc/07_01", "--json",

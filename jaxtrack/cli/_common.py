@@ -13,7 +13,7 @@ from pathlib import Path
 __all__ = ["MAX_SEED", "UserError", "add_asf_option", "available_memory", "check_clips",
            "check_held_out", "check_json_and_plots",
            "check_memory", "check_prior_file", "check_seed", "fit_mask_file", "format_bytes",
-           "load_clip_sources", "output_folder", "read_mask_files"]
+           "load_clip_sources", "output_folder", "pose2sim_cameras", "read_mask_files"]
 
 MAX_SEED = 2**63 - 1
 """The largest seed: JAX keys and NumPy generators take 0 to 2**63 - 1."""
@@ -81,6 +81,24 @@ def fit_mask_file(masks, path: Path, frame_indices, size: tuple[int, int]):
         return masks_for_frames(masks, frame_indices, size, name=str(path))
     except MaskFileError as error:
         raise UserError(f"--masks {one_line(error)}") from None
+
+
+POSE2SIM_CAMERAS = 4
+"""The cameras of the bundled Pose2Sim calibration."""
+
+
+def pose2sim_cameras(cameras: Sequence[int] | None, default: tuple[int, ...]) -> tuple[int, ...]:
+    """``--cameras``: distinct Pose2Sim camera indices (``default`` without the option);
+    refused in one line."""
+    if cameras is None:
+        return default
+    bad = [camera for camera in cameras if not 0 <= camera < POSE2SIM_CAMERAS]
+    if bad:
+        raise UserError(f"--cameras must be Pose2Sim camera indices 0-{POSE2SIM_CAMERAS - 1}, "
+                        f"got {', '.join(map(str, bad))}")
+    if len(set(cameras)) != len(cameras):
+        raise UserError(f"--cameras names a camera twice: {' '.join(map(str, cameras))}")
+    return tuple(cameras)
 
 
 def check_seed(seed: int) -> None:

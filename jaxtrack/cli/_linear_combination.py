@@ -41,6 +41,7 @@ from jaxtrack.cli._common import (
     load_clip_sources,
     one_line,
     output_folder,
+    pose2sim_cameras,
     read_mask_files,
 )
 
@@ -66,15 +67,7 @@ def _max_frames(value) -> int | None:
 
 
 def _cameras(cameras) -> tuple[int, ...]:
-    if cameras is None:
-        return tuple(range(_NUM_CAMERAS))
-    bad = [camera for camera in cameras if not 0 <= camera < _NUM_CAMERAS]
-    if bad:
-        raise UserError(f"--cameras must be Pose2Sim camera indices 0-{_NUM_CAMERAS - 1}, got "
-                        f"{', '.join(map(str, bad))}")
-    if len(set(cameras)) != len(cameras):
-        raise UserError(f"--cameras names a camera twice: {' '.join(map(str, cameras))}")
-    return tuple(cameras)
+    return pose2sim_cameras(cameras, tuple(range(_NUM_CAMERAS)))
 
 
 def _refuse_asf(args) -> None:

@@ -37,6 +37,7 @@ from jaxtrack.cli._common import (
     fit_mask_file,
     one_line,
     output_folder,
+    pose2sim_cameras,
     read_mask_files,
 )
 
@@ -82,11 +83,16 @@ _OTHER_METHODS = {
 _COMMAND_DEFAULTS = {"train": {"views": 5, "iterations": 3}, "evaluate": {"views": 2}}
 
 
+_COMMAND_TAKES = {"evaluate": {"cameras"}}
+"""Options of :data:`_OTHER_METHODS` a command does take for --method mixed-state
+(``evaluate --cameras``: the test clips also through these Pose2Sim cameras)."""
+
+
 def _refuse_other_methods(args: argparse.Namespace, command: str) -> None:
     """Options of the other methods, set away from their defaults, are refused (not ignored)."""
     defaults = _COMMAND_DEFAULTS.get(command, {})
     for name, (default, instead) in _OTHER_METHODS.items():
-        if not hasattr(args, name):
+        if not hasattr(args, name) or name in _COMMAND_TAKES.get(command, ()):
             continue
         default = defaults.get(name, default)
         if getattr(args, name) != default:
@@ -294,6 +300,7 @@ def evaluate(args: argparse.Namespace) -> int:
     lag = at_least(args.lag, 0, "--lag", DEFAULT_LAG)
     bins = at_least(args.bins, 1, "--bins", DEFAULT_BINS)
     azimuths = _azimuths(args.azimuths)
+    cameras = pose2sim_cameras(args.cameras, ())
     size = _image_size(args.size)
     backgrounds = list(dict.fromkeys(args.backgrounds))
     folder = check_json_and_plots(args)
@@ -325,24 +332,27 @@ def evaluate(args: argparse.Namespace) -> int:
     begin = time.perf_counter()
     results = evaluate_model(model, test_clips, azimuths=azimuths, backgrounds=backgrounds,
                              image_size=size, num_bins=bins, num_particles=particles, lag=lag,
-                             max_frames=max_frames, seed=args.seed)
+                             max_frames=max_frames, seed=args.seed, pose2sim_cameras=cameras)
     evaluate_seconds = time.perf_counter() - begin
     overall = finite_json(results["overall"])
     frames = overall["smoothed"]["frames"]
+    sizes = ([f"{size[0]}x{size[1]}"] if azimuths else []) + (
+        [f"{len(cameras)} Pose2Sim camera(s) at a third of 1088x1920"] if cameras else [])
     title = (f"mixed-state, {len(results['sequences'])} sequences, {frames} frames at "
-             f"{size[0]}x{size[1]}, N={particles}")
+             f"{' and '.join(sizes)}, N={particles}")
     plots = []
     if args.plots is not None:
         plots = _plots(args.plots, overall, results["smoothed_confusion"], lag, title, frames)
     record = finite_json({
         "method": "mixed-state", "train": train_clips, "test": test_clips,
         "particles": particles, "lag": lag, "seed": args.seed, "max_frames": max_frames,
+        "pose2sim_cameras": list(cameras),
         "posture_model": description, "posture_names": _posture_names(),
         "overall": results["overall"], "sequences": results["sequences"],
         "smoothed_confusion": results["smoothed_confusion"], "settings": results["settings"],
         "seconds": {"evaluate": evaluate_seconds, "total": time.perf_counter() - started}})
     json_path = _write_json(args.json, record)
-    print(f"{title}; MSE in px² at {size[0]}x{size[1]}")
+    print(f"{title}; MSE in px² at each sequence's size")
     print(mixed_state_table(overall, lag))
     for path in (*plots, json_path):
         print(f"wrote {path}")

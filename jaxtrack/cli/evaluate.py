@@ -113,7 +113,8 @@ def add_parser(subparsers) -> None:
     # linear-combination options
     group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
                        help="linear-combination: Pose2Sim cameras (0-3) to render through "
-                       "(default all four)")
+                       "(default all four); mixed-state: also render the test clips through "
+                       "these (default none)")
     group.add_argument("--iterations", type=int, default=None,
                        help="linear-combination: CONDENSATION iterations per frame (default 5)")
     # mixed-state options

@@ -43,7 +43,7 @@ from jaxtrack.trackers.mixed_state import (
     smooth_fixed_lag,
 )
 
-__all__ = ["DEFAULT_REGULARISATION", "EPSILONS", "TEST_CLIPS", "TRAINING_CLIPS",
+__all__ = ["DEFAULT_REGULARISATION", "EPSILONS", "POSE2SIM_SCALE", "TEST_CLIPS", "TRAINING_CLIPS",
            "VALIDATION_CLIPS", "VIEW_AZIMUTHS", "PostureSequence",
            "evaluate", "fit", "render_posture_sequence", "render_sequences", "score", "track",
            "train", "training_features"]
@@ -129,10 +129,16 @@ _HAND_TIP_RADIUS = 0.03
 
 def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int, int] = (640, 480),
                             background: str = "photo", fps: float = 30.0, seed: int = 0,
-                            max_frames: int | None = None) -> PostureSequence:
+                            max_frames: int | None = None, pose2sim_camera: int | None = None
+                            ) -> PostureSequence:
     """Render ``clip`` seen from ``azimuth`` over a ``background`` whose empty scene is known,
     and take its silhouettes by background subtraction
-    (:func:`jaxtrack.vision.histograms.silhouettes`)."""
+    (:func:`jaxtrack.vision.histograms.silhouettes`).
+
+    With ``pose2sim_camera`` (0–3) the clip is staged in the Pose2Sim lab and seen through that
+    real camera instead (its calibration, elevation and portrait frame, scaled by
+    :data:`POSE2SIM_SCALE`: 363 × 640 or 360 × 640); ``azimuth`` and ``image_size`` are then
+    unused."""
     from jaxtrack.body._backgrounds import make_background
     from jaxtrack.body._figure import FIGURE_MARKERS
     from jaxtrack.body._staging import frontal_camera, project_numpy
@@ -145,7 +151,12 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
         if max_frames < 2:
             raise ValueError(f"max_frames must be at least 2, got {max_frames}")
         motion = motion.select(0, min(max_frames, motion.num_frames))
-    camera = frontal_camera(motion, tuple(image_size), azimuth=azimuth, elevation=0.1)
+    if pose2sim_camera is None:
+        camera = frontal_camera(motion, tuple(image_size), azimuth=azimuth, elevation=0.1)
+        view = f"az{round(np.degrees(azimuth))}"
+    else:
+        motion, camera = _pose2sim_view(motion, pose2sim_camera)
+        image_size, view = camera.image_size, camera.name
     scene, _ = make_background(background, tuple(image_size), np.random.default_rng(seed))
     rendered = render_motion(motion, camera, image_size=tuple(image_size), background=scene,
                              markers=FIGURE_MARKERS, seed=seed, progress=False)
@@ -154,24 +165,48 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
     truth, _ = project_numpy(rendered.camera, extremities(rendered.joints_3d))
     labels = posture_labels(rendered.joints_3d, rendered.markers_2d, names)
     masks = silhouettes(rendered.images, scene)
-    return PostureSequence(f"{clip.split('/')[-1]}_az{round(np.degrees(azimuth))}_{background}",
+    return PostureSequence(f"{clip.split('/')[-1]}_{view}_{background}",
                            masks, np.asarray(truth, np.float64), labels,
                            rendered.image_size, np.asarray(joints, np.float64))
 
 
 def render_sequences(clips: Sequence[str], azimuths: Sequence[float],
                      backgrounds: Sequence[str], image_size: tuple[int, int],
-                     max_frames: int | None, seed: int) -> list[PostureSequence]:
-    """Every clip from every azimuth over every background (:func:`render_posture_sequence`),
-    clip by clip; the seeds :func:`evaluate` uses for the same arguments."""
+                     max_frames: int | None, seed: int, pose2sim_cameras: Sequence[int] = ()
+                     ) -> list[PostureSequence]:
+    """Every clip from every azimuth, then through every Pose2Sim camera of
+    ``pose2sim_cameras``, over every background (:func:`render_posture_sequence`), clip by
+    clip; the seeds :func:`evaluate` uses for the same arguments."""
+    views = [(azimuth, None) for azimuth in azimuths] + [(0.0, int(camera))
+                                                        for camera in pose2sim_cameras]
     sequences = []
     for index, clip in enumerate(clips):
-        for view, azimuth in enumerate(azimuths):
+        for view, (azimuth, camera) in enumerate(views):
             for background in backgrounds:
                 sequences.append(render_posture_sequence(
                     clip, azimuth, image_size=image_size, background=background,
-                    seed=seed + 97 * index + view, max_frames=max_frames))
+                    seed=seed + 97 * index + view, max_frames=max_frames,
+                    pose2sim_camera=camera))
     return sequences
+
+
+POSE2SIM_SCALE = 1 / 3
+"""The Pose2Sim cameras' 1088 × 1920 frames rendered at a third: the longer side 640, the
+paper's resolution."""
+
+
+def _pose2sim_view(motion, index: int):
+    """``motion`` staged in the Pose2Sim lab and its camera ``index`` scaled by
+    :data:`POSE2SIM_SCALE`."""
+    from jaxtrack.body import read_qca
+    from jaxtrack.body._staging import scale_camera, stage_for_cameras
+    from jaxtrack.data import path
+
+    cameras = read_qca(path("pose2sim/Calib.qca.txt"), world_up="y")
+    if not 0 <= index < len(cameras):
+        raise ValueError(f"pose2sim_camera must be 0-{len(cameras) - 1}, got {index}")
+    return (stage_for_cameras(motion, cameras),
+            scale_camera(cameras[index], POSE2SIM_SCALE))
 
 
 def training_features(clips: Sequence[str] = TRAINING_CLIPS, *,
@@ -312,7 +347,7 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
              image_size: tuple[int, int] = (640, 480), num_bins: int = 16,
              num_particles: int = 500, lag: int = 10, max_frames: int | None = None,
              seed: int = 1, sequences: Sequence[PostureSequence] | None = None,
-             **model_options) -> dict:
+             pose2sim_cameras: Sequence[int] = (), **model_options) -> dict:
     """Render the test clips, track each view, and score every estimate.
 
     Returns ``{"sequences": {name: {estimate: score}}, "overall": {estimate: score},
@@ -321,7 +356,9 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
     ``fixed_lag``; ``overall`` against the parts' extremities (top of the head, hand tips, toes:
     where silhouette hypotheses locate them), ``overall_joints`` against the head, wrist and
     ankle joints. ``sequences``: the rendered views (:func:`render_sequences` of the same
-    arguments), to score several settings on one rendering. ``model_options``:
+    arguments), to score several settings on one rendering. ``pose2sim_cameras``: also render
+    through these real Pose2Sim cameras (0–3; :func:`render_posture_sequence`).
+    ``model_options``:
     :class:`MixedStateModel`'s keywords, and ``part_cutoff``, the part likelihood's δ.
     """
     from jaxtrack.vision.histograms import FRAME_OK
@@ -336,7 +373,8 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
         options["part_likelihood"] = PartDistances(cutoff=options.pop("part_cutoff"))
     model = MixedStateModel(posture_model, **options)
     if sequences is None:
-        sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed)
+        sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed,
+                                     pose2sim_cameras)
     kinds = ("instantaneous", "filtered", "smoothed", "fixed_lag")
     pooled = {kind: {"posture": [], "parts": []} for kind in kinds}
     truth_parts, truth_joints, truth_labels, valid_all, per_sequence = [], [], [], [], {}
