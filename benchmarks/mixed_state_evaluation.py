@@ -16,7 +16,9 @@ clips, then the paper's Table 1 metrics on the test clips.
    ``--switch``) are chosen together by the smoothed estimate's mean squared error over all
    parts on the validation clips.
 3. The test clips are scored once with the chosen settings, for the instantaneous (extended
-   Ghost), filtered, smoothed and fixed-lag estimates.
+   Ghost), filtered, smoothed and fixed-lag estimates; with ``--pose2sim-cameras`` also seen
+   through those real Pose2Sim cameras (their calibration, elevation and portrait frames at a
+   third, 363 × 640: ``experiments.mixed_state.render_posture_sequence``), a second table.
 
     python -m benchmarks.mixed_state_evaluation [--frames 150] [--particles 500]
 
@@ -103,8 +105,14 @@ def main(argv=None) -> int:
     parser.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
                         help="views of the validation and test clips (default: the five of "
                         "experiments.mixed_state.VIEW_AZIMUTHS; 90 -90: the paper's side views)")
+    parser.add_argument("--pose2sim-cameras", type=int, nargs="*", default=[], metavar="INDEX",
+                        help="also score the test clips through these Pose2Sim cameras (0-3)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_evaluation.json"))
     args = parser.parse_args(argv)
+    if any(not 0 <= camera <= 3 for camera in args.pose2sim_cameras) or len(
+            set(args.pose2sim_cameras)) != len(args.pose2sim_cameras):
+        parser.error(f"--pose2sim-cameras must be distinct indices 0-3, got "
+                     f"{args.pose2sim_cameras}")
     for name, values, low, high in (("--regularisation", args.regularisation, 0.0, None),
                                     ("--cutoff", args.cutoff, 0.0, None),
                                     ("--redetect", args.redetect, None, 1.0)):
@@ -154,6 +162,15 @@ def main(argv=None) -> int:
                        redetect_probability=chosen,
                        redraw_on_switch=chosen_switch == "redraw", part_cutoff=cutoff)
     test_seconds = time.perf_counter() - begin
+    through_cameras = None
+    if args.pose2sim_cameras:
+        through_cameras = ms.evaluate(posture_model, ms.TEST_CLIPS, azimuths=(),
+                                      pose2sim_cameras=args.pose2sim_cameras,
+                                      backgrounds=("clutter",), num_particles=args.particles,
+                                      max_frames=args.frames, seed=args.seed,
+                                      redetect_probability=chosen,
+                                      redraw_on_switch=chosen_switch == "redraw",
+                                      part_cutoff=cutoff)
     print(f"device: {device_description()}")
     print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; posture model regularisation "
           f"{ridge:g} (instantaneous posture error " + ", ".join(
@@ -173,6 +190,10 @@ def main(argv=None) -> int:
           f"clutter; "
           f"{test_seconds:.0f} s")
     print_table(_rows(test["overall"]), _COLUMNS)
+    if through_cameras is not None:
+        print(f"\nthe test clips through Pose2Sim cameras {args.pose2sim_cameras} (0-based; "
+              f"363 x 640), the same settings")
+        print_table(_rows(through_cameras["overall"]), _COLUMNS)
     write_json(args.out, {"benchmark": "mixed_state_evaluation", "device": device_description(),
                           "arguments": vars(args), "train_seconds": train_seconds,
                           "validation_posture_error": [
@@ -186,7 +207,8 @@ def main(argv=None) -> int:
                           "chosen_part_cutoff": cutoff,
                           "chosen_redetect_probability": chosen,
                           "chosen_on_switch": chosen_switch, "test": test,
-                          "test_seconds": test_seconds})
+                          "test_seconds": test_seconds,
+                          "test_through_pose2sim_cameras": through_cameras})
     return 0
 
 

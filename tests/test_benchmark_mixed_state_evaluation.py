@@ -13,7 +13,9 @@ from benchmarks import mixed_state_evaluation as evaluation
     (["--redetect", "1.5"], "--redetect values must be finite and in [0, 1], got 1.5"),
     (["--cutoff", "nan"], "--cutoff values must be finite"),
     (["--frames", "1"], "--frames must be at least 2, got 1"),
-    (["--particles", "0"], "--particles must be at least 1, got 0")])
+    (["--particles", "0"], "--particles must be at least 1, got 0"),
+    (["--pose2sim-cameras", "4"], "--pose2sim-cameras must be distinct indices 0-3"),
+    (["--pose2sim-cameras", "1", "1"], "--pose2sim-cameras must be distinct indices 0-3")])
 def test_bad_arguments_are_refused_in_one_line_before_any_work(argv, message, capsys):
     with pytest.raises(SystemExit):
         evaluation.main(argv)
