@@ -106,6 +106,36 @@ def mask_array(images: np.ndarray) -> np.ndarray | dict:
     return result if "skipped" in result else np.asarray(result["masks"], bool)
 
 
+def masks_or_exit(images: np.ndarray, name: str) -> np.ndarray:
+    """:func:`mask_array`, or exit with the reason (naming ``name``, the sequence) where
+    MediaPipe cannot run."""
+    masks = mask_array(images)
+    if isinstance(masks, dict):
+        raise SystemExit(f"--masks mediapipe, {name}: {masks['skipped']}")
+    return masks
+
+
+def add_mask_options(parser) -> None:
+    """``--masks`` and ``--foreground-weight``: the limbs+edges likelihood's foreground from
+    MediaPipe's person masks per frame, and its weight μ (checked by
+    :func:`check_mask_options`)."""
+    parser.add_argument("--masks", choices=("none", "mediapipe"), default="none",
+                        help="limbs+edges' foreground from MediaPipe's person masks per frame "
+                             "(its venv) instead of the median background")
+    parser.add_argument("--foreground-weight", type=float, default=None, metavar="MU",
+                        help="limbs+edges' foreground weight (default the likelihood's)")
+
+
+def check_mask_options(parser, args) -> str:
+    """Refuse a bad ``--foreground-weight`` in one line; return the output name's suffix for
+    the options (``-masks``, ``-muMU``)."""
+    weight = args.foreground_weight
+    if weight is not None and not (np.isfinite(weight) and weight >= 0):
+        parser.error(f"--foreground-weight must be a non-negative number, got {weight}")
+    return (("-masks" if args.masks != "none" else "")
+            + (f"-mu{weight:g}" if weight is not None else ""))
+
+
 def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
     """MediaPipe's person masks for every frame of ``video``, decoded so its longer side is at
     most ``max_size``, written to ``out`` (:func:`jaxtrack.vision.write_masks`; ``jaxtrack

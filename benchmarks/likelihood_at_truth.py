@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._common import device_description, peak_rss_mb
+from benchmarks._mediapipe import add_mask_options, check_mask_options, masks_or_exit
 from jaxtrack._files import write_json_atomically
 
 RESULTS = Path("benchmarks/results")
@@ -139,17 +140,6 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def person_masks_of(images: np.ndarray, name: str) -> np.ndarray:
-    """MediaPipe's person masks of ``images`` ``(time, height, width, 3)`` uint8 RGB; exits
-    with the reason where MediaPipe cannot run."""
-    from benchmarks._mediapipe import mask_array
-
-    masks = mask_array(images)
-    if isinstance(masks, dict):
-        raise SystemExit(f"--masks mediapipe, {name}: {masks['skipped']}")
-    return masks
-
-
 def _check_sequence(prior, name: str, kind: str, frames: np.ndarray, truth: np.ndarray,
                     fps: float, background: np.ndarray | None, likelihood: str,
                     masks: np.ndarray | None = None, foreground_weight: float | None = None
@@ -190,11 +180,7 @@ def main(argv=None) -> int:
                                                     "trackers' default, limbs+edges)")
     parser.add_argument("--no-background", action="store_true",
                         help="limbs+edges without its foreground term (no median background)")
-    parser.add_argument("--masks", choices=("none", "mediapipe"), default="none",
-                        help="limbs+edges' foreground from MediaPipe's person masks per frame "
-                             "instead of the median background")
-    parser.add_argument("--foreground-weight", type=float, default=None, metavar="MU",
-                        help="limbs+edges' foreground weight (default the likelihood's)")
+    add_mask_options(parser)
     parser.add_argument("--out", type=Path, default=None,
                         help="JSON output (default benchmarks/results/likelihood_at_truth"
                              "[-LIKELIHOOD][-no-background][-masks][-muMU].json)")
@@ -212,17 +198,12 @@ def main(argv=None) -> int:
                              f"{args.likelihood} has none")
     if args.no_background and args.masks != "none":
         parser.error("--no-background leaves the foreground term out; --masks gives it masks")
-    if args.foreground_weight is not None and not (np.isfinite(args.foreground_weight)
-                                                   and args.foreground_weight >= 0):
-        parser.error(f"--foreground-weight must be a non-negative number, got "
-                     f"{args.foreground_weight}")
+    suffix = check_mask_options(parser, args)
     out = args.out or RESULTS / ("likelihood_at_truth"
                                  + ("" if args.likelihood == "limbs+edges"
                                     else "-" + args.likelihood.replace("+", "_"))
                                  + ("-no-background" if args.no_background else "")
-                                 + ("-masks" if args.masks != "none" else "")
-                                 + (f"-mu{args.foreground_weight:g}"
-                                    if args.foreground_weight is not None else "") + ".json")
+                                 + suffix + ".json")
     use_background = args.likelihood == "limbs+edges" and not args.no_background
 
     from benchmarks.real_video import View
@@ -242,7 +223,7 @@ def main(argv=None) -> int:
         for index, clip in enumerate(GESTURE_CLIPS["validation"]):
             sequence = render_test_sequences(clip, views=1, seed=index,
                                              max_frames=args.frames)[0]
-            masks = (person_masks_of(sequence.images, sequence.name)
+            masks = (masks_or_exit(sequence.images, sequence.name)
                      if args.masks == "mediapipe" else None)
             row, record = _check_sequence(prior, sequence.name, "rendered, validation",
                                           sequence.frames, sequence.truth, sequence.fps,
@@ -255,7 +236,7 @@ def main(argv=None) -> int:
         folder = default_folder()
         for camera in args.views:
             view = View(folder, camera, None, 960, stride=2)
-            masks = (person_masks_of(view.images, camera) if args.masks == "mediapipe"
+            masks = (masks_or_exit(view.images, camera) if args.masks == "mediapipe"
                      else None)
             row, record = _check_sequence(prior, f"Pose2Sim {camera}", "real, test",
                                           view.frames, view.truth, view.fps,

@@ -43,6 +43,7 @@ import jax.random as jr
 import numpy as np
 
 from benchmarks._common import auto_initial_pose, device_description, peak_rss_mb
+from benchmarks._mediapipe import add_mask_options, check_mask_options, masks_or_exit
 from jaxtrack._files import write_json_atomically
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.data.splits import split_of
@@ -235,11 +236,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true",
                         help="cam02, 10 frames, the latent tracker with refinement, both inits, "
                              "a small prior (a smoke run)")
-    parser.add_argument("--masks", choices=("none", "mediapipe"), default="none",
-                        help="the likelihood's foreground from MediaPipe's person masks per "
-                             "frame (its venv) instead of the median background")
-    parser.add_argument("--foreground-weight", type=float, default=None, metavar="MU",
-                        help="the likelihood's foreground weight (default its own)")
+    add_mask_options(parser)
     parser.add_argument("--data", type=Path, default=None,
                         help="the pose2sim_demo_singleperson folder (default: shared data)")
     parser.add_argument("--out", type=Path, default=None,
@@ -254,10 +251,7 @@ def main(argv=None) -> int:
         parser.error(f"--stride must be at least 1, got {args.stride}")
     if args.max_size < 32:
         parser.error(f"--max-size must be at least 32, got {args.max_size}")
-    if args.foreground_weight is not None and not (np.isfinite(args.foreground_weight)
-                                                   and args.foreground_weight >= 0):
-        parser.error(f"--foreground-weight must be a non-negative number, got "
-                     f"{args.foreground_weight}")
+    suffix = check_mask_options(parser, args).replace("-", "_")
     views, frames = tuple(args.views), args.frames
     methods, estimates = tuple(args.methods), tuple(args.estimates)
     if args.quick:
@@ -267,8 +261,6 @@ def main(argv=None) -> int:
         folder = args.data or default_folder()
     except FileNotFoundError as error:
         parser.error(str(error))
-    suffix = (("_masks" if args.masks != "none" else "")
-              + (f"_mu{args.foreground_weight:g}" if args.foreground_weight is not None else ""))
     out = args.out or RESULTS / (("real_video_quick" if args.quick else "real_video") + suffix
                                  + ".json")
 
@@ -290,11 +282,7 @@ def main(argv=None) -> int:
         view = View(folder, camera, frames, args.max_size, filtered=args.filtered,
                     stride=args.stride)
         if args.masks == "mediapipe":
-            from benchmarks._mediapipe import mask_array
-
-            view.masks = mask_array(view.images)
-            if isinstance(view.masks, dict):
-                raise SystemExit(f"--masks mediapipe, {camera}: {view.masks['skipped']}")
+            view.masks = masks_or_exit(view.images, camera)
         height, width = view.frames.shape[1:]
         print(f"{camera}: video frames {view.frame_indices[0]}..{view.frame_indices[-1]} at "
               f"{width}x{height}, reference torso "

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from benchmarks import likelihood_at_truth as check
+from benchmarks._mediapipe import masks_or_exit
 
 
 def _check(truth, estimate, static, estimate_error, static_error):
@@ -54,4 +55,4 @@ def test_bad_arguments_are_refused_in_one_line(argv, message, capsys):
 def test_masks_without_mediapipe_stop_the_run_with_the_reason(tmp_path, monkeypatch):
     monkeypatch.setenv("JAXTRACK_MEDIAPIPE_PYTHON", str(tmp_path / "no-python"))
     with pytest.raises(SystemExit, match="--masks mediapipe, cam01: no MediaPipe python"):
-        check.person_masks_of(np.zeros((2, 8, 8, 3), np.uint8), "cam01")
+        masks_or_exit(np.zeros((2, 8, 8, 3), np.uint8), "cam01")
