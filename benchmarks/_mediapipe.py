@@ -26,6 +26,8 @@ from benchmarks._common import run_in_venv
 ROOT = Path(__file__).resolve().parent.parent
 VENV = ROOT / ".venv-mediapipe"
 SCRIPT = Path(__file__).resolve().parent / "_mediapipe_reference.py"
+MASKS = Path(__file__).resolve().parent / "results" / "mediapipe_masks"
+"""Where :func:`demo_masks` caches the Pose2Sim videos' person masks."""
 
 LANDMARKS = {"nose": 0, "left_ear": 7, "right_ear": 8, "left_shoulder": 11,
              "right_shoulder": 12, "left_elbow": 13, "right_elbow": 14, "left_wrist": 15,
@@ -152,3 +154,9 @@ def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
         return masks
     out.parent.mkdir(parents=True, exist_ok=True)
     return write_masks(out, masks)
+
+
+def demo_masks(folder: Path, camera: str) -> Path | dict:
+    """:func:`person_masks` of a Pose2Sim take's video (``folder/videos/CAMERA.mp4``), cached
+    in :data:`MASKS` under the take's and the camera's names."""
+    return person_masks(folder / "videos" / f"{camera}.mp4", MASKS / f"{folder.name}_{camera}.npz")

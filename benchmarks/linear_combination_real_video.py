@@ -54,7 +54,6 @@ import numpy as np
 from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
-MASKS = RESULTS / "mediapipe_masks"
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 
 
@@ -234,10 +233,10 @@ def main(argv=None) -> int:
             raise SystemExit("training the model failed")
     masks = []
     if args.silhouettes == "mediapipe":
-        from benchmarks._mediapipe import person_masks
+        from benchmarks._mediapipe import demo_masks
 
-        for camera, video in zip(CAMERAS, videos, strict=True):
-            made = person_masks(video, MASKS / f"{folder.name}_{camera}.npz")
+        for camera in CAMERAS:
+            made = demo_masks(folder, camera)
             if isinstance(made, dict):
                 raise SystemExit(f"--silhouettes mediapipe: {made['skipped']}")
             masks.append(str(made))

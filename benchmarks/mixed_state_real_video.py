@@ -46,7 +46,6 @@ import numpy as np
 from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
-MASKS = RESULTS / "mediapipe_masks"
 SOURCES = ("background", "mediapipe")
 """Where the silhouettes come from (module docstring)."""
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
@@ -264,10 +263,9 @@ def main(argv=None) -> int:
         for camera in CAMERAS:
             masks_file = None
             if source == "mediapipe":
-                from benchmarks._mediapipe import person_masks
+                from benchmarks._mediapipe import demo_masks
 
-                masks_file = person_masks(folder / "videos" / f"{camera}.mp4",
-                                          MASKS / f"{folder.name}_{camera}.npz")
+                masks_file = demo_masks(folder, camera)
                 if isinstance(masks_file, dict):
                     skipped[source] = masks_file["skipped"]
                     print(f"\n{source} silhouettes skipped: {skipped[source]}")
