@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack.cli._common import UserError
+from jaxtrack.cli._common import UserError, fit_mask_file, read_mask_files
 from jaxtrack.cli._options import add_tracker_options, tracker_options
 
 __all__ = ["add_parser"]
@@ -94,11 +94,11 @@ def add_parser(subparsers) -> None:
                        help="linear-combination, several videos: pick each frame's view by its "
                        "fitness over +-5 frames (the default, chosen on validation) or by the "
                        "paper's fitness x 1/ambiguity")
-    group.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
-                       help="the person's silhouettes, one .npz ('masks') or .npy of "
-                       "(frames, height, width) bool per --video, in order (a person "
-                       "segmenter's; default: background subtraction against the video's "
-                       "median)")
+    parser.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
+                        help="the person's masks, one .npz ('masks') or .npy of (frames, height, "
+                        "width) bool per --video, in order (a person segmenter's): the "
+                        "silhouettes of linear-combination and mixed-state, the foreground of "
+                        "latent's likelihood (default: the video's median background)")
     group.add_argument("--skin", default=None, metavar="R,G,B",
                        help="linear-combination: a sample of the person's skin colour (default: "
                        "a fixed chroma box)")
@@ -244,10 +244,7 @@ def run(args: argparse.Namespace) -> int:
         return _mixed_state.track(args)
     if len(args.video) != 1:
         raise UserError(f"--video: --method latent tracks one video, got {len(args.video)}")
-    if args.masks is not None:
-        raise UserError("--masks is used by --method linear-combination and mixed-state; "
-                        "--method latent takes the video's median background (in Python its "
-                        "likelihood takes masks: jaxtrack.vision.edge_observations)")
+    given_masks = read_mask_files(args.masks, 1)[0]
     args.video = args.video[0]
     if args.particles is None:
         args.particles = 200
@@ -263,6 +260,9 @@ def run(args: argparse.Namespace) -> int:
     if args.max_size < 32:
         raise UserError(f"--max-size must be at least 32, got {args.max_size}")
     options = tracker_options(args)
+    if given_masks is not None and not options.likelihood.needs_edges:
+        raise UserError(f"--masks: the {options.likelihood.kind!r} likelihood has no foreground "
+                        f"term to read them (the default limbs+edges has)")
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model)
@@ -289,12 +289,14 @@ def run(args: argparse.Namespace) -> int:
           + (f", {init['source']} box, overlap {init['score']:.2f}" if "score" in init else "")
           + ")")
     grey = to_grey(frames)
+    masks = None if given_masks is None else fit_mask_file(
+        given_masks, args.masks[0], video.frame_indices, (frames.shape[2], frames.shape[1]))
     # a median of one or two frames holds the person
     foreground = options.foreground and len(grey) >= 3
     tracker = latent_tracker(model, template, engine=Engine(args.particles), fps=fps,
                              likelihood=options.likelihood, refinement=options.refinement,
                              background=median_grey_background(grey) if foreground else None)
-    result = track(tracker, jr.PRNGKey(args.seed), grey, markers)
+    result = track(tracker, jr.PRNGKey(args.seed), grey, markers, masks=masks)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
         raise UserError(f"tracking produced non-finite markers from frame {bad}; nothing written")
@@ -322,7 +324,7 @@ def run(args: argparse.Namespace) -> int:
         "video": str(args.video), "model": str(args.model), "size": [width, height],
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
         "particles": args.particles, "seed": args.seed, "tracker": result.options,
-        "init": init,
+        "masks": None if args.masks is None else str(args.masks[0]), "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})
     print(f"tracked {len(frames)} frames: {1e3 * result.seconds_per_frame:.2f} ms/frame "

@@ -44,7 +44,7 @@ Observations are ``(3, height, width)``: the grey frame, its edge distance map a
 edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
 sequence), or ``(4, height, width)`` with the person's mask as the fourth. Trackers take grey
 frames as with the other likelihoods: ``jaxtrack.trackers.track`` adds the edge maps chunk by
-chunk (the mask channel is given with precomputed observations).
+chunk (and the masks, given with ``masks=``).
 
 Why, and the measurements behind each choice: see docs/likelihoods.md, "Edges".
 """

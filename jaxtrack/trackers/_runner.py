@@ -71,13 +71,15 @@ def _frames_per_chunk(chunk_size: int, frame_shape: tuple[int, ...], dtype) -> i
     return max(1, min(int(chunk_size), CHUNK_BYTES // max(frame_bytes, 1)))
 
 
-def _edge_observations(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def _edge_observations(frames: np.ndarray, out: np.ndarray | None = None,
+                       masks: np.ndarray | None = None) -> np.ndarray:
     from jaxtrack.vision import edge_observations
 
-    return edge_observations(frames, out=out)
+    return edge_observations(frames, out=out, masks=masks)
 
 
-def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None,
+                 masks: np.ndarray | None = None) -> np.ndarray:
     if out is None:
         return np.asarray(frames)
     out[...] = frames
@@ -100,12 +102,16 @@ def _chunk(tracker, state, keys, frames):
 
 def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
           initial_pose: Float[ArrayLike, "markers 2"], *, chunk_size: int = 64,
-          progress: bool = True, description: str = "tracking") -> TrackResult:
+          progress: bool = True, description: str = "tracking",
+          masks: np.ndarray | None = None) -> TrackResult:
     """Track ``frames`` (grey) from ``initial_pose``, the ``(markers, 2)`` pose in frame 0.
 
     A tracker scored by ``"limbs+edges"`` also needs each frame's edge maps: they are computed
     here chunk by chunk (``jaxtrack.vision.edge_observations``, OpenCV, counted in the run
-    time), or may be given, ``frames`` being ``(time, 3, height, width)``.
+    time), or may be given, ``frames`` being ``(time, 3, height, width)`` (or ``(time, 4,
+    height, width)`` with the person's mask). ``masks``: ``(time, height, width)`` bool person
+    masks of grey ``frames``, added to each chunk's edge maps as the foreground term's
+    per-frame mask (``jaxtrack.likelihoods.edges``).
 
     Frames after the first run in equal chunks of at most ``chunk_size`` frames (fewer for
     frames so large that a chunk would pass :data:`CHUNK_BYTES`) through one compiled scan;
@@ -121,13 +127,27 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
         raise ValueError("frames hold no frame")
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
+    if masks is not None:
+        masks = np.asarray(masks)
+        if not add_edges:
+            raise ValueError("masks go with grey frames and the 'limbs+edges' likelihood (edge "
+                             "observations made beforehand carry their own mask channel)")
+        if masks.shape != frames.shape or masks.dtype != np.bool_:
+            raise ValueError(f"masks must be (time, height, width) bool like the frames "
+                             f"{frames.shape}, got {masks.dtype} {masks.shape}")
     num_frames = frames.shape[0]
     key_start, key_frames = jr.split(key)
-    observe = _edge_observations if add_edges else _copy_frames
-    state = tracker.start(key_start, observe(frames[:1])[0], initial_pose)
+    convert = _edge_observations if add_edges else _copy_frames
+
+    def observe(begin: int, count: int, out: np.ndarray | None = None) -> np.ndarray:
+        return convert(frames[begin:begin + count], out=out,
+                       masks=None if masks is None else masks[begin:begin + count])
+
+    state = tracker.start(key_start, observe(0, 1)[0], initial_pose)
     first = _first_estimate(tracker, state)
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
-    shape, dtype = (((3, *frames.shape[1:]), np.float32) if add_edges
+    channels = 3 if masks is None else 4
+    shape, dtype = (((channels, *frames.shape[1:]), np.float32) if add_edges
                     else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
     chunk_size = _frames_per_chunk(chunk_size, shape, dtype)
     # equal chunks of at most chunk_size frames, so that little of the last one is padding
@@ -150,7 +170,7 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
 
     def stage(index: int) -> Array:
         buffer, begin, count = buffers[index % 2], begins[index], counts[index]
-        observe(frames[begin:begin + count], out=buffer[:count])
+        observe(begin, count, out=buffer[:count])
         buffer[count:] = buffer[count - 1]  # padding repeats the last frame
         return jax.device_put(buffer)
 

@@ -108,6 +108,21 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
     errors = np.linalg.norm(markers - sequence.truth[:10], axis=-1).mean(axis=-1) / torso
     assert errors[0] < 0.25 and errors.mean() < 0.5, errors
     assert (out / "overlay.mp4").stat().st_size > 0
+    assert record["masks"] is None
+    # person masks as the likelihood's foreground: read, fitted to the tracked frames, recorded
+    from jaxtrack.vision import write_masks
+
+    masks = write_masks(tmp_path / "masks.npz", np.ones((10, 240, 320), bool))
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
+                 f"manual:{numbers}", "--out", str(tmp_path / "masked"), "--particles", "50",
+                 "--max-size", "160", "--masks", str(masks)]) == 0
+    masked = json.loads((tmp_path / "masked" / "track.json").read_text())
+    assert masked["masks"] == str(masks) and len(masked["frames"]) == 10
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
+                 f"manual:{numbers}", "--out", str(tmp_path / "bad"), "--likelihood", "limbs",
+                 "--masks", str(masks)]) == 2
+    assert "--masks: the 'limbs' likelihood has no foreground term" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
 
 
 def model_file_prior(path):

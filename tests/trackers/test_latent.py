@@ -59,6 +59,21 @@ def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior
         sequence.frames, masks=np.ones(sequence.frames.shape, bool)), truth, chunk_size=8,
         progress=False)
     np.testing.assert_array_equal(from_grey.markers, masked.markers)
+    # masks given with grey frames join each chunk's edge maps, frame by frame: masks that
+    # move with the frame index (8-pixel stripes, 4 pixels further each frame) track as the
+    # same masks made into observations beforehand
+    columns = np.arange(sequence.frames.shape[2])
+    frame = np.arange(len(sequence.frames))[:, None, None]
+    moving = np.broadcast_to((columns[None, None, :] + 4 * frame) // 8 % 2 == 0,
+                             sequence.frames.shape).copy()
+    beforehand = track(tracker, jr.PRNGKey(0), edge_observations(sequence.frames, masks=moving),
+                       truth, chunk_size=8, progress=False)
+    chunked = track(tracker, jr.PRNGKey(0), sequence.frames, truth, chunk_size=8,
+                    progress=False, masks=moving)
+    np.testing.assert_array_equal(beforehand.markers, chunked.markers)
+    assert not np.array_equal(beforehand.markers, from_grey.markers)  # the masks count
+    with pytest.raises(ValueError, match="masks must be"):
+        track(tracker, jr.PRNGKey(0), sequence.frames, truth, masks=moving[1:], progress=False)
     metrics = evaluate_track(from_grey.markers, sequence.truth, UPPER_BODY_12)
     assert np.all(np.isfinite(from_grey.log_likelihood))
     assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
