@@ -74,14 +74,11 @@ def trained_models(folder: Path, ridges) -> dict:
 
 def labelled_features(sequences, num_bins: int):
     """The features and true postures of every frame with a silhouette, all sequences pooled."""
-    from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
+    from jaxtrack.experiments.mixed_state import labelled_features as of_sequence
 
-    features, labels = [], []
-    for sequence in sequences:
-        values, status = silhouette_features(sequence.masks, num_bins)
-        features.append(values[status == FRAME_OK])
-        labels.append(sequence.labels[status == FRAME_OK])
-    return np.concatenate(features), np.concatenate(labels)
+    pairs = [of_sequence(sequence, num_bins) for sequence in sequences]
+    return (np.concatenate([values for values, _ in pairs]),
+            np.concatenate([names for _, names in pairs]))
 
 
 def instantaneous_posture_error(model, features, labels) -> float:

@@ -84,7 +84,6 @@ def rendered_features(path: Path) -> dict:
     azimuth, frames with a silhouette only; rendered once and cached in ``path`` (rendered
     again when the groups or the azimuths differ from the cache's)."""
     from jaxtrack.experiments import mixed_state as ms
-    from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
 
     settings = {name: [list(clips), background, frames, seed, [float(a) for a in azimuths],
                        list(cameras)]
@@ -99,11 +98,9 @@ def rendered_features(path: Path) -> dict:
         sequences = ms.render_sequences(clips, azimuths, (background,), (640, 480), frames,
                                         seed, cameras)
         for index, sequence in enumerate(sequences):
-            values, status = silhouette_features(sequence.masks, 16)
-            keep = status == FRAME_OK
             clip = clips[index // (len(azimuths) + len(cameras))]
-            arrays[f"{name}|{index:03d}|{clip}|features"] = values[keep]
-            arrays[f"{name}|{index:03d}|{clip}|labels"] = sequence.labels[keep]
+            (arrays[f"{name}|{index:03d}|{clip}|features"],
+             arrays[f"{name}|{index:03d}|{clip}|labels"]) = ms.labelled_features(sequence, 16)
         print(f"rendered {name}: {len(sequences)} sequences", flush=True)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **arrays)

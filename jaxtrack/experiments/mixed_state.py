@@ -43,10 +43,10 @@ from jaxtrack.trackers.mixed_state import (
     smooth_fixed_lag,
 )
 
-__all__ = ["DEFAULT_REGULARISATION", "EPSILONS", "POSE2SIM_SCALE", "TEST_CLIPS", "TRAINING_CLIPS",
-           "VALIDATION_CLIPS", "VIEW_AZIMUTHS", "PostureSequence",
-           "evaluate", "fit", "render_posture_sequence", "render_sequences", "score", "track",
-           "train", "training_features"]
+__all__ = ["DEFAULT_REGULARISATION", "EPSILONS", "POSE2SIM_SCALE", "TEST_CLIPS",
+           "TRAINING_CLIPS", "VALIDATION_CLIPS", "VIEW_AZIMUTHS", "PostureSequence", "evaluate",
+           "fit", "labelled_features", "render_posture_sequence", "render_sequences", "score",
+           "track", "train", "training_features"]
 
 TRAINING_CLIPS = ("cmu_posture_bvh/75_19", "cmu_posture_bvh/64_26",
                   "deepmimic_getup_bvh/getup_facedown", "deepmimic_getup_bvh/crawl",
@@ -209,6 +209,17 @@ def _pose2sim_view(motion, index: int):
             scale_camera(cameras[index], POSE2SIM_SCALE))
 
 
+def labelled_features(sequence: PostureSequence, num_bins: int = 16
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The silhouette features (:func:`jaxtrack.vision.histograms.silhouette_features`) and
+    the true postures of ``sequence``'s frames that have a silhouette."""
+    from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
+
+    values, status = silhouette_features(sequence.masks, num_bins)
+    keep = status == FRAME_OK
+    return values[keep], sequence.labels[keep]
+
+
 def training_features(clips: Sequence[str] = TRAINING_CLIPS, *,
                       azimuths: Sequence[float] = VIEW_AZIMUTHS,
                       backgrounds: Sequence[str] = ("photo",),
@@ -219,15 +230,9 @@ def training_features(clips: Sequence[str] = TRAINING_CLIPS, *,
     per rendered sequence, the features and labels of its frames with a silhouette (what
     :func:`jaxtrack.priors.postures.fit_posture_model` takes), and the settings they were
     rendered with, JSON-able (for :func:`fit`'s description)."""
-    from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
-
     sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed)
-    features, labels = [], []
-    for sequence in sequences:
-        values, status = silhouette_features(sequence.masks, num_bins)
-        keep = status == FRAME_OK
-        features.append(values[keep])
-        labels.append(sequence.labels[keep])
+    pairs = [labelled_features(sequence, num_bins) for sequence in sequences]
+    features, labels = [values for values, _ in pairs], [names for _, names in pairs]
     settings = {"clips": list(clips), "azimuths": [float(a) for a in azimuths],
                 "backgrounds": list(backgrounds), "image_size": list(image_size),
                 "num_bins": num_bins}
