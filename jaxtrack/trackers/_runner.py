@@ -78,8 +78,7 @@ def _edge_observations(frames: np.ndarray, out: np.ndarray | None = None,
     return edge_observations(frames, out=out, masks=masks)
 
 
-def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None,
-                 masks: np.ndarray | None = None) -> np.ndarray:
+def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     if out is None:
         return np.asarray(frames)
     out[...] = frames
@@ -128,20 +127,20 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
     if masks is not None:
-        masks = np.asarray(masks)
+        from jaxtrack.vision.masks import check_masks
+
         if not add_edges:
             raise ValueError("masks go with grey frames and the 'limbs+edges' likelihood (edge "
                              "observations made beforehand carry their own mask channel)")
-        if masks.shape != frames.shape or masks.dtype != np.bool_:
-            raise ValueError(f"masks must be (time, height, width) bool like the frames "
-                             f"{frames.shape}, got {masks.dtype} {masks.shape}")
+        masks = check_masks(masks, frames.shape)  # all of them, before anything runs
     num_frames = frames.shape[0]
     key_start, key_frames = jr.split(key)
-    convert = _edge_observations if add_edges else _copy_frames
 
     def observe(begin: int, count: int, out: np.ndarray | None = None) -> np.ndarray:
-        return convert(frames[begin:begin + count], out=out,
-                       masks=None if masks is None else masks[begin:begin + count])
+        if not add_edges:
+            return _copy_frames(frames[begin:begin + count], out=out)
+        return _edge_observations(frames[begin:begin + count], out=out,
+                                  masks=None if masks is None else masks[begin:begin + count])
 
     state = tracker.start(key_start, observe(0, 1)[0], initial_pose)
     first = _first_estimate(tracker, state)

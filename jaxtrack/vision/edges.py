@@ -139,10 +139,9 @@ def edge_observations(frames: np.ndarray, *, out: np.ndarray | None = None, low:
     frames = _check_frames(frames, low, high, blur)
     channels = 3
     if masks is not None:
-        masks = np.asarray(masks)
-        if masks.shape != frames.shape or masks.dtype != np.bool_:
-            raise ValueError(f"masks must be (time, height, width) bool like the frames "
-                             f"{frames.shape}, got {masks.dtype} {masks.shape}")
+        from jaxtrack.vision.masks import check_masks
+
+        masks = check_masks(masks, frames.shape)
         channels = 4
     out = _check_out(out, (frames.shape[0], channels, *frames.shape[1:]))
     if masks is not None:

@@ -22,7 +22,7 @@ import numpy as np
 
 from jaxtrack._files import write_npz_atomically
 
-__all__ = ["MaskFileError", "masks_for_frames", "read_masks", "write_masks"]
+__all__ = ["MaskFileError", "check_masks", "masks_for_frames", "read_masks", "write_masks"]
 
 ASPECT_TOLERANCE = 0.02
 """Largest relative difference between the masks' and the frames' aspect ratios."""
@@ -74,6 +74,16 @@ def read_masks(path: str | os.PathLike) -> np.ndarray:
         raise fail(f"integer masks must hold only 0 and 1, or 0 and 255; found values "
                    f"{values[:6].tolist()}")
     return masks > 0
+
+
+def check_masks(masks, frames_shape: tuple[int, ...]) -> np.ndarray:
+    """``masks`` as an array, refused (ValueError) unless it is bool of ``frames_shape``
+    ``(time, height, width)``, one mask per grey frame."""
+    masks = np.asarray(masks)
+    if masks.shape != tuple(frames_shape) or masks.dtype != np.bool_:
+        raise ValueError(f"masks must be (time, height, width) bool like the frames "
+                         f"{tuple(frames_shape)}, got {masks.dtype} {masks.shape}")
+    return masks
 
 
 def masks_for_frames(masks: np.ndarray, frame_indices: np.ndarray, size: tuple[int, int], *,
