@@ -10,8 +10,9 @@ outputs are ``jax.Array`` on the same device, shared with the torch result throu
 conversion and the image border (``tests/vision/test_kornia_backend.py``).
 
 On a CPU the OpenCV path is the fast one (``python -m benchmarks.vision_backends``): kornia's
-case is frames already on a GPU, where a round trip through host memory would cost more than
-the filters.
+case is frames already on a GPU, where a round trip through host memory costs more than the
+filters (on an H200, 5–34× more per frame than kornia there: ``--device cuda``,
+``docs/linear-combination.md``).
 
 torch and kornia are imported inside the functions (the optional ``kornia`` extra; install
 ``torch==2.13.0`` first).
