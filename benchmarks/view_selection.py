@@ -14,8 +14,12 @@ frame (an oracle) and the worst. The rules:
 - ``paper``: greatest fitness × 1/ambiguity (eq. 14; ``select_views``' defaults);
 - ``fitness``: greatest fitness alone;
 - ``ambiguity``: least ambiguity alone;
+- ``consensus``: the view whose 3-D skeleton, turned into the world's axes through the
+  calibration, lies closest to the other views' (the median distance to theirs): a view that
+  agrees with the others is more likely right, where a wrong one is wrong in its own way;
 - each of these averaged over ±5 frames (``... ±5``), which ignores one-frame flukes;
-- for reference, not a rule: the one view best over the whole clip, known in hindsight.
+- for reference, not rules: the one view best over the whole clip, known in hindsight; and,
+  not a selection at all, the views' skeletons averaged in the world's axes (``fused``).
 
 The rule with the lowest mean error on the validation clips (the validation subject's three
 Bandai-Namco gestures) is the one to use (it chose ``fitness ±5``,
@@ -33,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +53,8 @@ VALIDATION = ("bandai/dataset-2_wave-right-hand_normal_001",
 RULES = {"paper": (1.0, 1.0), "fitness": (1.0, 0.0), "ambiguity": (0.0, 1.0)}
 """Rule → (weight of log fitness, weight of −log ambiguity)."""
 WINDOW = 5
-RULE_NAMES = tuple(rule + suffix for rule in RULES for suffix in ("", f" ±{WINDOW}"))
+RULE_NAMES = tuple(rule + suffix for rule in (*RULES, "consensus")
+                   for suffix in ("", f" ±{WINDOW}"))
 """The rules a choice is made among (not the hindsight oracle reported beside them)."""
 
 
@@ -62,6 +68,42 @@ def rule_scores(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarra
     fitness_weight, ambiguity_weight = RULES[rule]
     return view_scores(log_fitness, ambiguity, found, fitness_weight=fitness_weight,
                        ambiguity_weight=ambiguity_weight, window=window)
+
+
+def consensus(skeletons_world: np.ndarray, found: np.ndarray) -> np.ndarray:
+    """``(time, views)`` each view's median distance (metres, the mean over vertices) from its
+    3-D skeleton to those of the other views that observed the frame, all in the world's axes;
+    0 where no other view observed it, NaN where the view itself did not."""
+    skeletons = np.asarray(skeletons_world, np.float64)
+    found = np.asarray(found, bool)
+    distance = np.linalg.norm(skeletons[:, :, None] - skeletons[:, None, :], axis=-1).mean(-1)
+    others = found[:, None, :] & ~np.eye(found.shape[1], dtype=bool)[None]
+    with warnings.catch_warnings():  # frames where no other view observed: all-NaN rows
+        warnings.simplefilter("ignore", RuntimeWarning)
+        median = np.nanmedian(np.where(others, distance, np.nan), axis=2)
+    return np.where(found, np.where(others.any(axis=2), median, 0.0), np.nan)
+
+
+def consensus_scores(skeletons_world: np.ndarray, found: np.ndarray,
+                     window: int = 0) -> np.ndarray:
+    """``(time, views)`` scores of the ``consensus`` rule: minus :func:`consensus`, averaged
+    over ±``window`` frames as the other rules are; −inf where the view did not observe."""
+    from jaxtrack.priors.linear_combinations import view_scores
+
+    closeness = -consensus(skeletons_world, found)
+    return view_scores(np.where(np.isfinite(closeness), closeness, -np.inf),
+                       np.zeros_like(closeness), found, fitness_weight=1.0,
+                       ambiguity_weight=0.0, window=window)
+
+
+def fused_error(skeletons_world: np.ndarray, truth_world: np.ndarray,
+                found: np.ndarray) -> float:
+    """Mean 3-D error (metres) of the observing views' skeletons averaged in the world's axes
+    (frames no view observed: every view's)."""
+    skeletons, found = np.asarray(skeletons_world, np.float64), np.asarray(found, bool)
+    weights = np.where(found.any(axis=1, keepdims=True), found, True) * 1.0
+    fused = np.einsum("tv,tvjk->tjk", weights, skeletons) / weights.sum(axis=1)[:, None, None]
+    return float(np.linalg.norm(fused - np.asarray(truth_world), axis=-1).mean())
 
 
 def selection_errors(errors: np.ndarray, scores: np.ndarray) -> dict:
@@ -98,15 +140,20 @@ def evaluate_clip(result: dict) -> dict:
     ambiguity = np.asarray(result["ambiguity"], np.float64)
     found = np.asarray(result["found"], bool)
     rules = {}
-    for rule in RULES:
+    world = np.asarray(result["skeletons_world"], np.float64)
+    for rule in (*RULES, "consensus"):
         for window in (0, WINDOW):
             name = rule + (f" ±{window}" if window else "")
-            rules[name] = selection_errors(
-                errors, rule_scores(log_fitness, ambiguity, found, rule, window))
+            scores = (consensus_scores(world, found, window) if rule == "consensus" else
+                      rule_scores(log_fitness, ambiguity, found, rule, window))
+            rules[name] = selection_errors(errors, scores)
     # a second oracle: the one view that is best over the whole clip, known in hindsight
     best_view = np.argmin(errors.mean(axis=0))
     rules["best single view (hindsight)"] = selection_errors(
         errors, np.broadcast_to(np.arange(errors.shape[1]) == best_view, errors.shape))
+    rules["fused (not a selection)"] = {
+        **selection_errors(errors, np.zeros_like(errors)),
+        "selected_m": fused_error(world, result["truth_world"], found)}
     return {"clip": result["clip"], "frames": len(errors), "rules": rules,
             "single_view_m": result["single_view_m"],
             **predictor_correlations(errors, log_fitness, ambiguity, found)}

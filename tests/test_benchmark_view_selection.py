@@ -15,9 +15,14 @@ def _result():
     log_fitness = np.array([[-2.0, -1.0], [-2.0, -1.0], [-0.5, -1.0], [-2.0, -1.0]])
     ambiguity = np.array([[0.1, 1.0]] * 4)
     found = np.ones((4, 2), bool)
+    # one-vertex skeletons in the world's axes: view 0 is 0.3 m off along x, view 1 0.1 m the
+    # other way, so the two agree with each other equally and their mean is 0.1 m off
+    truth = np.zeros((4, 1, 3))
+    skeletons = np.stack([truth + [0.3, 0, 0], truth - [0.1, 0, 0]], axis=1)
     return {"clip": "c", "errors_m": errors.tolist(), "log_fitness": log_fitness.tolist(),
             "ambiguity": ambiguity.tolist(), "found": found.tolist(),
-            "single_view_m": errors.mean(axis=0).tolist()}
+            "single_view_m": errors.mean(axis=0).tolist(),
+            "skeletons_world": skeletons.tolist(), "truth_world": truth.tolist()}
 
 
 def test_each_rule_is_scored_against_the_oracle_and_the_worst_view():
@@ -29,6 +34,9 @@ def test_each_rule_is_scored_against_the_oracle_and_the_worst_view():
     assert rules["paper"]["oracle_m"] == pytest.approx(0.1)
     assert rules["paper"]["worst_m"] == pytest.approx(0.3)
     assert rules["best single view (hindsight)"]["selected_m"] == pytest.approx(0.1)
+    assert rules["consensus"]["selected_m"] == pytest.approx(0.3)  # a tie: the first view
+    assert rules["fused (not a selection)"]["selected_m"] == pytest.approx(0.1)
+    assert rules["fused (not a selection)"]["oracle_m"] == pytest.approx(0.1)
     # across the two views, the error falls as the fitness rises (except in frame 2) and
     # rises as the ambiguity falls
     assert clip["error_vs_fitness"] == pytest.approx((3 * -1.0 + 1.0) / 4)
@@ -44,3 +52,20 @@ def test_too_few_frames_for_the_window_are_refused(capsys):
     with pytest.raises(SystemExit):
         vs.main(["--frames", "5"])
     assert "--frames must be at least 11" in capsys.readouterr().err
+
+
+def test_consensus_prefers_the_views_that_agree_and_skips_those_that_did_not_observe():
+    truth = np.zeros((2, 2, 3))
+    # frame 0: views 0 and 1 agree, view 2 is 1 m away; frame 1: view 1 saw nothing
+    skeletons = np.stack([truth, truth + [0.1, 0, 0], truth + [1.0, 0, 0]], axis=1)
+    found = np.array([[True, True, True], [True, False, True]])
+    distance = vs.consensus(skeletons, found)
+    assert distance[0] == pytest.approx([0.55, 0.5, 0.95])  # medians of two distances each
+    assert distance[1, 0] == pytest.approx(1.0) and distance[1, 2] == pytest.approx(1.0)
+    assert np.isnan(distance[1, 1])
+    scores = vs.consensus_scores(skeletons, found)
+    assert np.argmax(scores[0]) == 1 and scores[1, 1] == -np.inf
+    assert np.array_equal(vs.consensus(skeletons[:, :1], found[:, :1]), [[0.0], [0.0]])
+    # the fused skeleton averages the views that observed: frame 0 (0 + 0.1 + 1) / 3 off,
+    # frame 1 (0 + 1) / 2 off
+    assert vs.fused_error(skeletons, truth, found) == pytest.approx((1.1 / 3 + 0.5) / 2)

@@ -132,6 +132,8 @@ class HybridSequence:
         images: ``(time, height, width, 3)`` uint8 RGB rendered frames (``keep_images``), or
             None.
         background: ``(height, width, 3)`` uint8 RGB, the empty scene behind them, or None.
+        rotation: ``(3, 3)`` the camera's world → camera rotation (a camera-frame skeleton
+            ``s`` is ``s @ rotation`` in the world's axes), or None.
     """
 
     name: str
@@ -143,6 +145,7 @@ class HybridSequence:
     status: tuple[str, ...] = field(default_factory=tuple)
     images: np.ndarray | None = None
     background: np.ndarray | None = None
+    rotation: np.ndarray | None = None
 
 
 def _background_of(sequence, size) -> np.ndarray:
@@ -315,7 +318,8 @@ def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
             vectors=vectors, valid=np.all(np.isfinite(vectors), axis=1), skeleton=skeleton,
             observations=observations, status=status,
             images=rendered.images if keep_images else None,
-            background=scene if keep_images else None))
+            background=scene if keep_images else None,
+            rotation=np.asarray(camera.rotation, np.float64)))
     return sequences
 
 
@@ -552,7 +556,11 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
         A JSON-able dict: mean 3-D error (metres) of the selected, best, worst and each single
         view, the share of frames where the selected view is the best, and per frame the
         chosen view and every view's error, ambiguity (−1: not observed), log fitness (−10³⁰
-        where not finite) and whether it observed the frame.
+        where not finite) and whether it observed the frame; ``skeletons_world`` ``(time,
+        views, 12, 3)``, each view's neck-relative 3-D skeleton turned from its camera's axes
+        into the world's, and ``truth_world`` ``(time, 12, 3)``, the true one, so that the
+        views' skeletons can be compared with each other (the 3-D errors are the same in
+        either axes).
     """
     from jaxtrack.priors.linear_combinations import (
         nearest_ambiguity,
@@ -572,12 +580,13 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
                                         fps=float(trained.description.get("fps", 30.0)),
                                         max_frames=max_frames, background=background,
                                         seed=seed + 7, keep_observations=True)
-    errors, log_fitness, ambiguity, found = [], [], [], []
+    errors, log_fitness, ambiguity, found, world = [], [], [], [], []
     for sequence in sequences:
         run = _track_run(trained, sequence.observations, particles=particles,
                          iterations=iterations, seed=seed, fitness=fitness, step=step,
                          jump_spread=jump_spread)
         errors.append(skeleton_error(run["skeleton"], sequence.skeleton))
+        world.append(np.asarray(run["skeleton"], np.float64) @ sequence.rotation)
         log_fitness.append(run["log_fitness"])
         estimate = np.asarray(make_hybrid(run["contour"], run["head_hands"][:, 1:],
                                           run["head_hands"][:, 0], run["skeleton"]))
@@ -588,6 +597,7 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
                                                      ambiguities, layout)
         ambiguity.append(view_ambiguity)
         found.append(seen)
+    truth_world = sequences[0].skeleton @ sequences[0].rotation  # the same from every view
     errors, log_fitness = np.stack(errors, 1), np.stack(log_fitness, 1)
     ambiguity, found = np.stack(ambiguity, 1), np.stack(found, 1)
     chosen = select_views(log_fitness, np.where(np.isfinite(ambiguity), ambiguity, 0.0), found,
@@ -603,7 +613,9 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
             "chosen": chosen.tolist(), "errors_m": errors.tolist(),
             "ambiguity": np.where(np.isfinite(ambiguity), ambiguity, -1.0).tolist(),
             "log_fitness": np.where(np.isfinite(log_fitness), log_fitness, -1e30).tolist(),
-            "found": found.tolist()}
+            "found": found.tolist(),
+            "skeletons_world": np.round(np.stack(world, 1), 5).tolist(),
+            "truth_world": np.round(truth_world, 5).tolist()}
 
 
 def _check_selection(selection: str) -> None:

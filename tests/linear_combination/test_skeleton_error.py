@@ -33,3 +33,16 @@ def test_a_mirrored_or_different_skeleton_keeps_its_error():
 def test_mismatched_shapes_are_refused():
     with pytest.raises(ValueError, match="must be equal"):
         aligned_skeleton_error(np.zeros((2, 12, 3)), np.zeros((2, 11, 3)))
+
+
+def test_every_view_turns_its_camera_frame_skeleton_into_the_same_world_skeleton():
+    from jaxtrack.experiments.linear_combination import render_hybrid_sequences
+
+    sequences = render_hybrid_sequences("animateddrawings/history_c119d6b/cmu_1006_wave_hello_1",
+                                        views=(0, 2), num_contour=20, fps=6.0, max_frames=3)
+    world = [sequence.skeleton @ sequence.rotation for sequence in sequences]
+    for sequence in sequences:
+        np.testing.assert_allclose(sequence.rotation @ sequence.rotation.T, np.eye(3),
+                                   atol=1e-6)
+    assert not np.allclose(sequences[0].skeleton, sequences[1].skeleton, atol=1e-2)
+    np.testing.assert_allclose(world[0], world[1], atol=1e-5)
