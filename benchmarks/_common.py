@@ -10,6 +10,7 @@ import statistics
 import subprocess
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import jax
@@ -32,6 +33,15 @@ def device_description() -> str:
 def peak_rss_mb() -> float:
     """Peak resident memory of this process so far (MB)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def run_header(module: str, argv: Sequence[str] | None, started: float) -> dict:
+    """The fields every benchmark's JSON opens with: the command line that ran ``module``
+    (``benchmarks.X``) with ``argv``, the device, today's date, the seconds since ``started``
+    (a ``time.perf_counter()`` reading) and the peak resident memory (MB)."""
+    return {"command": f"python -m {module} " + " ".join(argv or []),
+            "device": device_description(), "date": time.strftime("%Y-%m-%d"),
+            "seconds": time.perf_counter() - started, "peak_rss_mb": peak_rss_mb()}
 
 
 def time_call(function, *args, repeats: int = 3):

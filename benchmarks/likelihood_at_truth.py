@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import device_description, peak_rss_mb
+from benchmarks._common import device_description, run_header
 from benchmarks._mediapipe import add_mask_options, check_mask_options, masks_or_exit
 from jaxtrack._files import write_json_atomically
 
@@ -246,15 +246,13 @@ def main(argv=None) -> int:
             records.append(record)
     text = table(rows)
     print(text)
-    seconds = time.perf_counter() - started
+    header = run_header("benchmarks.likelihood_at_truth", argv, started)
     write_json_atomically(out, {
-        "command": "python -m benchmarks.likelihood_at_truth " + " ".join(argv or []),
-        "device": device_description(), "date": time.strftime("%Y-%m-%d"),
-        "seconds": seconds, "peak_rss_mb": peak_rss_mb(), "likelihood": args.likelihood,
+        **header, "likelihood": args.likelihood,
         "background": use_background, "masks": args.masks,
         "foreground_weight": args.foreground_weight, "lost": LOST, "rows": rows,
         "table": text, "sequences": records})
-    print(f"wrote {out} in {seconds:.0f} s")
+    print(f"wrote {out} in {header['seconds']:.0f} s")
     return 0
 
 

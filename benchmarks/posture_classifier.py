@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import device_description, print_table, write_json
+from benchmarks._common import device_description, print_table, run_header, write_json
 
 RESULTS = Path(__file__).parent / "results"
 ARMS_OUT_TRAINING = ("animateddrawings/cmu1_jumping_jacks", "animateddrawings/fair1_dab",
@@ -205,12 +205,11 @@ def main(argv=None) -> int:
                   "note": row.get("unfit", "")} for row in loco],
                 [("held_out", "held-out clip", "s"), ("frames", "frames", "d"),
                  ("error", "error %", ".1f"), ("note", "", "s")])
-    seconds = time.perf_counter() - started
-    write_json(args.out, {"benchmark": "posture_classifier", "device": device_description(),
-                          "date": time.strftime("%Y-%m-%d"), "seconds": seconds,
+    header = run_header("benchmarks.posture_classifier", argv, started)
+    write_json(args.out, {"benchmark": "posture_classifier", **header,
                           "arguments": {"ridges": args.ridges}, "rows": rows,
                           "added": added, "leave_one_clip_out": loco})
-    print(f"wrote {args.out} in {seconds:.0f} s")
+    print(f"wrote {args.out} in {header['seconds']:.0f} s")
     return 0
 
 

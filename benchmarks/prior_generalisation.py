@@ -32,7 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm import tqdm
 
-from benchmarks._common import device_description, print_table, write_json
+from benchmarks._common import device_description, print_table, run_header, write_json
 from benchmarks.gplvm import marker_errors, pca_reconstruction
 from benchmarks.tracking import PRIOR_CLIPS, candidate_prior, prior_tag
 from jaxtrack.data.splits import check_disjoint, clips_in
@@ -134,6 +134,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.views < 1 or args.stride < 1:
         parser.error("--views and --stride must be at least 1")
+    started = time.perf_counter()
     clips = held_out_clips(args.split)
     if args.clips:
         unknown = sorted(set(args.clips) - set(clips))
@@ -156,8 +157,9 @@ def main(argv=None) -> int:
                        ("error_px", "error px", ".1f"),
                        ("error_p95_px", "p95 px", ".1f"), ("seconds", "s", ".1f")])
     path = args.json or f"benchmarks/results/prior_generalisation_{args.split}.json"
-    write_json(path, {"benchmark": "prior_generalisation", "device": device_description(),
-                      "date": time.strftime("%Y-%m-%d"), "split": args.split,
+    write_json(path, {"benchmark": "prior_generalisation",
+                      **run_header("benchmarks.prior_generalisation", argv, started),
+                      "split": args.split,
                       "clips": list(clips), "arguments": vars(args), "rows": rows})
     print(f"wrote {path}")
     return 0

@@ -42,7 +42,7 @@ from pathlib import Path
 import jax.random as jr
 import numpy as np
 
-from benchmarks._common import auto_initial_pose, device_description, peak_rss_mb
+from benchmarks._common import auto_initial_pose, device_description, run_header
 from benchmarks._mediapipe import add_mask_options, check_mask_options, masks_or_exit
 from jaxtrack._files import write_json_atomically
 from jaxtrack.body import UPPER_BODY_12
@@ -322,11 +322,9 @@ def main(argv=None) -> int:
                                      f"{run['ms_per_frame']:.1f} ms/frame"))
     text = table(runs, views)
     print(text)
-    seconds = time.perf_counter() - started
+    header = run_header("benchmarks.real_video", argv, started)
     write_json_atomically(out, {
-        "command": "python -m benchmarks.real_video " + " ".join(argv or []),
-        "device": device_description(), "date": time.strftime("%Y-%m-%d"),
-        "seconds": seconds, "peak_rss_mb": peak_rss_mb(),
+        **header,
         "data": str(folder), "views": list(views), "frames": frames, "stride": args.stride,
         "max_size": args.max_size, "masks": args.masks,
         "foreground_weight": args.foreground_weight,
@@ -337,7 +335,7 @@ def main(argv=None) -> int:
                       "frame_alignment": "trc row k = video frame k + 1",
                       "scored_frames": "every tracked frame after the first"},
         "auto_init": inits, "table": text, "runs": runs})
-    print(f"wrote {out} in {seconds:.0f} s")
+    print(f"wrote {out} in {header['seconds']:.0f} s")
     return 0
 
 

@@ -48,7 +48,7 @@ import jax.random as jr
 import numpy as np
 from tqdm import tqdm
 
-from benchmarks._common import auto_initial_pose, device_description, peak_rss_mb
+from benchmarks._common import auto_initial_pose, device_description, run_header
 from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
@@ -409,16 +409,13 @@ def main(argv=None) -> int:
     (out / "table.md").write_text(table + "\n\n" + note + "\n")
     plot(rows, out / "errors.png", f"{args.split} subjects: mean marker error")
     write_json_atomically(out / "summary.json", {
-        "command": "python -m benchmarks.tracking " + " ".join(argv or []),
+        **run_header("benchmarks.tracking", argv, started),
         "split": args.split, "clips": list(clips), "prior": args.prior, "mirror": args.mirror,
         "parts": args.parts,
         "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
         "baseline_dynamics": args.baseline_dynamics, "init": args.init, "auto_init": inits,
-        "settings": settings,
-        "device": device_description(),
-        "date": time.strftime("%Y-%m-%d"), "seconds": time.perf_counter() - started,
-        "peak_rss_mb": peak_rss_mb(), "rows": rows})
+        "settings": settings, "rows": rows})
     if wants_real_video(args, tag, settings):  # the rendered grid's outputs are already written
         real = real_video_table(out, tuple(args.methods), tuple(args.estimates))
         (out / "table.md").write_text(table + "\n\n" + note + "\n\n" + real + "\n")

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import device_description, peak_rss_mb
+from benchmarks._common import device_description, run_header
 from jaxtrack._files import write_json_atomically
 
 RESULTS = Path("benchmarks/results")
@@ -229,16 +229,14 @@ def main(argv=None) -> int:
                  key=lambda rule: validation[rule]["selected_m"])
     text = table(validation, test, chosen)
     print(text)
-    seconds = time.perf_counter() - started
+    header = run_header("benchmarks.view_selection", argv, started)
     write_json_atomically(args.out, {
-        "command": "python -m benchmarks.view_selection " + " ".join(argv or []),
-        "device": device_description(), "date": time.strftime("%Y-%m-%d"),
-        "seconds": seconds, "peak_rss_mb": peak_rss_mb(), "frames": args.frames,
+        **header, "frames": args.frames,
         "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": 20, "particles": 300,
                      "iterations": 5, "views": list(views)},
         "chosen_on_validation": chosen, "validation": validation, "test": test,
         "clips": results, "table": text})
-    print(f"chose {chosen!r} on validation; wrote {args.out} in {seconds:.0f} s")
+    print(f"chose {chosen!r} on validation; wrote {args.out} in {header['seconds']:.0f} s")
     return 0
 
 
