@@ -126,18 +126,21 @@ def run_in_venv(python: Path, script: Path, inputs: dict, *, output: str, read, 
 
 
 def auto_initial_pose(prior, image: np.ndarray, background_rgb: np.ndarray,
-                      truth: np.ndarray) -> tuple[np.ndarray | None, dict]:
+                      truth: np.ndarray, mask: np.ndarray | None = None
+                      ) -> tuple[np.ndarray | None, dict]:
     """``jaxtrack track --init face`` on one RGB frame, its foreground taken against
-    ``background_rgb``: the initial markers (None when it finds no one) and a record (the
-    winning box's source, its overlap, the pose's error against the frame's ``truth`` markers in
-    torso lengths, seconds; or why it failed)."""
+    ``background_rgb``, or the person's ``mask`` of the frame where given (``--masks``): the
+    initial markers (None when it finds no one) and a record (the winning box's source, its
+    overlap, the pose's error against the frame's ``truth`` markers in torso lengths, seconds;
+    or why it failed)."""
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.evaluation import marker_errors, torso_lengths
     from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
     from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask
 
     started = time.perf_counter()
-    foreground = foreground_mask(image, background_rgb)
+    foreground = (foreground_mask(image, background_rgb) if mask is None
+                  else np.asarray(mask, bool))
     try:
         found = auto_initialise(prior.model, prior.template, image, foreground)
     except (AutoInitError, FaceDetectorUnavailableError) as error:

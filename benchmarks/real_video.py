@@ -19,7 +19,8 @@ MHT's step are learned, so that no method's dynamics run at the wrong rate), by
 - each reporting its own estimate and with the shared refinement stage (``Refinement()``);
 - each initialised (a) from the reference's markers in the first tracked frame and (b)
   automatically (``jaxtrack.trackers.autoinit``, as ``jaxtrack track --init face``: face and
-  blob-head boxes, the prior's poses against the foreground of the video's median background).
+  blob-head boxes, the prior's poses against the foreground of the video's median background,
+  or against the first frame's person mask with ``--masks``, as ``jaxtrack track --masks``).
 
 Also scored: "static", the initial pose held still (how far the subject moves), and MediaPipe
 Pose (``benchmarks/_mediapipe.py``, a per-frame detector in its own venv, when ``make
@@ -294,8 +295,9 @@ def main(argv=None) -> int:
                          "view": camera,
                          **score(np.repeat(view.truth[:1], len(view.truth), 0), view)})
         if "auto" in args.inits:
-            pose, record = auto_initial_pose(prior, view.images[0], view.background_rgb,
-                                             view.truth[0])
+            pose, record = auto_initial_pose(
+                prior, view.images[0], view.background_rgb, view.truth[0],
+                None if view.masks is None else view.masks[0])
             inits[camera] = record
             print(f"  auto init: {record}")
             if pose is None:

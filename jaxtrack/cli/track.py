@@ -38,6 +38,10 @@ _BASE_BYTES = 1.5e9
 _MIN_TORSO_PX = 4.0  # a shorter neck-pelvis distance is no body the tracker can follow
 
 
+_LINEAR_COMBINATION_ONLY = ("calibration", "cameras", "view_selection", "skin", "iterations")
+"""``jaxtrack track``'s options that only ``--method linear-combination`` reads."""
+
+
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "track",
@@ -189,8 +193,10 @@ def _inside(markers: np.ndarray, scale: float, size: tuple[int, int]) -> np.ndar
     return markers * scale
 
 
-def _initialise(args, model, template, frames, scale) -> tuple[np.ndarray, dict]:
-    """First-frame markers (tracking pixels) and a description of how they were found."""
+def _initialise(args, model, template, frames, scale, masks=None) -> tuple[np.ndarray, dict]:
+    """First-frame markers (tracking pixels) and a description of how they were found; with
+    ``masks`` (the person's masks of the tracked frames) ``--init face`` reads the first frame's
+    mask as its foreground instead of the difference from the video's median."""
     from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
     from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask, median_background
 
@@ -202,10 +208,16 @@ def _initialise(args, model, template, frames, scale) -> tuple[np.ndarray, dict]
     if args.init != "face":
         raise UserError(f"--init must be face or manual:x,y,... (24 numbers), got "
                         f"{args.init!r}")
-    if len(frames) < 3:
-        raise UserError("--init face needs at least 3 frames (a median background)")
-    background = median_background(frames)
-    foreground = foreground_mask(frames[0], background)
+    if masks is not None:
+        foreground, source = np.asarray(masks[0], bool), "masks"
+        if not foreground.any():
+            raise UserError(f"--init face: the first frame's mask in {args.masks[0]} is empty; "
+                            f"give masks that hold the person there, or --init manual:...")
+    else:
+        if len(frames) < 3:
+            raise UserError("--init face needs at least 3 frames (a median background)")
+        foreground = foreground_mask(frames[0], median_background(frames))
+        source = "median background"
     try:
         found = auto_initialise(model, template, frames[0], foreground)
     except AutoInitError as error:
@@ -213,7 +225,7 @@ def _initialise(args, model, template, frames, scale) -> tuple[np.ndarray, dict]
     except FaceDetectorUnavailableError as error:
         raise UserError(f"--init face: {error}") from None
     return found.markers, {
-        "method": "face", "source": found.source, "score": found.score,
+        "method": "face", "source": found.source, "score": found.score, "foreground": source,
         "box": (found.face / scale).round(1).tolist(), "torso_px": found.torso / scale,
         "boxes_tried": (found.faces / scale).round(1).tolist()}
 
@@ -242,6 +254,10 @@ def run(args: argparse.Namespace) -> int:
         from jaxtrack.cli import _mixed_state
 
         return _mixed_state.track(args)
+    for name in _LINEAR_COMBINATION_ONLY:  # refused, not ignored
+        if getattr(args, name) is not None:
+            raise UserError(f"--{name.replace('_', '-')} does not apply to --method latent "
+                            f"(it is a linear-combination setting)")
     if len(args.video) != 1:
         raise UserError(f"--video: --method latent tracks one video, got {len(args.video)}")
     given_masks = read_mask_files(args.masks, 1)[0]
@@ -284,13 +300,14 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.video}: {len(frames)} frames {width}x{height}"
           + (f" at {fps:.0f} fps" if fps else "") + f", tracked at {frames.shape[2]}x"
           f"{frames.shape[1]}")
-    markers, init = _initialise(args, model, template, frames, scale)
-    print(f"initialised ({init['method']}"
-          + (f", {init['source']} box, overlap {init['score']:.2f}" if "score" in init else "")
-          + ")")
-    grey = to_grey(frames)
     masks = None if given_masks is None else fit_mask_file(
         given_masks, args.masks[0], video.frame_indices, (frames.shape[2], frames.shape[1]))
+    markers, init = _initialise(args, model, template, frames, scale, masks)
+    print(f"initialised ({init['method']}"
+          + (f", {init['source']} box, overlap {init['score']:.2f} against the "
+             f"{init['foreground']}" if "score" in init else "")
+          + ")")
+    grey = to_grey(frames)
     # a median of one or two frames holds the person
     foreground = options.foreground and len(grey) >= 3
     tracker = latent_tracker(model, template, engine=Engine(args.particles), fps=fps,

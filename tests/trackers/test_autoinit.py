@@ -169,4 +169,56 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--init", "manual:1,2,3")
     assert code == 2 and "24" in error
+    for option, value in (("--calibration", "calib.txt"), ("--view-selection", "paper"),
+                          ("--skin", "200,150,120"), ("--cameras", "0"), ("--iterations", "5")):
+        code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                          option, value)
+        assert code == 2 and error.strip() == (f"jaxtrack track: error: {option} does not "
+                                               f"apply to --method latent (it is a "
+                                               f"linear-combination setting)")
     assert not out.exists()
+
+
+def _drawn_person(markers, shape, torso):
+    """A person mask: the body drawn as thick segments between the true markers."""
+    import cv2
+
+    from jaxtrack.body import MARKER_EDGES
+
+    mask = np.zeros(shape, np.uint8)
+    torso_corners = [UPPER_BODY_12.index(name) for name in ("right_shoulder", "left_shoulder",
+                                                              "left_hip", "right_hip")]
+    cv2.fillPoly(mask, [np.round(markers[torso_corners]).astype(np.int32)], 1)
+    for a, b in MARKER_EDGES[UPPER_BODY_12]:
+        cv2.line(mask, tuple(int(v) for v in markers[a]), tuple(int(v) for v in markers[b]), 1,
+                 max(2, int(0.25 * torso)))
+    cv2.circle(mask, tuple(int(v) for v in markers[0]), max(2, int(0.2 * torso)), 1, -1)
+    return mask.astype(bool)
+
+
+def test_track_cli_initialises_from_the_first_frames_mask(model_file, sequence, tmp_path,
+                                                          capsys):
+    from jaxtrack.vision import write_masks
+
+    frames = sequence.images[:6]
+    video = write_frames(frames, tmp_path / "clip.mp4", sequence.fps, (320, 240))
+    torso = _torso(sequence.truth[0])
+    masks = np.stack([_drawn_person(markers, frames.shape[1:3], torso)
+                      for markers in sequence.truth[:6]])
+    path = write_masks(tmp_path / "masks.npz", masks)
+    out = tmp_path / "out"
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--out", str(out),
+                 "--particles", "20", "--refine-steps", "0", "--masks", str(path)]) == 0
+    assert "against the masks" in capsys.readouterr().out
+    record = json.loads((out / "track.json").read_text())
+    assert record["init"]["method"] == "face" and record["init"]["foreground"] == "masks"
+    first = np.array([record["frames"][0]["markers"][name] for name in UPPER_BODY_12])
+    assert np.linalg.norm(first - sequence.truth[0], axis=-1).mean() / torso < 0.4
+    # a first mask without the person is refused before anything is written
+    masks[0] = False
+    empty = write_masks(tmp_path / "empty.npz", masks)
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--out",
+                 str(tmp_path / "bad"), "--masks", str(empty)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "the first frame's mask in" in error[0] and "empty" in error[0]
+    assert not (tmp_path / "bad").exists()
