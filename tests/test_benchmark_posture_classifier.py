@@ -40,6 +40,9 @@ def test_leave_one_clip_out_holds_each_clip_out_and_reports_an_unfit_model():
     assert rows[0]["frames"] == 2 * 4 * 30 and rows[0]["error"] == 0.0
     # without the only clip that shows lying right, that posture has no training frame
     assert "lying_right" in rows[2]["unfit"] and "error" not in rows[2]
+    pooled = pc.leave_one_clip_out(training, 0.2, "pooled")
+    assert [row["covariance"] for row in pooled] == ["pooled"] * 3
+    assert pooled[0]["error"] == 0.0 and "unfit" in pooled[2]
 
 
 def test_bad_ridges_are_refused_in_one_line(capsys):

@@ -52,10 +52,10 @@ from jaxtyping import Array, Float, Int
 
 from jaxtrack._files import write_npz_atomically
 
-__all__ = ["CRAWLING", "LYING_LEFT", "LYING_RIGHT", "NUM_POSTURES", "POSTURE_NAMES", "SITTING",
-           "STANDING", "LabelRule", "PostureFormatError", "PostureModel", "SavedPostureModel",
-           "fit_posture_model", "load_posture_model", "posture_labels", "save_posture_model",
-           "transition_counts"]
+__all__ = ["COVARIANCES", "CRAWLING", "LYING_LEFT", "LYING_RIGHT", "NUM_POSTURES", "POSTURE_NAMES",
+           "SITTING", "STANDING", "LabelRule", "PostureFormatError", "PostureModel",
+           "SavedPostureModel", "fit_posture_model", "load_posture_model", "posture_labels",
+           "save_posture_model", "transition_counts"]
 
 POSTURE_NAMES = ("standing", "sitting", "crawling_bending", "lying_left", "lying_right")
 STANDING, SITTING, CRAWLING, LYING_LEFT, LYING_RIGHT = range(5)
@@ -178,9 +178,16 @@ def transition_counts(sequences: Sequence[np.ndarray]) -> np.ndarray:
     return counts
 
 
+COVARIANCES = ("per-posture", "pooled")
+"""``fit_posture_model``'s ``covariance``: each posture's own sample covariance (Ghost's), or
+one within-posture covariance shared by all (linear discriminant analysis's), which needs fewer
+frames of each posture to estimate."""
+
+
 def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarray], *,
                       regularisation: float = 0.2, pseudocount: float = 0.5,
-                      cutoff: float | None = None) -> PostureModel:
+                      cutoff: float | None = None,
+                      covariance: str = "per-posture") -> PostureModel:
     """Fit the per-posture Gaussians and T from labelled training sequences.
 
     Args:
@@ -191,6 +198,9 @@ def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarra
             (0.2 chosen on the validation clips: ``jaxtrack.experiments.mixed_state.train``).
         pseudocount: α added to every transition count (unseen transitions stay possible).
         cutoff: the Mahalanobis truncation c; None takes the χ²_D 99.9 % quantile.
+        covariance: ``"per-posture"`` (S_q, the extended Ghost's) or ``"pooled"``: every
+            posture's Gaussian takes the within-posture covariance Σ_q (n_q − 1) S_q / (N − 5),
+            plus the same ridge (:data:`COVARIANCES`).
 
     Raises:
         ValueError: mismatched lengths, non-finite features, or a posture with fewer than two
@@ -216,17 +226,27 @@ def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarra
     if regularisation <= 0 or pseudocount < 0:
         raise ValueError(f"regularisation must be positive and pseudocount non-negative, got "
                          f"{regularisation} and {pseudocount}")
+    if covariance not in COVARIANCES:
+        raise ValueError(f"covariance must be one of {', '.join(COVARIANCES)}, got "
+                         f"{covariance!r}")
     ridge = regularisation * np.trace(np.cov(values.T)) / dimension
-    means, precisions, log_determinants = [], [], []
+    means, covariances = [], []
     for posture, name in enumerate(POSTURE_NAMES):
         chosen = values[names == posture]
         if len(chosen) < 2:
             raise ValueError(f"posture {name!r} has {len(chosen)} training frames; at least 2 "
                              "are needed to estimate its covariance (add clips that show it)")
-        covariance = np.cov(chosen.T) + ridge * np.eye(dimension)
         means.append(chosen.mean(axis=0))
-        precisions.append(np.linalg.inv(covariance))
-        log_determinants.append(np.linalg.slogdet(covariance)[1])
+        covariances.append((len(chosen), np.cov(chosen.T)))
+    if covariance == "pooled":
+        shared = (sum((count - 1) * sample for count, sample in covariances)
+                  / (len(values) - NUM_POSTURES))
+        covariances = [(count, shared) for count, _ in covariances]
+    precisions, log_determinants = [], []
+    for _, sample in covariances:
+        regularised = sample + ridge * np.eye(dimension)
+        precisions.append(np.linalg.inv(regularised))
+        log_determinants.append(np.linalg.slogdet(regularised)[1])
     counts = transition_counts(labels) + pseudocount
     transition = counts / counts.sum(axis=1, keepdims=True)
     first = np.bincount([int(np.asarray(seq)[0]) for seq in labels], minlength=NUM_POSTURES)

@@ -90,6 +90,29 @@ def test_fit_recovers_means_and_counts_transitions():
                                -0.5 * float(model.cutoff))
 
 
+def test_a_pooled_covariance_is_the_within_posture_scatter_shared_by_every_posture():
+    rng = np.random.default_rng(3)
+    means, features, labels = _toy_training(rng)
+    # one posture spread far wider than the others: its own covariance differs, the pooled not
+    features[0][labels[0] == 2] = means[2] + 4.0 * rng.normal(size=(400, 3))
+    own = fit_posture_model(features, labels, regularisation=1e-3)
+    pooled = fit_posture_model(features, labels, regularisation=1e-3, covariance="pooled")
+    np.testing.assert_array_equal(pooled.means, own.means)
+    values, names = np.concatenate(features), np.concatenate(labels)
+    scatter = sum((values[names == q] - values[names == q].mean(0)).T
+                  @ (values[names == q] - values[names == q].mean(0))
+                  for q in range(NUM_POSTURES)) / (len(values) - NUM_POSTURES)
+    ridge = 1e-3 * np.trace(np.cov(values.T)) / 3
+    for q in range(NUM_POSTURES):
+        np.testing.assert_allclose(np.linalg.inv(pooled.precisions[q]),
+                                   scatter + ridge * np.eye(3), rtol=1e-6)
+    assert np.ptp(np.asarray(pooled.log_determinants)) == 0
+    assert np.ptp(np.asarray(own.log_determinants)) > 1.0
+    assert np.mean(np.asarray(pooled.classify(features[0])) == labels[0]) > 0.9
+    with pytest.raises(ValueError, match="covariance must be one of per-posture, pooled"):
+        fit_posture_model(features, labels, covariance="shared")
+
+
 def test_a_posture_without_training_frames_is_refused():
     with pytest.raises(ValueError, match="'lying_right' has 0 training frames"):
         fit_posture_model([np.zeros((8, 2)) + np.arange(8)[:, None]],
