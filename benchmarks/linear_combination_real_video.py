@@ -184,8 +184,12 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, default=300)
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--view-selection", choices=("fitness", "paper"), default=None,
+    parser.add_argument("--view-selection", choices=("ambiguity", "fitness", "paper"),
+                        default=None,
                         help="jaxtrack track's rule (default: its own, chosen on validation)")
+    parser.add_argument("--skeleton", choices=("mean", "best"), default=None,
+                        help="jaxtrack track's 3-D skeleton estimate (default: its own, "
+                             "chosen on validation)")
     parser.add_argument("--demo", choices=("singleperson", "multiperson"),
                         default="singleperson",
                         help="the Pose2Sim take: one man (scored against its reference) or the "
@@ -206,6 +210,7 @@ def main(argv=None) -> int:
                                       + ("_multiperson" if multiperson else "")
                                       + (f"_{args.view_selection}" if args.view_selection
                                          else "")
+                                      + (f"_{args.skeleton}" if args.skeleton else "")
                                       + ("_mediapipe" if args.silhouettes == "mediapipe"
                                          else "") + ".json")
 
@@ -247,6 +252,7 @@ def main(argv=None) -> int:
                      "--seed", str(args.seed), "--out", str(tracked),
                      *(["--view-selection", args.view_selection] if args.view_selection
                        else []),
+                     *(["--skeleton", args.skeleton] if args.skeleton else []),
                      *(["--masks", *masks] if masks else [])])
     if code:
         raise SystemExit("tracking failed")

@@ -110,10 +110,10 @@ print(np.round(surface, 3))
 # ## Choosing a view (§5.5–5.7)
 # Every camera is tracked on its own. Each view's ambiguity is that of the nearest training
 # vector (eq. 14): how many training vectors look alike there but have different skeletons.
-# The paper reads each frame from the view of greatest fitness × 1/ambiguity
-# (`selection="paper"`); jaxtrack's default, chosen on validation subjects
-# (`python -m benchmarks.view_selection`), reads it from the view of greatest fitness over ±5
-# frames, since the ambiguity did not predict which view is right there.
+# The paper reads each frame's best-particle skeleton from the view of greatest fitness ×
+# 1/ambiguity (`selection="paper", estimate="best"`); jaxtrack's defaults, chosen together on
+# validation subjects (`python -m benchmarks.view_selection`), read the particles' weighted
+# mean skeleton from the view of least ambiguity over ±5 frames.
 
 # %%
 selection = lc.multi_view(trained, TEST, views=SIZES["views"], max_frames=FRAMES,

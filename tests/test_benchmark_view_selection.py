@@ -48,6 +48,19 @@ def test_each_rule_is_scored_against_the_oracle_and_the_worst_view():
     assert "| **fitness ±5** (chosen) | 100 / 100 / 300 | 67 % | 0 % |" in text
 
 
+def test_each_skeleton_estimate_is_scored_from_its_own_errors_and_skeletons():
+    result = _result()
+    mean = {"errors_m": (np.asarray(result["errors_m"])[:, ::-1]).tolist(),
+            "skeletons_world": np.asarray(result["skeletons_world"])[:, ::-1].tolist()}
+    result["estimates"] = {"best": {key: result[key] for key in mean}, "mean": mean}
+    best, swapped = vs.evaluate_clip(result, "best"), vs.evaluate_clip(result, "mean")
+    assert best["estimate"] == "best" and swapped["estimate"] == "mean"
+    assert best["rules"]["fitness ±5"]["selected_m"] == pytest.approx(0.1)
+    # the mean's errors are the views swapped: the fitness now points at the worse view
+    assert swapped["rules"]["fitness ±5"]["selected_m"] == pytest.approx(0.3)
+    assert swapped["single_view_m"] == pytest.approx([0.1, 0.3])
+
+
 def test_too_few_frames_for_the_window_are_refused(capsys):
     with pytest.raises(SystemExit):
         vs.main(["--frames", "5"])

@@ -151,17 +151,18 @@ def test_track_two_views_selects_a_view_per_frame_by_the_chosen_rule(folder, mod
     out = folder / "two"
     assert _track(out, model, *crop_videos) == 0
     record = _strict_json(out / "track.json")
-    assert record["view_selection"] == lc.DEFAULT_VIEW_SELECTION == "fitness"
+    assert record["view_selection"] == lc.DEFAULT_VIEW_SELECTION == "ambiguity"
+    assert record["skeleton_estimate"] == lc.DEFAULT_SKELETON_ESTIMATE == "mean"
     observed = np.array([[view["observed"] for view in frame["views"]]
                          for frame in record["frames"]])
-    log_fitness = np.array([[view["log_fitness"] for view in frame["views"]]
-                            for frame in record["frames"]])
-    # the default from the file's own numbers: each view's mean log fitness over ±5 frames
-    # of those it observed
-    means = np.full(log_fitness.shape, -np.inf)
+    ambiguity = np.array([[view["ambiguity"] if view["observed"] else 0.0
+                           for view in frame["views"]] for frame in record["frames"]])
+    # the default from the file's own numbers: each view's mean −log(ambiguity + 10⁻³) over
+    # ±5 frames of those it observed (select_views' floor)
+    means = np.full(ambiguity.shape, -np.inf)
     for t, v in zip(*np.nonzero(observed), strict=True):
         near = slice(max(0, t - 5), t + 6)
-        means[t, v] = log_fitness[near, v][observed[near, v]].mean()
+        means[t, v] = -np.log(ambiguity[near, v][observed[near, v]] + 1e-3).mean()
     selected = []
     for t, frame in enumerate(record["frames"]):
         if not observed[t].any():
@@ -307,13 +308,23 @@ def test_the_overlay_draws_the_selected_views_skeleton_in_one_frame_of_axes():
     from jaxtrack.cli._linear_combination import _shown_skeletons
 
     skeletons = [np.arange(12, dtype=float).reshape(2, 2, 3) + 100 * v for v in range(2)]
-    views = [{"run": SimpleNamespace(estimates=SimpleNamespace(best_skeleton_3d=s))}
-             for s in skeletons]
     turn = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     cameras = [SimpleNamespace(rotation=np.eye(3)), SimpleNamespace(rotation=turn)]
-    shown = _shown_skeletons(views, [1, None], cameras)
+    shown = _shown_skeletons(skeletons, [1, None], cameras)
     np.testing.assert_allclose(shown[0], skeletons[1][0] @ turn)  # world = Rᵀ x, as rows
     assert np.all(np.isnan(shown[1]))
     # without a calibration, the camera's y (down) and z (forward) turned up and to the viewer
-    alone = _shown_skeletons(views[:1], [0, 0], None)
+    alone = _shown_skeletons(skeletons[:1], [0, 0], None)
     np.testing.assert_allclose(alone, skeletons[0] * [1.0, -1.0, -1.0])
+
+
+def test_the_skeleton_option_picks_the_weighted_mean_or_the_best_particle():
+    from types import SimpleNamespace
+
+    from jaxtrack.cli._linear_combination import _skeletons
+
+    estimates = SimpleNamespace(skeleton_3d=np.zeros((2, 12, 3)),
+                                best_skeleton_3d=np.ones((2, 12, 3)))
+    assert np.all(_skeletons(estimates, SimpleNamespace(skeleton=None)) == 0)  # the default
+    assert np.all(_skeletons(estimates, SimpleNamespace(skeleton="mean")) == 0)
+    assert np.all(_skeletons(estimates, SimpleNamespace(skeleton="best")) == 1)

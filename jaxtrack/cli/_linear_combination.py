@@ -9,9 +9,12 @@
 - ``track``: one video per calibrated camera. Each is decoded at the scale the model was
   trained at (the calibrated image scaled by ``CAMERA_SCALE``), at the model's frame rate, and
   cut to ``CROP_SIZE`` around the subject; its empty scene is the video's median (a static
-  camera); skin is the fixed chroma box or ``--skin``. With several views, each frame is read
-  from the view of greatest fitness over ±5 frames (chosen on validation), or with
-  ``--view-selection paper`` of greatest fitness × 1/ambiguity (§5.5–5.7). Writes
+  camera); skin is the fixed chroma box or ``--skin``. The 3-D skeleton reported is the
+  particles' weighted mean (``--skeleton mean``, chosen on validation) or the best particle's
+  (``--skeleton best``, the paper's). With several views, each frame is read from the view of
+  least ambiguity over ±5 frames (chosen on validation with the weighted mean), of greatest
+  fitness over ±5 frames (``--view-selection fitness``), or of greatest fitness × 1/ambiguity
+  (``--view-selection paper``, §5.5–5.7). Writes
   ``overlay.mp4`` and, last, ``track.json``. The model fixes the tracking scale, so
   ``--max-size`` and the latent tracker's options are not used. Why these choices:
   ``docs/linear-combination.md``.
@@ -467,13 +470,14 @@ def track(args: argparse.Namespace) -> int:
                                                 [view["run"].estimates for view in views],
                                                 selection=_view_selection(args))
     selection_seconds = time.perf_counter() - tick
-    for view in views:
-        estimates = view["run"].estimates
-        if not (np.all(np.isfinite(estimates.best_skeleton_3d))
-                and np.all(np.isfinite(estimates.log_fitness))):
+    skeletons = [_skeletons(view["run"].estimates, args) for view in views]
+    for view, skeleton in zip(views, skeletons, strict=True):
+        if not (np.all(np.isfinite(skeleton))
+                and np.all(np.isfinite(view["run"].estimates.log_fitness))):
             raise UserError(f"tracking --video {view['video'].path} produced non-finite "
                             f"skeletons; nothing written")
-    record = _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, skin)
+    record = _track_record(args, trained, cameras, views, skeletons, chosen, ambiguity, tracker,
+                           skin)
     with _outputs(args.out) as written:
         fps = videos[0].fps if math.isfinite(videos[0].fps) else fps_model
         try:  # with several views: ambiguity bars, the selected view framed (Fig. 17)
@@ -484,7 +488,7 @@ def track(args: argparse.Namespace) -> int:
                 args.out / "overlay.mp4", fps=fps, names=[view["name"] for view in views],
                 marker_names=_MARKERS, labels=[_labels(view["status"]) for view in views],
                 ambiguity=ambiguity, selected=None if ambiguity is None else chosen,
-                zoom=_ZOOM, skeletons=_shown_skeletons(views, chosen, cameras),
+                zoom=_ZOOM, skeletons=_shown_skeletons(skeletons, chosen, cameras),
                 skeleton_names=list(trained.description["skeleton"])))
         except OSError as error:
             raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
@@ -525,7 +529,8 @@ def _rounded(values, digits: int):
     return np.round(values, digits).tolist()
 
 
-def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, skin) -> dict:
+def _track_record(args, trained, cameras, views, skeletons, chosen, ambiguity, tracker,
+                  skin) -> dict:
 
     joints = list(trained.description["skeleton"])
     frames = []
@@ -536,7 +541,7 @@ def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, ski
             found = bool(estimate.found[t])
             markers = np.asarray(estimate.best_markers[t], np.float64)
             video_markers = _to_video(markers, view) if found else None
-            skeleton = np.asarray(estimate.best_skeleton_3d[t], np.float64)
+            skeleton = np.asarray(skeletons[index][t], np.float64)
             entry = {
                 "status": view["status"][t] or "observed", "observed": found,
                 "log_fitness": round(float(estimate.log_fitness[t]), 4),
@@ -575,10 +580,11 @@ def _track_record(args, trained, cameras, views, chosen, ambiguity, tracker, ski
         "skin": "fixed chroma box" if skin is None else list(skin),
         "particles": tracker.num_particles, "iterations": tracker.iterations,
         "view_selection": _view_selection(args) if len(views) > 1 else None,
+        "skeleton_estimate": _skeleton_estimate(args),
         "seed": args.seed, "tracker": views[0]["run"].options, "joints": joints,
         "coordinates": "head and hands in the video's own pixels (hands ordered left to right "
-                       "in the image); skeleton_m in the camera's frame, metres, relative to "
-                       "the neck",
+                       "in the image); skeleton_m (the skeleton_estimate) in the camera's "
+                       "frame, metres, relative to the neck",
         "frames": frames}
 
 
@@ -589,18 +595,33 @@ def _view_selection(args) -> str:
     return getattr(args, "view_selection", None) or lc.DEFAULT_VIEW_SELECTION
 
 
-def _shown_skeletons(views: list[dict], chosen: list[int | None], cameras) -> np.ndarray:
+def _skeleton_estimate(args) -> str:
+    """``--skeleton``, or the estimate chosen on validation."""
+    from jaxtrack.experiments import linear_combination as lc
+
+    return getattr(args, "skeleton", None) or lc.DEFAULT_SKELETON_ESTIMATE
+
+
+def _skeletons(estimates, args) -> np.ndarray:
+    """``(time, joints, 3)`` the view's 3-D skeleton estimate that ``--skeleton`` names."""
+    return np.asarray(estimates.skeleton_3d if _skeleton_estimate(args) == "mean"
+                      else estimates.best_skeleton_3d, np.float64)
+
+
+def _shown_skeletons(skeletons: list[np.ndarray], chosen: list[int | None],
+                     cameras) -> np.ndarray:
     """``(time, joints, 3)`` the 3-D skeleton the overlay draws each frame: the selected view's
-    (the only view's), x right, y up, metres from the neck; in the calibration's world axes
-    when there is one (the same axes whichever view is selected), else the camera's axes with y
-    and z turned to point up and toward the viewer. NaN in a frame no view observed."""
+    (the only view's) of each view's ``skeletons`` ``(time, joints, 3)``, x right, y up,
+    metres from the neck; in the calibration's world axes when there is one (the same axes
+    whichever view is selected), else the camera's axes with y and z turned to point up and
+    toward the viewer. NaN in a frame no view observed."""
     count = len(chosen)
-    joints = np.asarray(views[0]["run"].estimates.best_skeleton_3d).shape[1]
+    joints = np.asarray(skeletons[0]).shape[1]
     shown = np.full((count, joints, 3), np.nan)
     for t, index in enumerate(chosen):
         if index is None:
             continue
-        skeleton = np.asarray(views[index]["run"].estimates.best_skeleton_3d[t], np.float64)
+        skeleton = np.asarray(skeletons[index][t], np.float64)
         if cameras is not None:
             shown[t] = skeleton @ np.asarray(cameras[index].rotation, np.float64)
         else:

@@ -68,6 +68,7 @@ _OTHER_METHODS = {
     "calibration": (None, "it is a linear-combination setting"),
     "skin": (None, "it is a linear-combination setting"),
     "view_selection": (None, "it is a linear-combination setting"),
+    "skeleton": (None, "it is a linear-combination setting"),
     "iterations": (None, "it is a linear-combination or GPLVM setting"),
     "prior_optimiser": ("bfgs", "it is a GPLVM setting"),
     "baseline_dynamics": ("training", "it is a CONDENSATION/MHT setting"),

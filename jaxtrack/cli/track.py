@@ -38,7 +38,8 @@ _BASE_BYTES = 1.5e9
 _MIN_TORSO_PX = 4.0  # a shorter neck-pelvis distance is no body the tracker can follow
 
 
-_LINEAR_COMBINATION_ONLY = ("calibration", "cameras", "view_selection", "skin", "iterations")
+_LINEAR_COMBINATION_ONLY = ("calibration", "cameras", "view_selection", "skeleton", "skin",
+                            "iterations")
 """``jaxtrack track``'s options that only ``--method linear-combination`` reads."""
 
 
@@ -94,10 +95,16 @@ def add_parser(subparsers) -> None:
     group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
                        help="linear-combination: which cameras of --calibration (0-based, in "
                        "its order) filmed the --video files, one per video (default: all)")
-    group.add_argument("--view-selection", choices=("fitness", "paper"), default=None,
+    group.add_argument("--view-selection", choices=("ambiguity", "fitness", "paper"),
+                       default=None,
                        help="linear-combination, several videos: pick each frame's view by its "
-                       "fitness over +-5 frames (the default, chosen on validation) or by the "
-                       "paper's fitness x 1/ambiguity")
+                       "least ambiguity over +-5 frames (the default, chosen on validation), "
+                       "its greatest fitness over +-5 frames, or the paper's greatest fitness "
+                       "x 1/ambiguity")
+    group.add_argument("--skeleton", choices=("mean", "best"), default=None,
+                       help="linear-combination: the 3-D skeleton reported, the particles' "
+                       "weighted mean (the default, chosen on validation) or the best "
+                       "particle's (the paper's)")
     parser.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
                         help="the person's masks, one .npz ('masks') or .npy of (frames, height, "
                         "width) bool per --video, in order (a person segmenter's): the "

@@ -41,8 +41,9 @@ from jaxtrack.priors.linear_combinations import (
 )
 from jaxtrack.trackers._options import Engine
 
-__all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_VIEW_SELECTION", "METHODS", "TEST_CLIPS",
-           "TRAIN_CLIPS", "VALIDATION_CLIPS", "VIEW_SELECTION",
+__all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_SKELETON_ESTIMATE", "DEFAULT_VIEW_SELECTION",
+           "METHODS",
+           "SKELETON_ESTIMATES", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS", "VIEW_SELECTION",
            "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
            "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
            "aligned_skeleton_error", "select_tracked_views", "skeleton_error", "subject_centre",
@@ -73,17 +74,34 @@ TEST_CLIPS = (_HISTORY + "cmu_1006_wave_hello_1", _HISTORY + "cmu_1006_wave_hell
 VIEW_SELECTION = {
     "paper": {"fitness_weight": 1.0, "ambiguity_weight": 1.0, "window": 0},
     "fitness": {"fitness_weight": 1.0, "ambiguity_weight": 0.0, "window": 5},
+    "ambiguity": {"fitness_weight": 0.0, "ambiguity_weight": 1.0, "window": 5},
 }
 """View-selection rules (``jaxtrack.priors.linear_combinations.view_scores``' settings):
 ``"paper"``, Ong & Gong §5.7's fitness × 1/ambiguity per frame; ``"fitness"``, the fitness
-alone averaged over ±5 frames."""
+alone averaged over ±5 frames; ``"ambiguity"``, the least ambiguity (eq. 14) averaged over ±5
+frames."""
 
-DEFAULT_VIEW_SELECTION = "fitness"
-"""Chosen on validation (the validation subject's three Bandai-Namco gestures through the four
-Pose2Sim cameras, 90 frames each; ``python -m benchmarks.view_selection``, 2026-11-27): the
-selected view's 3-D error 193 mm, against 202 mm by the paper's rule and 205 mm by the
-ambiguity alone (oracle 163, worst 255). The ambiguity did not predict which view is right
-there (rank correlation with the error −0.11 to +0.11 per clip)."""
+SKELETON_ESTIMATES = {"best": "skeleton", "mean": "mean_skeleton"}
+"""The 3-D skeleton estimates a run reports (name → its key in a run's dict): the best-fitness
+particle's (Ong & Gong's) and the particles' weighted mean."""
+
+DEFAULT_SKELETON_ESTIMATE = "mean"
+"""The 3-D skeleton ``jaxtrack track --method linear-combination`` reports and
+:func:`multi_view` scores, chosen on validation together with :data:`DEFAULT_VIEW_SELECTION`
+(``python -m benchmarks.view_selection``, 2026-11-27: the validation subject's three
+Bandai-Namco gestures through the four Pose2Sim cameras, 90 frames each). With every rule the
+weighted mean was 22–42 mm closer than the best particle (by the least ambiguity over ±5
+frames 159 mm against 201; each view alone 175 against 206 mm on average). After a similarity
+alignment the two are alike there (139 and 140 mm): the mean's gain is mostly the skeleton's
+orientation, where it averages the hypotheses a silhouette leaves open."""
+
+DEFAULT_VIEW_SELECTION = "ambiguity"
+"""Chosen on validation with :data:`DEFAULT_SKELETON_ESTIMATE` (the same run): with the weighted
+mean, the least ambiguity over ±5 frames selected views 159 mm off (oracle 149, worst 202), the
+paper's rule over ±5 frames 160 mm, the fitness over ±5 frames 166 mm. These differ by less
+than the clips do, so the rule matters less than the estimate. With the best particle the
+fitness over ±5 frames was the best rule (193 mm; the default before the weighted mean was
+scored)."""
 
 _NECK = UPPER_BODY_12.index("neck")
 
@@ -539,7 +557,8 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
                fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
                jump_spread: float = 0.3, ambiguities: np.ndarray | None = None,
                sigma: float = 4.0, beta: float = 100.0, threshold: float = 0.05,
-               selection: str = DEFAULT_VIEW_SELECTION) -> dict:
+               selection: str = DEFAULT_VIEW_SELECTION,
+               estimate: str = DEFAULT_SKELETON_ESTIMATE) -> dict:
     """View selection (Ong & Gong §5.5–5.7) on a clip seen by several Pose2Sim cameras.
 
     Each view is tracked on its own; per frame a view is selected by the rule ``selection``
@@ -551,6 +570,8 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
         ambiguities: the training vectors' ambiguities (None: computed with ``sigma``,
             ``beta``, ``threshold``; ``jaxtrack.priors.linear_combinations.training_ambiguity``).
         selection: a rule of :data:`VIEW_SELECTION` (default :data:`DEFAULT_VIEW_SELECTION`).
+        estimate: the 3-D skeleton scored, ``"best"`` or ``"mean"`` (default
+            :data:`DEFAULT_SKELETON_ESTIMATE`; :data:`SKELETON_ESTIMATES`).
 
     Returns:
         A JSON-able dict: mean 3-D error (metres) of the selected, best, worst and each single
@@ -560,7 +581,9 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
         views, 12, 3)``, each view's neck-relative 3-D skeleton turned from its camera's axes
         into the world's, and ``truth_world`` ``(time, 12, 3)``, the true one, so that the
         views' skeletons can be compared with each other (the 3-D errors are the same in
-        either axes).
+        either axes). All of these are of the skeleton ``estimate``; ``estimates`` holds
+        ``errors_m`` and ``skeletons_world`` of each estimate of :data:`SKELETON_ESTIMATES`
+        (the best particle's and the weighted mean's).
     """
     from jaxtrack.priors.linear_combinations import (
         nearest_ambiguity,
@@ -573,6 +596,9 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
     if len(views) < 2:
         raise ValueError(f"view selection needs at least 2 views, got {views}")
     _check_selection(selection)
+    if estimate not in SKELETON_ESTIMATES:
+        raise ValueError(f"estimate must be one of {tuple(SKELETON_ESTIMATES)}, got "
+                         f"{estimate!r}")
     if ambiguities is None:
         ambiguities = training_ambiguity(trained.vectors, layout, sigma=sigma, beta=beta,
                                          threshold=threshold)
@@ -580,32 +606,39 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
                                         fps=float(trained.description.get("fps", 30.0)),
                                         max_frames=max_frames, background=background,
                                         seed=seed + 7, keep_observations=True)
-    errors, log_fitness, ambiguity, found, world = [], [], [], [], []
+    log_fitness, ambiguity, found = [], [], []
+    by_estimate = {name: ([], []) for name in SKELETON_ESTIMATES}  # errors, world skeletons
     for sequence in sequences:
         run = _track_run(trained, sequence.observations, particles=particles,
                          iterations=iterations, seed=seed, fitness=fitness, step=step,
                          jump_spread=jump_spread)
-        errors.append(skeleton_error(run["skeleton"], sequence.skeleton))
-        world.append(np.asarray(run["skeleton"], np.float64) @ sequence.rotation)
+        for name, (estimate_errors, world) in by_estimate.items():
+            skeleton = run[SKELETON_ESTIMATES[name]]
+            estimate_errors.append(skeleton_error(skeleton, sequence.skeleton))
+            world.append(np.asarray(skeleton, np.float64) @ sequence.rotation)
         log_fitness.append(run["log_fitness"])
-        estimate = np.asarray(make_hybrid(run["contour"], run["head_hands"][:, 1:],
-                                          run["head_hands"][:, 0], run["skeleton"]))
-        seen = run["found"] & np.all(np.isfinite(estimate), axis=1)
-        view_ambiguity = np.full(len(estimate), np.inf)
+        vectors = np.asarray(make_hybrid(run["contour"], run["head_hands"][:, 1:],
+                                         run["head_hands"][:, 0], run["skeleton"]))
+        seen = run["found"] & np.all(np.isfinite(vectors), axis=1)
+        view_ambiguity = np.full(len(vectors), np.inf)
         if seen.any():
-            view_ambiguity[seen] = nearest_ambiguity(estimate[seen], trained.vectors,
+            view_ambiguity[seen] = nearest_ambiguity(vectors[seen], trained.vectors,
                                                      ambiguities, layout)
         ambiguity.append(view_ambiguity)
         found.append(seen)
     truth_world = sequences[0].skeleton @ sequences[0].rotation  # the same from every view
-    errors, log_fitness = np.stack(errors, 1), np.stack(log_fitness, 1)
+    estimates = {name: {"errors_m": np.stack(errors, 1).tolist(),
+                        "skeletons_world": np.round(np.stack(world, 1), 5).tolist()}
+                 for name, (errors, world) in by_estimate.items()}
+    errors = np.asarray(estimates[estimate]["errors_m"])
+    log_fitness = np.stack(log_fitness, 1)
     ambiguity, found = np.stack(ambiguity, 1), np.stack(found, 1)
     chosen = select_views(log_fitness, np.where(np.isfinite(ambiguity), ambiguity, 0.0), found,
                           **VIEW_SELECTION[selection])
     frames = np.arange(len(errors))
     selected = errors[frames, chosen]
     return {"clip": clip, "views": [sequence.name for sequence in sequences],
-            "selection": selection, "selected_m": float(selected.mean()),
+            "selection": selection, "estimate": estimate, "selected_m": float(selected.mean()),
             "best_m": float(errors.min(axis=1).mean()),
             "worst_m": float(errors.max(axis=1).mean()),
             "single_view_m": [float(e) for e in errors.mean(axis=0)],
@@ -614,8 +647,8 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
             "ambiguity": np.where(np.isfinite(ambiguity), ambiguity, -1.0).tolist(),
             "log_fitness": np.where(np.isfinite(log_fitness), log_fitness, -1e30).tolist(),
             "found": found.tolist(),
-            "skeletons_world": np.round(np.stack(world, 1), 5).tolist(),
-            "truth_world": np.round(truth_world, 5).tolist()}
+            "skeletons_world": estimates[estimate]["skeletons_world"],
+            "truth_world": np.round(truth_world, 5).tolist(), "estimates": estimates}
 
 
 def _check_selection(selection: str) -> None:
@@ -629,7 +662,8 @@ def select_tracked_views(trained: TrainedLinearCombinations, estimates: list,
     """Ong & Gong §5.5–5.7 on views tracked one by one: every view's ambiguity (eq. 14 on the
     training vectors' ambiguities, eq. 10–13) and per frame the view the rule ``selection``
     picks (:data:`VIEW_SELECTION`: ``"paper"``, the greatest fitness × 1/ambiguity;
-    ``"fitness"``, the default chosen on validation, the greatest fitness over ±5 frames).
+    ``"fitness"``, the greatest fitness over ±5 frames; ``"ambiguity"``, the default chosen on
+    validation, the least ambiguity over ±5 frames).
 
     Args:
         trained: the model and its training vectors.

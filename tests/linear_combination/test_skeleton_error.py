@@ -46,3 +46,14 @@ def test_every_view_turns_its_camera_frame_skeleton_into_the_same_world_skeleton
                                    atol=1e-6)
     assert not np.allclose(sequences[0].skeleton, sequences[1].skeleton, atol=1e-2)
     np.testing.assert_allclose(world[0], world[1], atol=1e-5)
+
+
+def test_multi_view_refuses_an_unknown_skeleton_estimate_before_any_work():
+    from types import SimpleNamespace
+
+    from jaxtrack.experiments.linear_combination import SKELETON_ESTIMATES, multi_view
+
+    assert tuple(SKELETON_ESTIMATES) == ("best", "mean")
+    trained = SimpleNamespace(model=SimpleNamespace(layout=None))
+    with pytest.raises(ValueError, match="estimate must be one of \\('best', 'mean'\\)"):
+        multi_view(trained, "no/such/clip", estimate="median")

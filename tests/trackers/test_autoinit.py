@@ -170,6 +170,7 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
                       "--init", "manual:1,2,3")
     assert code == 2 and "24" in error
     for option, value in (("--calibration", "calib.txt"), ("--view-selection", "paper"),
+                          ("--skeleton", "best"),
                           ("--skin", "200,150,120"), ("--cameras", "0"), ("--iterations", "5")):
         code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                           option, value)
