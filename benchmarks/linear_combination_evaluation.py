@@ -4,11 +4,14 @@ error on test subjects against the two baselines, and the error surface over clu
 Splits by subject (``jaxtrack.data.splits``): the model is trained on training subjects'
 gestures, eq. 9's tolerances P, Q and the propagation step ω are chosen on a validation
 subject's wave (Bandai-Namco), and the test subject's two waves (AnimatedDrawings cmu_1006) are
-only scored. Every clip is rendered through Pose2Sim cameras (``--views``) over the real-photo
-background. The error surface (``--surface``) repeats the test (and a training clip) over a grid
-of cluster counts and sample counts, as the paper's Fig. 10 and 12; ``--multi-view`` tracks each
-test clip in every view and selects a view per frame (§5.5–5.7) by the library's rule
-(``DEFAULT_VIEW_SELECTION``; ``benchmarks.view_selection`` compares it with the paper's).
+only scored (P, Q and ω by the best particle's skeleton, the paper's estimate; the test rows
+give both filters' best-particle and weighted-mean skeletons). Every clip is rendered through
+Pose2Sim cameras (``--views``) over the real-photo background. The error surface
+(``--surface``) repeats the test (and a training clip) over a grid of cluster counts and sample
+counts, as the paper's Fig. 10 and 12; ``--multi-view`` tracks each test clip in every view and
+selects a view per frame (§5.5–5.7) by the library's rule and skeleton estimate
+(``DEFAULT_VIEW_SELECTION``, ``DEFAULT_SKELETON_ESTIMATE``; ``benchmarks.view_selection``
+compares them with the paper's).
 
     python -m benchmarks.linear_combination_evaluation [--frames 90] [--surface] [--multi-view]
 """
@@ -100,19 +103,26 @@ def main() -> None:
                    "error_m": error} for step, error in scores.items()]
 
     # test subjects: the tracker and both baselines with the settings chosen above
+    # (the filters' two skeleton estimates: the best particle's and the weighted mean's)
     rows = []
     for method in lc.METHODS:
         step = steps.get(method, 0.0)
-        per_sequence, aligned = [], []
+        per_estimate = {}
         for sequence in test:
             run = lc.run_method(method, trained, sequence.observations, fitness=fitness,
                                 step=jnp.asarray(step), brownian_step=jnp.asarray(step),
                                 **engine)
-            per_sequence.append(lc.skeleton_error(run["skeleton"], sequence.skeleton).mean())
-            aligned.append(lc.aligned_skeleton_error(run["skeleton"], sequence.skeleton).mean())
-        rows.append({"method": method, "step": step, "error_m": float(np.mean(per_sequence)),
-                     "worst_m": float(np.max(per_sequence)),
-                     "aligned_m": float(np.mean(aligned)), "sequences": len(per_sequence)})
+            for estimate, key in lc.SKELETON_ESTIMATES.items():
+                if key in run:
+                    errors = per_estimate.setdefault(estimate, ([], []))
+                    errors[0].append(lc.skeleton_error(run[key], sequence.skeleton).mean())
+                    errors[1].append(lc.aligned_skeleton_error(run[key],
+                                                               sequence.skeleton).mean())
+        for estimate, (per_sequence, aligned) in per_estimate.items():
+            rows.append({"method": method, "estimate": estimate if len(per_estimate) > 1
+                         else "-", "step": step, "error_m": float(np.mean(per_sequence)),
+                         "worst_m": float(np.max(per_sequence)),
+                         "aligned_m": float(np.mean(aligned)), "sequences": len(per_sequence)})
     # two constants: the training skeletons' mean (what a tracker that learned nothing of the
     # pose would report) and the test clips' own mean (an oracle: it knows the test poses)
     layout = trained.model.layout
@@ -132,7 +142,8 @@ def main() -> None:
     print(f"device: {device_description()}")
     print(f"test subjects ({', '.join(TEST)}), views {views}, {arguments.frames} frames, "
           f"P={best['P']:g} Q={best['Q']:g}")
-    print_table(rows, [("method", "method", "s"), ("step", "ω", "g"),
+    print_table(rows, [("method", "method", "s"), ("estimate", "skeleton", "s"),
+                       ("step", "ω", "g"),
                        ("error_m", "3-D error m", ".4f"), ("worst_m", "worst seq. m", ".4f"),
                        ("aligned_m", "after alignment m", ".4f")])
 

@@ -221,11 +221,18 @@ def test_evaluate_scores_three_methods_with_the_cached_model(folder, model, caps
         assert 0 < row["error_mm"] <= row["worst_sequence_mm"] < 2000
         assert row["frames"] == 2 * (EMPTY + PERSON) and row["compile_seconds"] >= 0
         assert f"| {row['method']} | {row['error_mm']:.1f} |" in printed
+    assert record["skeleton_estimate"] == lc.DEFAULT_SKELETON_ESTIMATE
+    assert f"the filters' {lc.DEFAULT_SKELETON_ESTIMATE} skeleton" in printed
     for entry in sequences.values():
         for method in lc.METHODS:
             errors = entry[method]["errors_m"]
             assert len(errors) == EMPTY + PERSON
             assert np.mean(errors) == pytest.approx(entry[method]["error_m"], abs=1e-5)
+        for method in ("linear-combination", "global-pca"):  # both estimates, the default's
+            assert entry[method]["error_m"] == entry[method][
+                f"{lc.DEFAULT_SKELETON_ESTIMATE}_error_m"]
+            assert entry[method]["best_error_m"] != entry[method]["mean_error_m"]
+        assert "best_error_m" not in entry["nearest-neighbour"]
     plots = sorted(path.name for path in (out / "plots").iterdir())
     assert plots == sorted([f"{name}_errors.png" for name in sequences]
                            + [f"{next(iter(sequences))}_linear-combination.mp4"])

@@ -247,11 +247,13 @@ def evaluate(args: argparse.Namespace) -> int:
             "test": test_clips,
             "cameras": list(cameras), "particles": particles, "iterations": iterations,
             "max_frames": max_frames, "seed": args.seed, "model_cache": str(cache),
+            "skeleton_estimate": results["skeleton_estimate"],
             "summary": summary, "results": finite_json(results),
             "seconds": round(time.perf_counter() - started, 2)})
     print(skeleton_error_table(summary))
     print(f"{len(test_clips)} test clip(s) x {len(cameras)} camera(s), {particles} particles x "
-          f"{iterations} iterations, on {_device()}; wrote {args.json} "
+          f"{iterations} iterations, the filters' {lc.DEFAULT_SKELETON_ESTIMATE} skeleton "
+          f"(jaxtrack track's), on {_device()}; wrote {args.json} "
           f"({time.perf_counter() - started:.0f} s)")
     return 0
 

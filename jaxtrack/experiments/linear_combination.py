@@ -500,27 +500,33 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
              particles: int = 300, iterations: int = 5, max_frames: int | None = None,
              background: str = "photo", seed: int = 0,
              fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
-             jump_spread: float = 0.3, output: str | os.PathLike | None = None) -> dict:
+             jump_spread: float = 0.3, output: str | os.PathLike | None = None,
+             estimate: str = DEFAULT_SKELETON_ESTIMATE) -> dict:
     """3-D skeleton error of each method on held-out clips rendered through ``views``.
 
-    Returns a JSON-able dict: per sequence and method the mean 3-D error (metres; of the
-    best-fitness particle, the paper's estimate, and of the weighted mean where there is one;
-    ``aligned_error_m`` after a similarity alignment, :func:`aligned_skeleton_error`),
-    the error per frame (``errors_m``), frames observed, run time per frame and compile time
-    apart; and per method the mean over sequences. Written to
-    ``output`` (JSON, atomically) when given. The clips must not share a subject with the
-    training clips (``jaxtrack.data.splits.check_disjoint``).
+    Returns a JSON-able dict: per sequence and method the mean 3-D error (metres) of the
+    skeleton ``estimate`` (:data:`SKELETON_ESTIMATES`; the nearest-neighbour baseline has one
+    skeleton, its nearest vector's), ``aligned_error_m`` after a similarity alignment
+    (:func:`aligned_skeleton_error`), the error per frame (``errors_m``), and both filters'
+    two estimates apart (``best_error_m``, the best-fitness particle's, the paper's;
+    ``mean_error_m``, the weighted mean's); frames observed, run time per frame and compile
+    time apart; and per method the mean over sequences. Written to ``output`` (JSON,
+    atomically) when given. The clips must not share a subject with the training clips
+    (``jaxtrack.data.splits.check_disjoint``).
     """
     from jaxtrack._files import write_json_atomically
     from jaxtrack.data.splits import check_disjoint
 
+    if estimate not in SKELETON_ESTIMATES:
+        raise ValueError(f"estimate must be one of {tuple(SKELETON_ESTIMATES)}, got "
+                         f"{estimate!r}")
     check_disjoint(trained.description.get("clips", []), clips)
     fps = float(trained.description.get("fps", 30.0))
     layout = trained.model.layout
     results = {"trained_on": trained.description, "methods": list(methods), "particles": particles,
                "iterations": iterations, "fitness": fitness.record(),
                "step": float(step), "jump_spread": float(jump_spread),
-               "sequences": {}}
+               "skeleton_estimate": estimate, "sequences": {}}
     for clip in clips:
         for sequence in render_hybrid_sequences(clip, views=views, num_contour=layout.num_contour,
                                                 fps=fps, max_frames=max_frames,
@@ -532,16 +538,18 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
                 run = run_method(method, trained, sequence.observations, particles=particles,
                                  iterations=iterations, seed=seed, fitness=fitness, step=step,
                                  jump_spread=jump_spread, brownian_step=step)
-                errors = skeleton_error(run["skeleton"], sequence.skeleton)
-                aligned = aligned_skeleton_error(run["skeleton"], sequence.skeleton)
+                skeleton = run.get(SKELETON_ESTIMATES[estimate], run["skeleton"])
+                errors = skeleton_error(skeleton, sequence.skeleton)
+                aligned = aligned_skeleton_error(skeleton, sequence.skeleton)
                 entry[method] = {"error_m": float(errors.mean()),
                                  "errors_m": [round(float(e), 6) for e in errors],
                                  "aligned_error_m": float(aligned.mean()),
                                  "seconds_per_frame": float(run["seconds_per_frame"]),
                                  "compile_seconds": float(run["compile_seconds"])}
                 if "mean_skeleton" in run:
-                    entry[method]["mean_error_m"] = float(
-                        skeleton_error(run["mean_skeleton"], sequence.skeleton).mean())
+                    for name, key in SKELETON_ESTIMATES.items():
+                        entry[method][f"{name}_error_m"] = float(
+                            skeleton_error(run[key], sequence.skeleton).mean())
             results["sequences"][sequence.name] = entry
     results["mean_error_m"] = {method: float(np.mean([entry[method]["error_m"] for entry in
                                                       results["sequences"].values()]))
