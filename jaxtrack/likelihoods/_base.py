@@ -25,6 +25,7 @@ import abc
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 from equinox import AbstractVar
 from jaxtyping import Array, ArrayLike, Float
@@ -110,6 +111,18 @@ class PartTemplates(eqx.Module):
     def num_parts(self) -> int:
         """How many parts (patches or strips) the likelihood sums."""
         return len(self.part_markers)
+
+    @property
+    def has_whole_pose_terms(self) -> bool:
+        """Whether :meth:`log_likelihood` also holds terms of the whole pose that no part
+        holds (:meth:`whole_pose_log_likelihood`); False unless a subclass says so."""
+        return False
+
+    def whole_pose_log_likelihood(self, markers_2d: Float[ArrayLike, "markers 2"],
+                                  observation: Array) -> Float[Array, ""]:
+        """The terms of :meth:`log_likelihood` that are no part's (0 unless a subclass has
+        some): ``log_likelihood`` is the sum of :meth:`part_log_likelihoods` plus this."""
+        return jnp.zeros((), jnp.result_type(jnp.asarray(markers_2d), float))
 
     @abc.abstractmethod
     def log_likelihood(self, markers_2d: Float[ArrayLike, "markers 2"], observation: Array,

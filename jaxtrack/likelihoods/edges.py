@@ -40,6 +40,23 @@ mask per frame then says what the background cannot: an observation with a fourt
 mask (:func:`jaxtrack.vision.edge_observations` ``masks=``), makes ``b_s`` the fraction of the
 centre line where the mask is below one half, frame by frame, with or without a background.
 
+**The coverage term** (``coverage_weight`` ν > 0, with a mask channel; off by default). The
+foreground term says where the arms must not be — off the person — but not where they must: a
+pose whose arms lie inside the silhouette, on the chest, is not charged for leaving the real
+arms unexplained. The coverage term charges the person's mask for what the body does not
+explain, as silhouette trackers' two-sided terms do:
+
+    log p(z | y) = … − ν Σ_g m_g c_g(y)² / max(Σ_g m_g, 1),
+    c_g = min(d_g / (ρ · spine), 2),
+
+over a fixed grid of points g across the frame (:data:`COVERAGE_GRID` along its longer side),
+``m_g`` the mask there (0 or 1), ``d_g`` the distance from g to the nearest limb segment (the
+strips' axes, the head's and the hands' extensions included), ρ = :data:`COVERAGE_SCALE`. It
+depends on the whole pose, not on one strip, so it is no part's term:
+:meth:`EdgeLimbTemplates.whole_pose_log_likelihood` scores it, :meth:`log_likelihood` and
+:meth:`residuals` include it (the residuals with their gradient), the part functions leave it
+out, and the refinement solves with the whole residual vector where it is on.
+
 Observations are ``(3, height, width)``: the grey frame, its edge distance map and the nearest
 edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
 sequence), or ``(4, height, width)`` with the person's mask as the fourth. Trackers take grey
@@ -78,7 +95,8 @@ from jaxtrack.likelihoods._strips import (
 )
 from jaxtrack.likelihoods.limbs import DEFAULT_STRIP_WIDTH, LimbTemplates, make_limb_templates
 
-__all__ = ["DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE",
+__all__ = ["COVERAGE_GRID", "COVERAGE_SCALE", "DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES",
+           "DEFAULT_EDGE_SCALE",
            "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_FOREGROUND_THRESHOLD",
            "DEFAULT_FOREGROUND_WEIGHT", "EdgeLimbTemplates", "FOREGROUND_SEGMENTS",
            "fit_border_widths", "limb_edge_distances", "make_edge_limb_templates"]
@@ -118,6 +136,15 @@ FOREGROUND_SEGMENTS = tuple(index for index, segment in enumerate(LIMB_SEGMENTS)
 """The strips the foreground term scores (indices into ``LIMB_SEGMENTS``): the four arm strips.
 The torso of a subject who stands still is part of a median background, so the spine's,
 shoulders' and hips' strips would be scored against nothing."""
+
+COVERAGE_GRID = 48
+"""Grid points of the coverage term along the frame's longer side (the other side in
+proportion): about 1 300 points on a 544 × 960 frame."""
+
+COVERAGE_SCALE = 0.25
+"""ρ: the coverage term's distance scale as a fraction of the spine (neck–pelvis): a mask
+point a quarter of the spine from the nearest limb axis costs one unit, twice that or more
+four (the cap)."""
 
 _CHANNELS = 3
 MASK_CHANNEL = 3
@@ -192,8 +219,12 @@ class EdgeLimbTemplates(PartTemplates):
     background: Float[Array, "height width"] | None = None
     foreground_weight: Float[Array, ""] = DEFAULT_FOREGROUND_WEIGHT
     foreground_threshold: Float[Array, ""] = DEFAULT_FOREGROUND_THRESHOLD
+    coverage_weight: float = eqx.field(static=True, default=0.0)
 
     def __check_init__(self):
+        if not (np.isfinite(self.coverage_weight) and self.coverage_weight >= 0):
+            raise ValueError(f"coverage_weight must be a non-negative number, got "
+                             f"{self.coverage_weight}")
         if self.border_widths.shape != (len(LIMB_SEGMENTS),):
             raise ValueError(f"border_widths must be ({len(LIMB_SEGMENTS)},), got "
                              f"{self.border_widths.shape}")
@@ -272,9 +303,56 @@ class EdgeLimbTemplates(PartTemplates):
             still = jnp.abs(samples[arms, :, centre] - background) <= self.foreground_threshold
         return jax.lax.stop_gradient(off.at[arms].set(jnp.mean(still.astype(dtype), axis=-1)))
 
+    @property
+    def has_whole_pose_terms(self) -> bool:
+        """Whether :meth:`log_likelihood` holds a term no part holds (the coverage term)."""
+        return self.coverage_weight > 0
+
+    def _coverage(self, markers_2d, observation, spine=None) -> tuple[Array, Array] | None:
+        """``(c_g, m_g / max(Σ m, 1))`` of the coverage term's grid points (module
+        docstring), or None without the term or a mask channel. ``c_g`` is differentiable in
+        the markers; the mask is read at the nearest pixel."""
+        observation = _check_observation(observation)
+        if not self.has_whole_pose_terms or observation.shape[0] <= MASK_CHANNEL:
+            return None
+        markers = jnp.asarray(markers_2d)
+        dtype = float_dtype(observation, markers)
+        markers = markers.astype(dtype)
+        height, width = observation.shape[1:]
+        step = max(height, width) / COVERAGE_GRID
+        rows, columns = max(1, round(height / step)), max(1, round(width / step))
+        gy, gx = np.meshgrid((np.arange(rows) + 0.5) * height / rows - 0.5,
+                             (np.arange(columns) + 0.5) * width / columns - 0.5, indexing="ij")
+        points = jnp.asarray(np.stack([gx.ravel(), gy.ravel()], axis=1), dtype)
+        mask = sample_points(observation.astype(dtype), points[:, 0], points[:, 1], True,
+                             channel=MASK_CHANNEL) >= 0.5
+        mask = jax.lax.stop_gradient(mask.astype(dtype))
+        starts, ends = _segment_ends(markers)
+        axis = ends - starts
+        offset = points[:, None, :] - starts[None]
+        along = jnp.clip(jnp.sum(offset * axis, -1) / jnp.maximum(jnp.sum(axis**2, -1), 1e-12),
+                         0.0, 1.0)
+        squared = jnp.sum((offset - along[..., None] * axis) ** 2, -1)
+        nearest_squared = jnp.min(squared, axis=1)
+        scale = COVERAGE_SCALE * (spine_length(markers) if spine is None
+                                  else jnp.asarray(spine, dtype))
+        # sqrt at 0 has no derivative: a grid point on an axis is given a floor of 1e-12
+        distance = jnp.sqrt(jnp.maximum(nearest_squared, 1e-12))
+        return jnp.minimum(distance / scale, 2.0), mask / jnp.maximum(jnp.sum(mask), 1.0)
+
+    def whole_pose_log_likelihood(self, markers_2d, observation) -> Array:
+        """The coverage term ``−ν Σ_g m_g c_g² / max(Σ m, 1)`` of one pose (module docstring);
+        0 without the term or a mask channel."""
+        coverage = self._coverage(markers_2d, observation)
+        if coverage is None:
+            return jnp.zeros((), float_dtype(jnp.asarray(observation), jnp.asarray(markers_2d)))
+        cost, weight = coverage
+        return -jnp.asarray(self.coverage_weight, cost.dtype) * jnp.sum(weight * cost**2)
+
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
-        """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i² (− μ Σ_arms b_s)`` for one pose."""
+        """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i² (− μ Σ_arms b_s) (− ν coverage)`` for one
+        pose."""
         samples, scaled, off = self._read(markers_2d, observation, nearest)
         scores = correlation(samples, self.strips.strips)
         appearance = -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
@@ -282,12 +360,25 @@ class EdgeLimbTemplates(PartTemplates):
         value = appearance - self.edge_weight.astype(appearance.dtype) * edges
         if off is not None:
             value = value - jnp.asarray(self.foreground_weight, value.dtype) * jnp.sum(off)
+        if self.has_whole_pose_terms:
+            value = value + self.whole_pose_log_likelihood(markers_2d, observation)
         return value
 
     def residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
         """The strips' residuals, then ``√(2κ / n) e_i`` per border point (bilinear samples
-        and distances), then ``√(2μ b_s)`` per strip with a background: half the squared norm
-        is the negative log-likelihood. ``spine``: as in :meth:`part_residuals`."""
+        and distances), then ``√(2μ b_s)`` per strip with a background, then ``√(2ν m_g /
+        Σ m) c_g`` per grid point with the coverage term: half the squared norm is the negative
+        log-likelihood. ``spine``: as in :meth:`part_residuals`."""
+        residuals = self._part_terms_residuals(markers_2d, observation, sharpness, spine)
+        coverage = self._coverage(markers_2d, observation, spine)
+        if coverage is None:
+            return residuals
+        cost, weight = coverage  # differentiable in the pose
+        return jnp.concatenate([residuals, jnp.sqrt(
+            2.0 * jnp.asarray(self.coverage_weight, cost.dtype) * weight) * cost])
+
+    def _part_terms_residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
+        """:meth:`residuals` without the coverage term (the parts' terms alone)."""
         samples, scaled, off = self._read(markers_2d, observation, nearest=False, spine=spine)
         appearance = template_residuals(samples, self.strips.strips, sharpness)
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
@@ -301,7 +392,8 @@ class EdgeLimbTemplates(PartTemplates):
                              parts: tuple[int, ...] | None = None) -> Array:
         """``−λ (1 − NCC_s) − κ mean_i e_i²`` of each strip ``parts`` picks (static indices
         into ``LIMB_SEGMENTS``; None: all): the terms :meth:`log_likelihood` sums, computed
-        for the picked strips alone."""
+        for the picked strips alone (the coverage term, no part's, left out:
+        :meth:`whole_pose_log_likelihood`)."""
         samples, scaled, off = self._read(markers_2d, observation, nearest, parts)
         scores = correlation(samples, self.strips.strips[jnp.asarray(select_segments(parts))])
         appearance = -jnp.asarray(sharpness, scores.dtype) * (1 - scores)
@@ -316,14 +408,25 @@ class EdgeLimbTemplates(PartTemplates):
         foreground residual) depends only on the markers :attr:`part_markers` names for it.
         With ``spine`` (the length the widths and σ are fractions of; None: the markers' own)
         given, a row depends only on the markers :attr:`direct_part_markers` names and on
-        ``spine``."""
-        residuals = self.residuals(markers_2d, observation, sharpness, spine)
+        ``spine``. The coverage term, no part's, is left out."""
+        residuals = self._part_terms_residuals(markers_2d, observation, sharpness, spine)
         segments = len(LIMB_SEGMENTS)
         split = segments * self.strips.along * self.strips.across
         borders = segments * 2 * (self.strips.along - 2)
         return jnp.concatenate([residuals[:split].reshape(segments, -1),
                                 residuals[split:split + borders].reshape(segments, -1),
                                 residuals[split + borders:].reshape(segments, -1)], axis=1)
+
+
+def _segment_ends(markers: Array) -> tuple[Array, Array]:
+    """``(segments, 2)`` start and end points of every limb strip's axis, with the head's and
+    the hands' extensions (``LIMB_SEGMENTS``)."""
+    start = markers[np.array([segment[1] for segment in LIMB_SEGMENTS])]
+    end = markers[np.array([segment[2] for segment in LIMB_SEGMENTS])]
+    before = jnp.asarray([segment[3] for segment in LIMB_SEGMENTS], markers.dtype)[:, None]
+    after = jnp.asarray([segment[4] for segment in LIMB_SEGMENTS], markers.dtype)[:, None]
+    axis = end - start
+    return start - before * axis, end + after * axis
 
 
 def _border_values(markers: Array, observation: Array, widths: Array,
@@ -417,6 +520,7 @@ def make_edge_limb_templates(
     background: Float[ArrayLike, "height width"] | None = None,
     foreground_weight: float = DEFAULT_FOREGROUND_WEIGHT,
     foreground_threshold: float = DEFAULT_FOREGROUND_THRESHOLD,
+    coverage_weight: float = 0.0,
     **strip_options,
 ) -> EdgeLimbTemplates:
     """Strip templates cut from the reference grey frame (or the grey channel of its
@@ -427,7 +531,8 @@ def make_edge_limb_templates(
     every strip's borders at the strips' own half width. With a ``background`` (a static
     camera's grey background, the frame's size and grey scale:
     ``jaxtrack.vision.median_grey_background``) the arm strips are also scored by the
-    foreground term (μ = ``foreground_weight``, module docstring)."""
+    foreground term (μ = ``foreground_weight``, module docstring); with ``coverage_weight``
+    ν > 0, observations with a mask are also scored by the coverage term."""
     image = jnp.asarray(image)
     observation = None
     if image.ndim == 3:
@@ -465,7 +570,8 @@ def make_edge_limb_templates(
         border_widths=jnp.full(len(LIMB_SEGMENTS), strips.width, dtype),
         background=None if background is None else jnp.asarray(background, dtype),
         foreground_weight=jnp.asarray(foreground_weight, dtype),
-        foreground_threshold=jnp.asarray(foreground_threshold, dtype))
+        foreground_threshold=jnp.asarray(foreground_threshold, dtype),
+        coverage_weight=float(coverage_weight))
     if border_scales is None:
         return templates
     if observation is None:

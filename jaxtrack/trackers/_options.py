@@ -63,7 +63,8 @@ def _number(value, name: str, low: float, high: float = math.inf, *, closed_low:
         raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
 
 
-_EDGE_BOUNDS = {"edge_weight": math.inf, "edge_tolerance": 90.0, "foreground_weight": math.inf}
+_EDGE_BOUNDS = {"edge_weight": math.inf, "edge_tolerance": 90.0, "foreground_weight": math.inf,
+                "coverage_weight": math.inf}
 """The ``"limbs+edges"`` settings a :class:`Likelihood` may give, and their upper bounds."""
 
 
@@ -80,6 +81,9 @@ class Likelihood(eqx.Module):
         edge_weight, edge_tolerance, foreground_weight: ``"limbs+edges"``'s κ, angular
             tolerance (degrees) and μ (``jaxtrack.likelihoods.edges``); None for the library's
             defaults, whose docstrings say where they were chosen.
+        coverage_weight: ``"limbs+edges"``'s ν, the weight of its coverage term, which charges
+            the person's mask for what the body leaves unexplained (needs masks:
+            ``jaxtrack.trackers.track(..., masks=...)``); None or 0: off, the default.
     """
 
     kind: str = eqx.field(static=True, default=DEFAULT_LIKELIHOOD)
@@ -88,6 +92,7 @@ class Likelihood(eqx.Module):
     edge_weight: float | None = eqx.field(static=True, default=None)
     edge_tolerance: float | None = eqx.field(static=True, default=None)
     foreground_weight: float | None = eqx.field(static=True, default=None)
+    coverage_weight: float | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         if self.kind not in LIKELIHOODS:
@@ -110,6 +115,11 @@ class Likelihood(eqx.Module):
         """The edge settings given (not None), as ``make_edge_limb_templates`` keywords."""
         return {name: float(getattr(self, name)) for name in _EDGE_BOUNDS
                 if getattr(self, name) is not None}
+
+    @property
+    def has_coverage(self) -> bool:
+        """Whether the coverage term is on (it needs the person's masks)."""
+        return bool(self.coverage_weight)
 
     @property
     def lam(self) -> float:

@@ -90,8 +90,10 @@ def score_pose(pose: Float[Array, " 25"], frame: Array, appearance: PartTemplate
     markers = spm_forward(pose, template)
     if parts is None:
         value = appearance.log_likelihood(markers, frame, sharpness, False)
-    else:
+    else:  # the terms no part holds depend on the parts too: they are scored with them
         value = jnp.sum(appearance.part_log_likelihoods(markers, frame, sharpness, False, parts))
+        if appearance.has_whole_pose_terms:
+            value = value + appearance.whole_pose_log_likelihood(markers, frame)
     return jnp.where(jnp.isnan(value), -jnp.inf, value)
 
 
@@ -155,8 +157,11 @@ def _refine_one(refinement: Refinement, start: Array, observed: Array | FrameInC
                                 sharpness, predicted)
     with jax.named_scope("gauss_newton"):
         # a FrameInChunk is read from the chunk in place (refine_pose)
+        # the block-sparse solver needs a sum of parts; terms of the whole pose (the
+        # coverage term) take the whole residual vector
+        solver = "optimistix" if appearance.has_whole_pose_terms else "parts"
         refined, _ = refine_pose(start, observed, appearance, template, start, prior_std,
-                                 sharpness, max_steps=refinement.steps, solver="parts")
+                                 sharpness, max_steps=refinement.steps, solver=solver)
     with jax.named_scope("choice"):
         refined = jnp.where(jnp.all(jnp.isfinite(refined)), refined, start)
         return refined, score_pose(refined, frame, appearance, template, sharpness)

@@ -126,6 +126,10 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
         raise ValueError("frames hold no frame")
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
+    if tracker.likelihood.has_coverage and masks is None and (
+            add_edges or frames.ndim != 4 or frames.shape[1] != 4):
+        raise ValueError("the likelihood's coverage term (coverage_weight) reads the person's "
+                         "masks: give masks=..., or observations with a mask channel")
     if masks is not None:
         from jaxtrack.vision.masks import check_masks
 

@@ -369,3 +369,90 @@ def test_foreground_term_misuse_is_reported():
         median_grey_background(observations[:2, 0])
     with pytest.raises(ValueError, match=r"\(time, height, width\)"):
         median_grey_background(grey)
+
+
+def _coverage_numpy(markers, mask, weight):
+    """The coverage term written out: a grid of 48 points along the longer side, the mask at
+    the nearest pixel, the distance to the nearest strip axis (head and hands extended)."""
+    from jaxtrack.likelihoods.edges import COVERAGE_GRID, COVERAGE_SCALE
+
+    markers = np.asarray(markers, np.float64)
+    height, width = mask.shape
+    step = max(height, width) / COVERAGE_GRID
+    rows, columns = round(height / step), round(width / step)
+    total, count = 0.0, 0.0
+    spine = np.linalg.norm(markers[3] - markers[1])
+    for row in range(rows):
+        for column in range(columns):
+            x = (column + 0.5) * width / columns - 0.5
+            y = (row + 0.5) * height / rows - 0.5
+            value = mask[int(np.clip(np.round(y), 0, height - 1)),
+                         int(np.clip(np.round(x), 0, width - 1))]
+            if value < 0.5:
+                continue
+            nearest = np.inf
+            for _, start, end, before, after in LIMB_SEGMENTS:
+                a, b = markers[start], markers[end]
+                a, b = a - before * (b - a), b + after * (b - a)
+                t = np.clip(np.dot([x, y] - a, b - a) / np.dot(b - a, b - a), 0, 1)
+                nearest = min(nearest, np.linalg.norm([x, y] - (a + t * (b - a))))
+            total += min(nearest / (COVERAGE_SCALE * spine), 2.0) ** 2
+            count += 1
+    return -weight * total / max(count, 1.0)
+
+
+def test_the_coverage_term_is_the_documented_formula_and_belongs_to_no_part():
+    """ν > 0 with a mask channel adds −ν Σ m c² / Σ m (written out with NumPy for masks over
+    the left 40 % of the frame and over a box around the arms); nothing without a mask or at
+    ν = 0; the residuals still give the cost and its gradient; the parts leave it out and
+    whole_pose_log_likelihood holds it; a pose whose arm lies where the mask has one costs
+    less than the same pose with that arm folded in."""
+    observations, markers, templates = wave()
+    pose = np.asarray(markers[5], np.float32)
+    observation = np.asarray(observations[5])
+    grey = observation[0]
+    covering = make_edge_limb_templates(observations[0], markers[0], coverage_weight=5.0)
+    assert covering.has_whole_pose_terms and not templates.has_whole_pose_terms
+    left = np.zeros_like(grey)
+    left[:, : int(0.4 * grey.shape[1])] = 1.0
+    box = np.zeros_like(grey)
+    x0, y0 = pose.min(axis=0).astype(int)
+    x1, y1 = pose.max(axis=0).astype(int)
+    box[y0:y1, x0:x1] = 1.0
+    plain = templates.log_likelihood(pose, observation, 4.0)
+    np.testing.assert_allclose(covering.log_likelihood(pose, observation, 4.0), plain)
+    for mask in (left, box):
+        with_mask = np.concatenate([observation, mask[None]])
+        expected = _coverage_numpy(pose, mask, 5.0)
+        assert expected < 0
+        base = templates.log_likelihood(pose, with_mask, 4.0)
+        np.testing.assert_allclose(covering.log_likelihood(pose, with_mask, 4.0),
+                                   base + expected, rtol=1e-4)
+        np.testing.assert_allclose(covering.whole_pose_log_likelihood(pose, with_mask),
+                                   expected, rtol=1e-4)
+        parts = covering.part_log_likelihoods(pose, with_mask, 4.0)
+        np.testing.assert_allclose(jnp.sum(parts) + expected,
+                                   covering.log_likelihood(pose, with_mask, 4.0), rtol=1e-4)
+        residuals = residuals_of(covering, pose, with_mask, 4.0)
+        np.testing.assert_allclose(0.5 * jnp.sum(residuals**2),
+                                   -covering.log_likelihood(pose, with_mask, 4.0, False),
+                                   rtol=1e-4)
+        assert covering.part_residuals(pose, with_mask, 4.0).size == templates.part_residuals(
+            pose, with_mask, 4.0).size
+    with_mask = np.concatenate([observation, box[None]])
+    gradient = jax.grad(lambda m: covering.whole_pose_log_likelihood(m, with_mask))(
+        jnp.asarray(pose))
+    assert np.all(np.isfinite(gradient)) and np.abs(gradient).max() > 0
+    # the mask holds the true arm: folding the right wrist onto the chest leaves it uncovered
+    arm = np.zeros_like(grey)
+    for start, end in ((4, 5), (5, 6)):
+        for t in np.linspace(0, 1, 50):
+            x, y = np.round(pose[start] + t * (pose[end] - pose[start])).astype(int)
+            arm[max(y - 3, 0):y + 4, max(x - 3, 0):x + 4] = 1.0
+    with_arm = np.concatenate([observation, arm[None]])
+    folded = pose.copy()
+    folded[5:7] = pose[2]
+    assert (covering.whole_pose_log_likelihood(pose, with_arm)
+            > covering.whole_pose_log_likelihood(folded, with_arm) + 1.0)
+    with pytest.raises(ValueError, match="coverage_weight must be a non-negative number"):
+        make_edge_limb_templates(observations[0], markers[0], coverage_weight=-1.0)

@@ -349,3 +349,45 @@ def test_chunks_are_capped_by_bytes_not_only_by_frame_count():
     assert _frames_per_chunk(64, (3, 544, 960), np.float32) == CHUNK_BYTES // per_frame < 64
     assert _frames_per_chunk(64, (3, 20_000, 20_000), np.float32) == 1  # never below one
     assert _frames_per_chunk(8, (240, 320), np.float32) == 8
+
+
+def _person_masks(truth, shape):
+    """Masks of the person drawn from the true markers: thick limb segments and the torso."""
+    import cv2
+
+    from jaxtrack.body import MARKER_EDGES
+
+    masks = np.zeros(shape, np.uint8)
+    corners = [UPPER_BODY_12.index(name) for name in ("right_shoulder", "left_shoulder",
+                                                       "left_hip", "right_hip")]
+    for mask, markers in zip(masks, truth, strict=True):
+        torso = float(np.linalg.norm(markers[3] - markers[1]))
+        cv2.fillPoly(mask, [np.round(markers[corners]).astype(np.int32)], 1)
+        for a, b in MARKER_EDGES[UPPER_BODY_12]:
+            cv2.line(mask, tuple(int(v) for v in markers[a]), tuple(int(v) for v in markers[b]),
+                     1, max(2, int(0.2 * torso)))
+    return masks.astype(bool)
+
+
+def test_the_coverage_term_tracks_with_the_persons_masks_and_needs_them(prior, sequence):
+    """``coverage_weight`` > 0: the particles and the refinement (its whole residual vector)
+    read the person's masks; the track follows the clip and differs from the one without the
+    term; without masks it is refused in one line, and partitioned sampling refuses it."""
+    truth = sequence.truth
+    masks = _person_masks(truth, sequence.frames.shape)
+    covering = latent_tracker(prior.model, prior.template, engine=Engine(100),
+                              fps=sequence.fps, likelihood=Likelihood(coverage_weight=10.0))
+    result = track(covering, jr.PRNGKey(0), sequence.frames, truth[0], chunk_size=8,
+                   progress=False, masks=masks)
+    metrics = evaluate_track(result.markers, truth, UPPER_BODY_12)
+    assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
+    plain = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps)
+    without = track(plain, jr.PRNGKey(0), sequence.frames, truth[0], chunk_size=8,
+                    progress=False, masks=masks)
+    assert not np.array_equal(result.markers, without.markers)
+    with pytest.raises(ValueError, match="coverage term .* reads the person's masks"):
+        track(covering, jr.PRNGKey(0), sequence.frames, truth[0], progress=False)
+    with pytest.raises(ValueError, match="coverage_weight must be a finite number >= 0"):
+        Likelihood(coverage_weight=-1.0)
+    with pytest.raises(ValueError, match="coverage_weight is a setting of the 'limbs\\+edges'"):
+        Likelihood("limbs", coverage_weight=1.0)

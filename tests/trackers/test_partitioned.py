@@ -53,6 +53,9 @@ def test_a_partitioned_tracker_needs_parts_and_limb_strips():
                        partitioned=True)
     with pytest.raises(ValueError, match="needs a PartsGPLVM"):
         latent_tracker(_part(0, 22), template, partitioned=True)
+    with pytest.raises(ValueError, match="the coverage term belongs to no part"):
+        latent_tracker(_parts_prior(), template, likelihood=Likelihood(coverage_weight=5.0),
+                       partitioned=True)
 
 
 def test_a_stage_moves_only_its_part_and_the_placement_only_with_the_torso():
