@@ -118,24 +118,41 @@ def masks_or_exit(images: np.ndarray, name: str) -> np.ndarray:
 
 
 def add_mask_options(parser) -> None:
-    """``--masks`` and ``--foreground-weight``: the limbs+edges likelihood's foreground from
-    MediaPipe's person masks per frame, and its weight μ (checked by
+    """``--masks``, ``--foreground-weight`` and ``--coverage-weight``: the limbs+edges
+    likelihood's foreground from MediaPipe's person masks per frame, its weight μ, and the
+    weight ν of its coverage term, which reads the masks (checked by
     :func:`check_mask_options`)."""
     parser.add_argument("--masks", choices=("none", "mediapipe"), default="none",
                         help="limbs+edges' foreground from MediaPipe's person masks per frame "
                              "(its venv) instead of the median background")
     parser.add_argument("--foreground-weight", type=float, default=None, metavar="MU",
                         help="limbs+edges' foreground weight (default the likelihood's)")
+    parser.add_argument("--coverage-weight", type=float, default=None, metavar="NU",
+                        help="limbs+edges' coverage term's weight, which charges the mask for "
+                             "what the body leaves unexplained (needs --masks; default off)")
 
 
 def check_mask_options(parser, args) -> str:
-    """Refuse a bad ``--foreground-weight`` in one line; return the output name's suffix for
-    the options (``-masks``, ``-muMU``)."""
-    weight = args.foreground_weight
-    if weight is not None and not (np.isfinite(weight) and weight >= 0):
-        parser.error(f"--foreground-weight must be a non-negative number, got {weight}")
+    """Refuse a bad ``--foreground-weight`` or ``--coverage-weight`` in one line (the latter
+    needs ``--masks``); return the output name's suffix for the options (``-masks``,
+    ``-muMU``, ``-nuNU``)."""
+    for option, weight in (("--foreground-weight", args.foreground_weight),
+                           ("--coverage-weight", args.coverage_weight)):
+        if weight is not None and not (np.isfinite(weight) and weight >= 0):
+            parser.error(f"{option} must be a non-negative number, got {weight}")
+    if args.coverage_weight and args.masks == "none":
+        parser.error("--coverage-weight: the coverage term reads the person's masks; give "
+                     "--masks mediapipe")
     return (("-masks" if args.masks != "none" else "")
-            + (f"-mu{weight:g}" if weight is not None else ""))
+            + (f"-mu{args.foreground_weight:g}" if args.foreground_weight is not None else "")
+            + (f"-nu{args.coverage_weight:g}" if args.coverage_weight is not None else ""))
+
+
+def likelihood_options(args) -> dict:
+    """The ``jaxtrack.trackers.Likelihood`` settings the mask options give (those set)."""
+    return {name: value for name, value in (("foreground_weight", args.foreground_weight),
+                                            ("coverage_weight", args.coverage_weight))
+            if value is not None}
 
 
 def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:

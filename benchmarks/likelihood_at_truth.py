@@ -27,7 +27,9 @@ follow the person with it.
 With ``--masks mediapipe`` the foreground term reads MediaPipe's person segmentation of each
 frame (a fourth observation channel, ``jaxtrack.vision.edge_observations(masks=...)``; its
 venv as ``benchmarks/_mediapipe.py`` says) instead of the median background, which on the real
-videos holds the man; ``--foreground-weight`` sets its μ (default the likelihood's).
+videos holds the man; ``--foreground-weight`` sets its μ (default the likelihood's), and
+``--coverage-weight`` turns on the coverage term, which charges the masks for what the body
+leaves unexplained, at weight ν.
 
 The rendered sequences are the scripted comparison's validation clips (``benchmarks.tracking``
 ``GESTURE_CLIPS["validation"]``, frontal view, real-photo background, 30 fps); the real ones the
@@ -45,7 +47,12 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._common import device_description, run_header
-from benchmarks._mediapipe import add_mask_options, check_mask_options, masks_or_exit
+from benchmarks._mediapipe import (
+    add_mask_options,
+    check_mask_options,
+    likelihood_options,
+    masks_or_exit,
+)
 from jaxtrack._files import write_json_atomically
 
 RESULTS = Path("benchmarks/results")
@@ -142,14 +149,14 @@ def table(rows: list[dict]) -> str:
 
 def _check_sequence(prior, name: str, kind: str, frames: np.ndarray, truth: np.ndarray,
                     fps: float, background: np.ndarray | None, likelihood: str,
-                    masks: np.ndarray | None = None, foreground_weight: float | None = None
+                    masks: np.ndarray | None = None, options: dict | None = None
                     ) -> tuple[dict, dict]:
     import jax.random as jr
 
     from jaxtrack import trackers
     from jaxtrack.vision import edge_observations
 
-    options = {} if foreground_weight is None else {"foreground_weight": foreground_weight}
+    options = options or {}
     tracker = trackers.latent_tracker(prior.model, prior.template,
                                       engine=trackers.Engine(200), fps=fps,
                                       likelihood=trackers.Likelihood(likelihood, **options),
@@ -192,7 +199,8 @@ def main(argv=None) -> int:
     if args.likelihood != "limbs+edges":
         for given, option in ((args.no_background, "--no-background"),
                               (args.masks != "none", "--masks"),
-                              (args.foreground_weight is not None, "--foreground-weight")):
+                              (args.foreground_weight is not None, "--foreground-weight"),
+                              (args.coverage_weight is not None, "--coverage-weight")):
             if given:
                 parser.error(f"{option} is about limbs+edges' foreground term; --likelihood "
                              f"{args.likelihood} has none")
@@ -229,7 +237,7 @@ def main(argv=None) -> int:
                                           sequence.frames, sequence.truth, sequence.fps,
                                           median_grey_background(sequence.frames)
                                           if use_background else None, args.likelihood,
-                                          masks, args.foreground_weight)
+                                          masks, likelihood_options(args))
             rows.append(row)
             records.append(record)
     if args.views:
@@ -241,7 +249,7 @@ def main(argv=None) -> int:
             row, record = _check_sequence(prior, f"Pose2Sim {camera}", "real, test",
                                           view.frames, view.truth, view.fps,
                                           view.background if use_background else None,
-                                          args.likelihood, masks, args.foreground_weight)
+                                          args.likelihood, masks, likelihood_options(args))
             rows.append(row)
             records.append(record)
     text = table(rows)
@@ -250,7 +258,8 @@ def main(argv=None) -> int:
     write_json_atomically(out, {
         **header, "likelihood": args.likelihood,
         "background": use_background, "masks": args.masks,
-        "foreground_weight": args.foreground_weight, "lost": LOST, "rows": rows,
+        "foreground_weight": args.foreground_weight,
+        "coverage_weight": args.coverage_weight, "lost": LOST, "rows": rows,
         "table": text, "sequences": records})
     print(f"wrote {out} in {header['seconds']:.0f} s")
     return 0

@@ -44,7 +44,12 @@ import jax.random as jr
 import numpy as np
 
 from benchmarks._common import auto_initial_pose, device_description, run_header
-from benchmarks._mediapipe import add_mask_options, check_mask_options, masks_or_exit
+from benchmarks._mediapipe import (
+    add_mask_options,
+    check_mask_options,
+    likelihood_options,
+    masks_or_exit,
+)
 from jaxtrack._files import write_json_atomically
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.data.splits import split_of
@@ -102,15 +107,15 @@ class View:
 
 
 def make_tracker(method: str, estimate: str, prior, view: View,
-                 foreground_weight: float | None = None):
+                 options: dict | None = None):
     """The tracker of one configuration (the protocol's ``build_tracker``, with the whole
-    video's background; ``foreground_weight``: the likelihood's μ, None its default)."""
+    video's background; ``options``: the likelihood's settings, e.g. μ and ν, None its
+    defaults)."""
     from jaxtrack import trackers
 
     refinement = trackers.Refinement() if estimate == "refined" else None
     particles = DEFAULT_PARTICLES[method]
-    likelihood = trackers.Likelihood(**({} if foreground_weight is None
-                                        else {"foreground_weight": foreground_weight}))
+    likelihood = trackers.Likelihood(**(options or {}))
     if method == "latent":
         return trackers.latent_tracker(prior.model, prior.template,
                                        engine=trackers.Engine(particles), fps=view.fps,
@@ -134,14 +139,13 @@ def score(markers: np.ndarray, view: View, **timing) -> dict:
 
 
 def run_tracker(prior, view: View, method: str, estimate: str, init: str,
-                initial_pose: np.ndarray, seed: int, foreground_weight: float | None = None
-                ) -> dict:
+                initial_pose: np.ndarray, seed: int, options: dict | None = None) -> dict:
     """One configuration on one view; with ``view.masks`` the observations carry them as the
     foreground term's per-frame mask."""
     from jaxtrack.trackers import track
     from jaxtrack.vision import edge_observations
 
-    tracker = make_tracker(method, estimate, prior, view, foreground_weight)
+    tracker = make_tracker(method, estimate, prior, view, options)
     frames = (view.frames if view.masks is None
               else edge_observations(view.frames, masks=view.masks))
     result = track(tracker, jr.PRNGKey(seed), frames, initial_pose, progress=False)
@@ -308,7 +312,7 @@ def main(argv=None) -> int:
         for method, estimate, (init, pose), seed in itertools.product(
                 methods, estimates, poses.items(), range(args.seeds)):
             run = run_tracker(prior, view, method, estimate, init, pose, seed,
-                              args.foreground_weight)
+                              likelihood_options(args))
             runs.append(run)
             print(f"  {method:12s} {estimate:7s} {init:9s} seed {seed}: "
                   + (run["skipped"] if "skipped" in run else
@@ -329,7 +333,7 @@ def main(argv=None) -> int:
         **header,
         "data": str(folder), "views": list(views), "frames": frames, "stride": args.stride,
         "max_size": args.max_size, "masks": args.masks,
-        "foreground_weight": args.foreground_weight,
+        "foreground_weight": args.foreground_weight, "coverage_weight": args.coverage_weight,
         "methods": list(methods), "estimates": list(estimates), "inits": list(args.inits),
         "seeds": args.seeds, "training_clips": list(TRAINING_CLIPS),
         "prior": "quick" if args.quick else "full",

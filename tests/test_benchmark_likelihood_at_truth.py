@@ -45,6 +45,8 @@ def test_a_tracker_never_off_reports_no_share_rather_than_a_number():
     (["--likelihood", "markers", "--foreground-weight", "3"], "--foreground-weight is about"),
     (["--no-background", "--masks", "mediapipe"], "--masks gives it masks"),
     (["--foreground-weight", "-1"], "--foreground-weight must be a non-negative number"),
+    (["--likelihood", "limbs", "--coverage-weight", "3"], "--coverage-weight is about"),
+    (["--coverage-weight", "3"], "--coverage-weight: the coverage term reads the person's"),
 ])
 def test_bad_arguments_are_refused_in_one_line(argv, message, capsys):
     with pytest.raises(SystemExit):

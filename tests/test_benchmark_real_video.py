@@ -31,7 +31,11 @@ def test_bad_arguments_are_refused_in_one_line(capsys):
     for argv, message in ((["--stride", "0"], "--stride must be at least 1"),
                           (["--frames", "1"], "--frames must be at least 2"),
                           (["--foreground-weight", "nan"],
-                           "--foreground-weight must be a non-negative number")):
+                           "--foreground-weight must be a non-negative number"),
+                          (["--coverage-weight", "-2"],
+                           "--coverage-weight must be a non-negative number"),
+                          (["--coverage-weight", "10"],
+                           "--coverage-weight: the coverage term reads the person's masks")):
         with pytest.raises(SystemExit):
             real_video.main(argv)
         assert message in capsys.readouterr().err
