@@ -146,6 +146,10 @@ COVERAGE_SCALE = 0.25
 point a quarter of the spine from the nearest limb axis costs one unit, twice that or more
 four (the cap)."""
 
+COVERAGE_DEPTH = 1.1
+"""The coverage term counts mask points down to this far along the spine from the neck (1: the
+pelvis): below that are the legs, which an upper-body pose does not explain."""
+
 _CHANNELS = 3
 MASK_CHANNEL = 3
 """The observation channel that holds the person's mask, where there is one."""
@@ -326,7 +330,13 @@ class EdgeLimbTemplates(PartTemplates):
         points = jnp.asarray(np.stack([gx.ravel(), gy.ravel()], axis=1), dtype)
         mask = sample_points(observation.astype(dtype), points[:, 0], points[:, 1], True,
                              channel=MASK_CHANNEL) >= 0.5
-        mask = jax.lax.stop_gradient(mask.astype(dtype))
+        # the upper body explains the mask down to its hips: points beyond the pelvis along
+        # the spine (the legs) are no term's
+        neck, pelvis = markers[SPINE_MARKERS[0]], markers[SPINE_MARKERS[1]]
+        spine_axis = pelvis - neck
+        depth = jnp.sum((points - neck) * spine_axis, -1) / jnp.maximum(
+            jnp.sum(spine_axis**2), 1e-12)
+        mask = jax.lax.stop_gradient((mask & (depth <= COVERAGE_DEPTH)).astype(dtype))
         starts, ends = _segment_ends(markers)
         axis = ends - starts
         offset = points[:, None, :] - starts[None]

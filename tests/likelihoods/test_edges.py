@@ -373,8 +373,9 @@ def test_foreground_term_misuse_is_reported():
 
 def _coverage_numpy(markers, mask, weight):
     """The coverage term written out: a grid of 48 points along the longer side, the mask at
-    the nearest pixel, the distance to the nearest strip axis (head and hands extended)."""
-    from jaxtrack.likelihoods.edges import COVERAGE_GRID, COVERAGE_SCALE
+    the nearest pixel down to 1.1 spines from the neck, the distance to the nearest strip axis
+    (head and hands extended)."""
+    from jaxtrack.likelihoods.edges import COVERAGE_DEPTH, COVERAGE_GRID, COVERAGE_SCALE
 
     markers = np.asarray(markers, np.float64)
     height, width = mask.shape
@@ -388,7 +389,9 @@ def _coverage_numpy(markers, mask, weight):
             y = (row + 0.5) * height / rows - 0.5
             value = mask[int(np.clip(np.round(y), 0, height - 1)),
                          int(np.clip(np.round(x), 0, width - 1))]
-            if value < 0.5:
+            axis = markers[3] - markers[1]
+            if value < 0.5 or np.dot([x, y] - markers[1], axis) / np.dot(axis, axis) > (
+                    COVERAGE_DEPTH):
                 continue
             nearest = np.inf
             for _, start, end, before, after in LIMB_SEGMENTS:
@@ -403,7 +406,8 @@ def _coverage_numpy(markers, mask, weight):
 
 def test_the_coverage_term_is_the_documented_formula_and_belongs_to_no_part():
     """ν > 0 with a mask channel adds −ν Σ m c² / Σ m (written out with NumPy for masks over
-    the left 40 % of the frame and over a box around the arms); nothing without a mask or at
+    the left 40 % of the frame and over a box around the arms); the mask below the hips (the
+    legs) counts for nothing; nothing without a mask or at
     ν = 0; the residuals still give the cost and its gradient; the parts leave it out and
     whole_pose_log_likelihood holds it; a pose whose arm lies where the mask has one costs
     less than the same pose with that arm folded in."""
@@ -454,5 +458,11 @@ def test_the_coverage_term_is_the_documented_formula_and_belongs_to_no_part():
     folded[5:7] = pose[2]
     assert (covering.whole_pose_log_likelihood(pose, with_arm)
             > covering.whole_pose_log_likelihood(folded, with_arm) + 1.0)
+    # the legs: a mask wholly below the hips costs nothing, whatever the pose
+    legs = np.zeros_like(grey)
+    legs[int(pose[3, 1] + 0.6 * np.linalg.norm(pose[3] - pose[1])):] = 1.0
+    assert legs.any()
+    np.testing.assert_allclose(covering.whole_pose_log_likelihood(
+        pose, np.concatenate([observation, legs[None]])), 0.0)
     with pytest.raises(ValueError, match="coverage_weight must be a non-negative number"):
         make_edge_limb_templates(observations[0], markers[0], coverage_weight=-1.0)
