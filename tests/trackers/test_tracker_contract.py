@@ -256,7 +256,8 @@ def test_evaluate_runs_the_baselines_with_the_latent_trackers_refinement(prior, 
         "arm_search": {"grid": 3, "span": 0.6, "margin": 2.0, "momentum": 1.0}}
     assert plain["tracker"]["likelihood"] == {"kind": "limbs+edges", "sharpness": None,
                                               "nearest": True, "edge_weight": None,
-                                              "edge_tolerance": None, "foreground_weight": None}
+                                              "edge_tolerance": None, "foreground_weight": None,
+                                              "coverage_weight": None}
     assert plain["overall"]["mean_error_px"] != refined["overall"]["mean_error_px"]
 
 
