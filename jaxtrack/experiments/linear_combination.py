@@ -42,8 +42,8 @@ from jaxtrack.priors.linear_combinations import (
 from jaxtrack.trackers._options import Engine
 
 __all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_SKELETON_ESTIMATE", "DEFAULT_VIEW_SELECTION",
-           "METHODS",
-           "SKELETON_ESTIMATES", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS", "VIEW_SELECTION",
+           "METHODS", "SKELETON_ESTIMATES", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
+           "VIEW_SELECTION",
            "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
            "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
            "aligned_skeleton_error", "select_tracked_views", "skeleton_error", "subject_centre",

@@ -50,8 +50,11 @@ explain, as silhouette trackers' two-sided terms do:
     c_g = min(d_g / (ρ · spine), 2),
 
 over a fixed grid of points g across the frame (:data:`COVERAGE_GRID` along its longer side),
-``m_g`` the mask there (0 or 1), ``d_g`` the distance from g to the nearest limb segment (the
-strips' axes, the head's and the hands' extensions included), ρ = :data:`COVERAGE_SCALE`. It
+``m_g`` the mask there (0 or 1; 0 beyond :data:`COVERAGE_DEPTH` spines from the neck along
+the spine, the legs, which an upper-body pose does not explain), ``d_g`` the distance from g
+to the nearest limb segment (the strips' axes, the head's and the hands' extensions
+included), ρ = :data:`COVERAGE_SCALE`. Off by default: it did not keep the real videos'
+person tracked (docs/likelihoods.md). It
 depends on the whole pose, not on one strip, so it is no part's term:
 :meth:`EdgeLimbTemplates.whole_pose_log_likelihood` scores it, :meth:`log_likelihood` and
 :meth:`residuals` include it (the residuals with their gradient), the part functions leave it
@@ -95,11 +98,11 @@ from jaxtrack.likelihoods._strips import (
 )
 from jaxtrack.likelihoods.limbs import DEFAULT_STRIP_WIDTH, LimbTemplates, make_limb_templates
 
-__all__ = ["COVERAGE_GRID", "COVERAGE_SCALE", "DEFAULT_BORDER_MARGIN", "DEFAULT_BORDER_SCALES",
-           "DEFAULT_EDGE_SCALE",
-           "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_FOREGROUND_THRESHOLD",
-           "DEFAULT_FOREGROUND_WEIGHT", "EdgeLimbTemplates", "FOREGROUND_SEGMENTS",
-           "fit_border_widths", "limb_edge_distances", "make_edge_limb_templates"]
+__all__ = ["COVERAGE_DEPTH", "COVERAGE_GRID", "COVERAGE_SCALE", "DEFAULT_BORDER_MARGIN",
+           "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE",
+           "DEFAULT_EDGE_WEIGHT", "DEFAULT_FOREGROUND_THRESHOLD", "DEFAULT_FOREGROUND_WEIGHT",
+           "EdgeLimbTemplates", "FOREGROUND_SEGMENTS", "fit_border_widths", "limb_edge_distances",
+           "make_edge_limb_templates"]
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
