@@ -15,8 +15,12 @@ give another). Its ``track.json`` is then scored against the reference
   that best maps each frame's skeleton onto the reference's
   (``experiments.linear_combination.aligned_skeleton_error``, the usual monocular 3-D score,
   blind to the subject's size and the global rotation), in millimetres;
-- view selection: the 3-D error of the view the tracker selected (fitness × 1/ambiguity)
-  against the best (oracle) and the worst view of each frame;
+- 3-D without the alignment, per view: the skeleton ``track.json`` gives in the calibration's
+  world axes (``skeleton_world_m``, neck-relative) against the reference's, neck-relative,
+  in millimetres: the score of the rendered evaluation, which also charges the skeleton's
+  orientation and size;
+- view selection: the 3-D error (aligned, and without the alignment) of the view the tracker
+  selected against the best (oracle) and the worst view of each frame;
 - a baseline that never looks at the video: the mean of the model's training skeletons, held
   constant, scored as the tracker is.
 
@@ -91,7 +95,11 @@ def score_track(record: dict, references: dict, world_markers: np.ndarray,
     names = [view["camera"] for view in record["views"]]
     head, neck, pelvis = (UPPER_BODY_12.index(name) for name in ("head", "neck", "pelvis"))
     wrists = [UPPER_BODY_12.index("right_wrist"), UPPER_BODY_12.index("left_wrist")]
-    per_view, errors_3d = {}, []
+    per_view, errors_3d, raw_errors_3d = {}, [], []
+    # the reference in jaxtrack track's world axes (read_qca(world_up="y"): the Z-up point
+    # (X, Y, Z) is (X, Z, −Y)), neck-relative, as skeleton_world_m
+    truth_world = world_markers[rows][..., [0, 2, 1]] * np.array([1.0, 1.0, -1.0])
+    truth_world = truth_world - truth_world[:, neck:neck + 1]
     for index, name in enumerate(names):
         reference = references[name].select([int(entry["frame"]) for entry in frames])
         torso = np.linalg.norm(reference.markers[:, neck] - reference.markers[:, pelvis], axis=-1)
@@ -107,23 +115,27 @@ def score_track(record: dict, references: dict, world_markers: np.ndarray,
                              for entry in entries], float)[:, order]
         error_3d = 1e3 * aligned_skeleton_error(skeleton, world_markers[rows])
         errors_3d.append(error_3d)
+        world = np.array([[entry["skeleton_world_m"][joint] for joint in joints]
+                          for entry in entries], float)[:, order]
+        raw_3d = 1e3 * np.linalg.norm(world - truth_world, axis=-1).mean(axis=-1)
+        raw_errors_3d.append(raw_3d)
         per_view[name] = {
             "frames": int(len(entries)), "observed": int(observed.sum()),
             "head_error_torso": _mean(head_error[observed]),
             "hand_error_torso": _mean(hand_error[observed]),
-            "aligned_3d_error_mm": _mean(error_3d)}
-    errors_3d = np.stack(errors_3d, axis=1)  # (time, views)
+            "aligned_3d_error_mm": _mean(error_3d), "raw_3d_error_mm": _mean(raw_3d)}
     chosen = np.array([-1 if entry["selected_view"] is None else entry["selected_view"]
                        for entry in frames])
     selected = chosen >= 0
-    chosen_error = errors_3d[np.arange(len(frames)), np.maximum(chosen, 0)]
-    selection = {
-        "frames": int(selected.sum()),
-        "selected_mm": _mean(chosen_error[selected]),
-        "oracle_mm": _mean(errors_3d[selected].min(axis=1)),
-        "worst_mm": _mean(errors_3d[selected].max(axis=1)),
-        "times_selected": {name: int(np.sum(chosen == index)) for index, name in enumerate(names)},
-    }
+    selection = {"frames": int(selected.sum()),
+                 "times_selected": {name: int(np.sum(chosen == index))
+                                    for index, name in enumerate(names)}}
+    for prefix, errors in (("", errors_3d), ("raw_", raw_errors_3d)):
+        errors = np.stack(errors, axis=1)  # (time, views)
+        chosen_error = errors[np.arange(len(frames)), np.maximum(chosen, 0)]
+        selection |= {f"{prefix}selected_mm": _mean(chosen_error[selected]),
+                      f"{prefix}oracle_mm": _mean(errors[selected].min(axis=1)),
+                      f"{prefix}worst_mm": _mean(errors[selected].max(axis=1))}
     scores = {"views": per_view, "selection": selection, "frames": int(len(frames))}
     if mean_skeleton is not None:
         constant = np.broadcast_to(np.asarray(mean_skeleton, float)[order], (len(rows), 12, 3))
@@ -278,11 +290,14 @@ def main(argv=None) -> int:
                 [("view", "view", "s"), ("observed", "observed", "d"),
                  ("head_error_torso", "head error (torso)", ".2f"),
                  ("hand_error_torso", "hand error (torso)", ".2f"),
-                 ("aligned_3d_error_mm", "3-D error, aligned (mm)", ".0f")])
+                 ("aligned_3d_error_mm", "3-D error, aligned (mm)", ".0f"),
+                 ("raw_3d_error_mm", "3-D error, not aligned (mm)", ".0f")])
     selection = scores["selection"]
     print(f"\nview selection over {selection['frames']} frames: selected "
           f"{selection['selected_mm']:.0f} mm, oracle {selection['oracle_mm']:.0f} mm, worst "
-          f"{selection['worst_mm']:.0f} mm; times selected {selection['times_selected']}")
+          f"{selection['worst_mm']:.0f} mm after alignment ({selection['raw_selected_mm']:.0f}, "
+          f"{selection['raw_oracle_mm']:.0f} and {selection['raw_worst_mm']:.0f} mm without); "
+          f"times selected {selection['times_selected']}")
     print(f"the training skeletons' mean, held constant: {scores['constant_mean_skeleton_mm']:.0f} "
           f"mm")
     _write(args, tracked, record, scores=scores)

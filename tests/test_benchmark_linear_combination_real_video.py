@@ -14,12 +14,15 @@ def test_hands_are_scored_under_the_better_assignment():
     np.testing.assert_allclose(hands_error(truth + [0.0, 3.0], truth), [[3.0, 3.0]])
 
 
-def _record(skeletons, chosen, joints):
-    """A two-view track.json whose views report ``skeletons[view][t]`` (neck-relative)."""
+def _record(skeletons, chosen, joints, worlds=None):
+    """A two-view track.json whose views report ``skeletons[view][t]`` (neck-relative) and, in
+    the world's axes, ``worlds[view][t]`` (default the same)."""
+    worlds = skeletons if worlds is None else worlds
     frames = []
     for t, pick in enumerate(chosen):
         views = [{"head": [100.0 + view, 50.0], "hands": [[80.0, 120.0], [120.0, 120.0]],
-                  "skeleton_m": dict(zip(joints, skeletons[view][t].tolist(), strict=True))}
+                  "skeleton_m": dict(zip(joints, skeletons[view][t].tolist(), strict=True)),
+                  "skeleton_world_m": dict(zip(joints, worlds[view][t].tolist(), strict=True))}
                  for view in range(len(skeletons))]
         frames.append({"frame": t + 1, "views": views, "selected_view": pick})
     return {"joints": joints, "views": [{"camera": "a"}, {"camera": "b"}], "frames": frames}
@@ -47,8 +50,18 @@ def test_a_track_is_scored_in_2d_and_3d_and_its_view_selection_against_best_and_
     exact = 2.0 * world @ turn.T
     noisy = world + rng.normal(scale=0.2, size=world.shape)
     skeletons = [exact[:, order], noisy[:, order]]
-    record = _record(skeletons, [0, 1, None, 1], joints)
+    # in jaxtrack track's Y-up world (the reference is Z-up: (X, Y, Z) is (X, Z, −Y)),
+    # neck-relative: view a exact, view b 0.1 m off along x
+    y_up = world[..., [0, 2, 1]] * [1.0, 1.0, -1.0]
+    y_up = y_up - y_up[:, neck:neck + 1]
+    worlds = [y_up[:, order], (y_up + [0.1, 0.0, 0.0])[:, order]]
+    record = _record(skeletons, [0, 1, None, 1], joints, worlds)
     scores = score_track(record, references, world, frames, mean_skeleton=world[0, order])
+    assert scores["views"]["a"]["raw_3d_error_mm"] < 1e-6
+    np.testing.assert_allclose(scores["views"]["b"]["raw_3d_error_mm"], 100.0)
+    assert scores["selection"]["raw_oracle_mm"] < 1e-6
+    np.testing.assert_allclose(scores["selection"]["raw_selected_mm"], 200.0 / 3)
+    np.testing.assert_allclose(scores["selection"]["raw_worst_mm"], 100.0)
     assert scores["frames"] == num
     assert scores["views"]["a"]["aligned_3d_error_mm"] < 1e-6
     assert scores["views"]["b"]["aligned_3d_error_mm"] > 10.0
