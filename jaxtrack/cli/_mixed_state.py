@@ -69,6 +69,7 @@ _OTHER_METHODS = {
     "skin": (None, "it is a linear-combination setting"),
     "view_selection": (None, "it is a linear-combination setting"),
     "skeleton": (None, "it is a linear-combination setting"),
+    "coverage_weight": (None, "it is a setting of the latent tracker's likelihood"),
     "iterations": (None, "it is a linear-combination or GPLVM setting"),
     "prior_optimiser": ("bfgs", "it is a GPLVM setting"),
     "baseline_dynamics": ("training", "it is a CONDENSATION/MHT setting"),

@@ -105,6 +105,10 @@ def add_parser(subparsers) -> None:
                        help="linear-combination: the 3-D skeleton reported, the particles' "
                        "weighted mean (the default, chosen on validation) or the best "
                        "particle's (the paper's)")
+    parser.add_argument("--coverage-weight", type=float, default=None, metavar="NU",
+                        help="latent, with --masks: also charge the masks for what the body "
+                        "leaves unexplained, NU nats per unit of the coverage term "
+                        "(jaxtrack.likelihoods.edges; default off)")
     parser.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
                         help="the person's masks, one .npz ('masks') or .npy of (frames, height, "
                         "width) bool per --video, in order (a person segmenter's): the "
@@ -244,7 +248,7 @@ def run(args: argparse.Namespace) -> int:
 
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
-    from jaxtrack.trackers import Engine, latent_tracker, track
+    from jaxtrack.trackers import Engine, Likelihood, latent_tracker, track
     from jaxtrack.vision import (
         VideoError,
         median_grey_background,
@@ -286,6 +290,15 @@ def run(args: argparse.Namespace) -> int:
     if given_masks is not None and not options.likelihood.needs_edges:
         raise UserError(f"--masks: the {options.likelihood.kind!r} likelihood has no foreground "
                         f"term to read them (the default limbs+edges has)")
+    likelihood = options.likelihood
+    if args.coverage_weight is not None:
+        if given_masks is None:
+            raise UserError("--coverage-weight: the coverage term reads the person's masks; "
+                            "give --masks")
+        try:
+            likelihood = Likelihood(likelihood.kind, coverage_weight=args.coverage_weight)
+        except ValueError as error:
+            raise UserError(f"--coverage-weight: {error}") from None
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model)
@@ -318,7 +331,7 @@ def run(args: argparse.Namespace) -> int:
     # a median of one or two frames holds the person
     foreground = options.foreground and len(grey) >= 3
     tracker = latent_tracker(model, template, engine=Engine(args.particles), fps=fps,
-                             likelihood=options.likelihood, refinement=options.refinement,
+                             likelihood=likelihood, refinement=options.refinement,
                              background=median_grey_background(grey) if foreground else None)
     result = track(tracker, jr.PRNGKey(args.seed), grey, markers, masks=masks)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):

@@ -115,9 +115,10 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
     masks = write_masks(tmp_path / "masks.npz", np.ones((10, 240, 320), bool))
     assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
                  f"manual:{numbers}", "--out", str(tmp_path / "masked"), "--particles", "50",
-                 "--max-size", "160", "--masks", str(masks)]) == 0
+                 "--max-size", "160", "--masks", str(masks), "--coverage-weight", "5"]) == 0
     masked = json.loads((tmp_path / "masked" / "track.json").read_text())
     assert masked["masks"] == str(masks) and len(masked["frames"]) == 10
+    assert masked["tracker"]["likelihood"]["coverage_weight"] == 5.0
     assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
                  f"manual:{numbers}", "--out", str(tmp_path / "bad"), "--likelihood", "limbs",
                  "--masks", str(masks)]) == 2
@@ -169,6 +170,9 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--init", "manual:1,2,3")
     assert code == 2 and "24" in error
+    code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                      "--coverage-weight", "5")
+    assert code == 2 and "--coverage-weight: the coverage term reads the person's masks" in error
     for option, value in (("--calibration", "calib.txt"), ("--view-selection", "paper"),
                           ("--skeleton", "best"),
                           ("--skin", "200,150,120"), ("--cameras", "0"), ("--iterations", "5")):
