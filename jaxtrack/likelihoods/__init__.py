@@ -5,6 +5,7 @@ design page is ``docs/likelihoods.md``.
 """
 
 from jaxtrack.likelihoods._base import PartTemplates, check_markers
+from jaxtrack.likelihoods._strips import squared_segment_distances
 from jaxtrack.likelihoods.appearance import (
     DEFAULT_LIKELIHOOD,
     LIKELIHOODS,
@@ -62,5 +63,5 @@ __all__ = [
     "limb_ncc_log_likelihood", "limb_ncc_scores", "limb_points", "make_appearance_templates",
     "make_limb_templates", "make_templates", "ncc_log_likelihood", "ncc_log_likelihood_nearest",
     "ncc_scores", "ncc_scores_nearest", "patch_half_size", "sample_patches",
-    "sample_patches_nearest",
+    "sample_patches_nearest", "squared_segment_distances",
 ]

@@ -26,7 +26,8 @@ from jaxtrack.likelihoods._base import NUM_MARKERS, SPINE_MARKERS, check_markers
 from jaxtrack.likelihoods._sampling import float_dtype
 
 __all__ = ["LIMB_SEGMENTS", "PART_MARKERS", "STRIP_ENDS", "point_coordinates",
-           "segment_axes", "select_segments", "spine_length", "strip_points"]
+           "segment_axes", "select_segments", "spine_length", "squared_segment_distances",
+           "strip_points"]
 
 _marker = SPM_MARKERS.index
 
@@ -75,6 +76,19 @@ def segment_axes(markers: Float[Array, "markers 2"], segments: tuple[int, ...] |
     chosen = select_segments(segments)
     return (markers[jnp.asarray([_ENDS[index] for index in chosen])]
             - markers[jnp.asarray([_STARTS[index] for index in chosen])])
+
+
+def squared_segment_distances(points: Float[Array, "points 2"], starts: Float[Array, "segments 2"],
+                              ends: Float[Array, "segments 2"]) -> Float[Array, "points segments"]:
+    """The squared distance from each point to each segment ``starts[s]``–``ends[s]`` (a
+    degenerate segment is its start point)."""
+    direction = ends - starts
+    offset = points[:, None, :] - starts[None]
+    length2 = jnp.maximum(jnp.sum(direction * direction, axis=-1), 1e-12)
+    along = jnp.clip(jnp.sum(offset * direction[None], axis=-1) / length2, 0.0, 1.0)
+    closest = starts[None] + along[..., None] * direction[None]
+    difference = points[:, None, :] - closest
+    return jnp.sum(difference * difference, axis=-1)
 
 
 def spine_length(markers: Float[Array, "markers 2"], ends: tuple[int, int] = SPINE_MARKERS

@@ -94,6 +94,7 @@ from jaxtrack.likelihoods._strips import (
     segment_axes,
     select_segments,
     spine_length,
+    squared_segment_distances,
     strip_points,
 )
 from jaxtrack.likelihoods.limbs import DEFAULT_STRIP_WIDTH, LimbTemplates, make_limb_templates
@@ -340,13 +341,8 @@ class EdgeLimbTemplates(PartTemplates):
         depth = jnp.sum((points - neck) * spine_axis, -1) / jnp.maximum(
             jnp.sum(spine_axis**2), 1e-12)
         mask = jax.lax.stop_gradient((mask & (depth <= COVERAGE_DEPTH)).astype(dtype))
-        starts, ends = _segment_ends(markers)
-        axis = ends - starts
-        offset = points[:, None, :] - starts[None]
-        along = jnp.clip(jnp.sum(offset * axis, -1) / jnp.maximum(jnp.sum(axis**2, -1), 1e-12),
-                         0.0, 1.0)
-        squared = jnp.sum((offset - along[..., None] * axis) ** 2, -1)
-        nearest_squared = jnp.min(squared, axis=1)
+        nearest_squared = jnp.min(squared_segment_distances(points, *_segment_ends(markers)),
+                                  axis=1)
         scale = COVERAGE_SCALE * (spine_length(markers) if spine is None
                                   else jnp.asarray(spine, dtype))
         # sqrt at 0 has no derivative: a grid point on an axis is given a floor of 1e-12

@@ -33,6 +33,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from jaxtrack.body import MARKER_EDGES, UPPER_BODY_12, SPMTemplate, spm_forward
+from jaxtrack.likelihoods import squared_segment_distances
 from jaxtrack.priors.gplvm import GPLVM
 from jaxtrack.priors.poses import states_from_features
 
@@ -102,12 +103,7 @@ def _window_points(resolution: int) -> np.ndarray:
 
 def _segment_distances(points: Array, starts: Array, ends: Array) -> Array:
     """``(points, segments)`` distance of each point to each segment."""
-    direction = ends - starts
-    offset = points[:, None, :] - starts[None]
-    length2 = jnp.maximum(jnp.sum(direction * direction, axis=-1), 1e-12)
-    along = jnp.clip(jnp.sum(offset * direction[None], axis=-1) / length2, 0.0, 1.0)
-    closest = starts[None] + along[..., None] * direction[None]
-    return jnp.linalg.norm(points[:, None, :] - closest, axis=-1)
+    return jnp.sqrt(squared_segment_distances(points, starts, ends))
 
 
 @jax.jit
