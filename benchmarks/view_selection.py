@@ -143,7 +143,7 @@ def evaluate_clip(result: dict, estimate: str = "best") -> dict:
     """Every rule's errors and the predictors' correlations on one ``multi_view`` result, for
     the 3-D skeleton ``estimate`` (``"best"``, the best particle's; ``"mean"``, the weighted
     mean's: ``jaxtrack.experiments.linear_combination.SKELETON_ESTIMATES``)."""
-    chosen = result["estimates"][estimate] if "estimates" in result else result
+    chosen = result["estimates"][estimate]
     errors = np.asarray(chosen["errors_m"], np.float64)
     log_fitness = np.asarray(result["log_fitness"], np.float64)
     ambiguity = np.asarray(result["ambiguity"], np.float64)
