@@ -63,6 +63,40 @@ def to_upper_body(landmarks: np.ndarray) -> np.ndarray:
     return np.stack([named[name] for name in UPPER_BODY_12], axis=-2)
 
 
+def keypoint_confidence(visibility: np.ndarray) -> np.ndarray:
+    """``(..., 33)`` MediaPipe landmark visibilities → ``(..., 12)`` confidences of the markers
+    :func:`to_upper_body` makes: each marker's least visibility over the landmarks it is made
+    from (the head, neck and thorax from the shoulders and ears, the thorax also from the hips,
+    the pelvis from the hips)."""
+    from jaxtrack.body import UPPER_BODY_12
+
+    visibility = np.clip(np.nan_to_num(np.asarray(visibility, np.float64)), 0.0, 1.0)
+
+    def least(*names):
+        return np.min(np.stack([visibility[..., LANDMARKS[name]] for name in names]), axis=0)
+
+    head = ("left_shoulder", "right_shoulder", "left_ear", "right_ear")
+    named = {"head": least(*head), "neck": least(*head),
+             "thorax": least(*head, "left_hip", "right_hip"),
+             "pelvis": least("left_hip", "right_hip")}
+    for side in ("right", "left"):
+        for part in ("shoulder", "elbow", "wrist", "hip"):
+            named[f"{side}_{part}"] = least(f"{side}_{part}")
+    return np.stack([named[name] for name in UPPER_BODY_12], axis=-1)
+
+
+def detected_keypoints(result: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(points (time, 12, 2), confidence (time, 12))`` of a :func:`run_mediapipe` result, as
+    the keypoint term reads them (``jaxtrack.vision.keypoints``): the markers MediaPipe found
+    in each frame (NaN and confidence 0 where it found no one; not filled in from other frames)
+    and their confidences (:func:`keypoint_confidence`)."""
+    found = np.asarray(result["found"], bool)
+    points = to_upper_body(result["landmarks"])
+    confidence = np.where(found[:, None], keypoint_confidence(result["visibility"]), 0.0)
+    points = np.where((confidence > 0)[..., None] & np.isfinite(points), points, np.nan)
+    return points, np.where(np.all(np.isfinite(points), -1), confidence, 0.0)
+
+
 def run_mediapipe(frames: np.ndarray, *, model_complexity: int = 1,
                   timeout: float | None = 1800.0, segmentation: bool = False) -> dict:
     """MediaPipe Pose on ``frames`` (time, height, width, 3) uint8 RGB, in its venv.

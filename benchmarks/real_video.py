@@ -20,7 +20,13 @@ MHT's step are learned, so that no method's dynamics run at the wrong rate), by
 - each initialised (a) from the reference's markers in the first tracked frame and (b)
   automatically (``jaxtrack.trackers.autoinit``, as ``jaxtrack track --init face``: face and
   blob-head boxes, the prior's poses against the foreground of the video's median background,
-  or against the first frame's person mask with ``--masks``, as ``jaxtrack track --masks``).
+  or against the first frame's person mask with ``--masks``, as ``jaxtrack track --masks``),
+  or (c, ``--inits detector``) from MediaPipe's keypoints in the first tracked frame.
+
+With ``--keypoints mediapipe`` every method's likelihood also scores MediaPipe Pose's keypoints
+of each frame (the keypoint term, ``jaxtrack.likelihoods.edges``: the detector's error model,
+its scales fitted on validation subjects by ``benchmarks.keypoint_term``, at η =
+``--keypoint-weight``, default 3/2, the Cauchy density's own).
 
 Also scored: "static", the initial pose held still (how far the subject moves), and MediaPipe
 Pose (``benchmarks/_mediapipe.py``, a per-frame detector in its own venv, when ``make
@@ -60,7 +66,7 @@ from jaxtrack.experiments import DEFAULT_PARTICLES
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 METHODS = ("latent", "condensation", "mht")
 ESTIMATES = ("own", "refined")
-INITS = ("reference", "auto")
+INITS = ("reference", "auto", "detector")
 RESULTS = Path("benchmarks/results")
 QUICK = {"views": ("cam02",), "frames": 10, "methods": ("latent",), "estimates": ("refined",)}
 SCORED = ("num_frames", "mean_error_px", "median_error_px", "mean_error_torso",
@@ -104,6 +110,17 @@ class View:
         self.background_rgb = median_background(video.frames)
         self.background = median_grey_background(to_grey(video.frames))
         self.masks = None  # person masks of the tracked frames, where a run gives them
+        self.detections = None  # MediaPipe's run on the tracked frames, where one is made
+        self.keypoints = None  # (points, confidence) for the keypoint term, where it is on
+
+
+def detections(view: View) -> dict:
+    """MediaPipe Pose on the view's tracked frames (run once, kept on the view)."""
+    from benchmarks._mediapipe import run_mediapipe
+
+    if view.detections is None:
+        view.detections = run_mediapipe(view.images)
+    return view.detections
 
 
 def make_tracker(method: str, estimate: str, prior, view: View,
@@ -141,13 +158,14 @@ def score(markers: np.ndarray, view: View, **timing) -> dict:
 def run_tracker(prior, view: View, method: str, estimate: str, init: str,
                 initial_pose: np.ndarray, seed: int, options: dict | None = None) -> dict:
     """One configuration on one view; with ``view.masks`` the observations carry them as the
-    foreground term's per-frame mask."""
+    foreground term's per-frame mask, with ``view.keypoints`` the detector's keypoints for
+    the keypoint term."""
     from jaxtrack.trackers import track
     from jaxtrack.vision import edge_observations
 
     tracker = make_tracker(method, estimate, prior, view, options)
-    frames = (view.frames if view.masks is None
-              else edge_observations(view.frames, masks=view.masks))
+    frames = (view.frames if view.masks is None and view.keypoints is None
+              else edge_observations(view.frames, masks=view.masks, keypoints=view.keypoints))
     result = track(tracker, jr.PRNGKey(seed), frames, initial_pose, progress=False)
     if not np.all(np.isfinite(result.markers)):
         return {"method": method, "estimate": estimate, "init": init, "view": view.name,
@@ -159,9 +177,7 @@ def run_tracker(prior, view: View, method: str, estimate: str, init: str,
 
 
 def run_mediapipe_view(view: View) -> dict:
-    from benchmarks._mediapipe import run_mediapipe
-
-    found = run_mediapipe(view.images)
+    found = detections(view)
     row = {"method": "mediapipe", "estimate": "own", "init": "none", "view": view.name}
     if "skipped" in found:
         return {**row, "skipped": found["skipped"]}
@@ -226,7 +242,9 @@ def main(argv=None) -> int:
                              "frame 1, every --stride-th (default: all the reference covers, 99)")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
-    parser.add_argument("--inits", nargs="+", choices=INITS, default=list(INITS))
+    parser.add_argument("--inits", nargs="+", choices=INITS, default=["reference", "auto"],
+                        help="initial poses: the reference's, the automatic one (jaxtrack "
+                             "track --init face), MediaPipe's first keypoints (detector)")
     parser.add_argument("--seeds", type=int, default=1, help="tracker seeds per configuration")
     parser.add_argument("--max-size", type=int, default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
@@ -242,6 +260,12 @@ def main(argv=None) -> int:
                         help="cam02, 10 frames, the latent tracker with refinement, both inits, "
                              "a small prior (a smoke run)")
     add_mask_options(parser)
+    parser.add_argument("--keypoints", choices=("none", "mediapipe"), default="none",
+                        help="every method's likelihood also scores MediaPipe Pose's keypoints "
+                             "of each frame (the keypoint term)")
+    parser.add_argument("--keypoint-weight", type=float, default=None, metavar="ETA",
+                        help="the keypoint term's η (default 3/2, the Cauchy density's own; "
+                             "needs --keypoints)")
     parser.add_argument("--data", type=Path, default=None,
                         help="the pose2sim_demo_singleperson folder (default: shared data)")
     parser.add_argument("--out", type=Path, default=None,
@@ -257,6 +281,23 @@ def main(argv=None) -> int:
     if args.max_size < 32:
         parser.error(f"--max-size must be at least 32, got {args.max_size}")
     suffix = check_mask_options(parser, args).replace("-", "_")
+    if args.keypoint_weight is not None and not (np.isfinite(args.keypoint_weight)
+                                                 and args.keypoint_weight > 0):
+        parser.error(f"--keypoint-weight must be a positive number, got {args.keypoint_weight}")
+    if args.keypoint_weight is not None and args.keypoints == "none":
+        parser.error("--keypoint-weight: the keypoint term reads a detector's keypoints; give "
+                     "--keypoints mediapipe")
+    if "detector" in args.inits and args.no_mediapipe:
+        parser.error("--inits detector starts from MediaPipe's keypoints; leave out "
+                     "--no-mediapipe")
+    options = likelihood_options(args)
+    if args.keypoints != "none":
+        from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT
+
+        options["keypoint_weight"] = (CAUCHY_KEYPOINT_WEIGHT if args.keypoint_weight is None
+                                      else args.keypoint_weight)
+        suffix += "_keypoints" + (f"_eta{args.keypoint_weight:g}"
+                                  if args.keypoint_weight is not None else "")
     views, frames = tuple(args.views), args.frames
     methods, estimates = tuple(args.methods), tuple(args.estimates)
     if args.quick:
@@ -288,6 +329,15 @@ def main(argv=None) -> int:
                     stride=args.stride)
         if args.masks == "mediapipe":
             view.masks = masks_or_exit(view.images, camera)
+        if args.keypoints == "mediapipe" or "detector" in args.inits:
+            from benchmarks._mediapipe import detected_keypoints
+
+            found = detections(view)
+            if "skipped" in found:
+                raise SystemExit(f"--keypoints mediapipe / --inits detector, {camera}: "
+                                 f"{found['skipped']}")
+            if args.keypoints == "mediapipe":
+                view.keypoints = detected_keypoints(found)
         height, width = view.frames.shape[1:]
         print(f"{camera}: video frames {view.frame_indices[0]}..{view.frame_indices[-1]} at "
               f"{width}x{height}, reference torso "
@@ -309,10 +359,19 @@ def main(argv=None) -> int:
                              "skipped": record["failed"]})
             else:
                 poses["auto"] = pose
+        if "detector" in args.inits:
+            from benchmarks._mediapipe import detected_keypoints
+
+            first, confidence = (value[0] for value in detected_keypoints(detections(view)))
+            if np.all(confidence > 0):
+                poses["detector"] = first
+            else:
+                runs.append({"method": "all", "init": "detector", "view": camera,
+                             "skipped": "MediaPipe did not find every marker in the first "
+                                        "frame"})
         for method, estimate, (init, pose), seed in itertools.product(
                 methods, estimates, poses.items(), range(args.seeds)):
-            run = run_tracker(prior, view, method, estimate, init, pose, seed,
-                              likelihood_options(args))
+            run = run_tracker(prior, view, method, estimate, init, pose, seed, options)
             runs.append(run)
             print(f"  {method:12s} {estimate:7s} {init:9s} seed {seed}: "
                   + (run["skipped"] if "skipped" in run else
@@ -334,6 +393,7 @@ def main(argv=None) -> int:
         "data": str(folder), "views": list(views), "frames": frames, "stride": args.stride,
         "max_size": args.max_size, "masks": args.masks,
         "foreground_weight": args.foreground_weight, "coverage_weight": args.coverage_weight,
+        "keypoints": args.keypoints, "keypoint_weight": options.get("keypoint_weight"),
         "methods": list(methods), "estimates": list(estimates), "inits": list(args.inits),
         "seeds": args.seeds, "training_clips": list(TRAINING_CLIPS),
         "prior": "quick" if args.quick else "full",

@@ -397,6 +397,10 @@ def track(args: argparse.Namespace) -> int:
     if args.init != "face":
         raise UserError("--init is not used by --method linear-combination (it starts from the "
                         "model's clusters)")
+    for name in ("coverage_weight", "keypoints", "keypoint_weight"):  # refused, not ignored
+        if getattr(args, name, None) is not None:
+            raise UserError(f"--{name.replace('_', '-')} does not apply to --method "
+                            f"linear-combination (it is the latent tracker's likelihood's)")
     skin = _skin(args.skin)
     start, stop = _frame_range(args.frames)
     if args.out.exists() and not args.out.is_dir():

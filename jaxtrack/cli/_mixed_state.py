@@ -70,6 +70,8 @@ _OTHER_METHODS = {
     "view_selection": (None, "it is a linear-combination setting"),
     "skeleton": (None, "it is a linear-combination setting"),
     "coverage_weight": (None, "it is a setting of the latent tracker's likelihood"),
+    "keypoints": (None, "it is read by the latent tracker's likelihood"),
+    "keypoint_weight": (None, "it is a setting of the latent tracker's likelihood"),
     "iterations": (None, "it is a linear-combination or GPLVM setting"),
     "prior_optimiser": ("bfgs", "it is a GPLVM setting"),
     "baseline_dynamics": ("training", "it is a CONDENSATION/MHT setting"),

@@ -8,7 +8,7 @@ parts, ``jaxtrack.cli._mixed_state``.) The latent tracker:
 2. initialise on the first frame, by hand (``--init manual:x,y,...``: the 12 markers in video
    pixels) or automatically (``--init face``: face and foreground-blob head boxes, then a search
    of the prior's training poses against a median-background foreground;
-   ``jaxtrack.trackers.autoinit``),
+   ``jaxtrack.trackers.autoinit``), or from a detector's keypoints (``--init keypoints``),
 3. track every frame, and write ``DIR/overlay.mp4`` (the estimate drawn on the video) and
    ``DIR/track.json`` (per-frame markers in the video's own pixels, ESS, log-likelihood, the
    initialisation and timings). Both are written atomically, the JSON last, and nothing is
@@ -70,9 +70,9 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--video", required=True, type=Path, nargs="+", metavar="FILE",
                         help="the video to track (anything OpenCV's FFmpeg reads: mp4, avi, "
                         "mov); linear-combination: one per calibrated camera")
-    parser.add_argument("--init", default="face", metavar="face|manual:x,y,...",
-                        help="first-frame pose: found automatically (face, the default) or the "
-                        "12 markers given by hand (see below)")
+    parser.add_argument("--init", default="face", metavar="face|keypoints|manual:x,y,...",
+                        help="first-frame pose: found automatically (face, the default), the "
+                        "first frame's --keypoints, or the 12 markers given by hand (see below)")
     parser.add_argument("--out", required=True, type=Path, metavar="DIR",
                         help="folder to write overlay.mp4 and track.json into (created)")
     parser.add_argument("--particles", type=int, default=None,
@@ -109,6 +109,15 @@ def add_parser(subparsers) -> None:
                         help="latent, with --masks: also charge the masks for what the body "
                         "leaves unexplained, NU nats per unit of the coverage term "
                         "(jaxtrack.likelihoods.edges; default off)")
+    parser.add_argument("--keypoints", type=Path, default=None, metavar="FILE",
+                        help="latent: a per-frame detector's keypoints of the video, a .npz with "
+                        "'keypoints' (frames, 12, 2) in the video's pixels in SPM_MARKERS order "
+                        "(NaN where not found) and optionally 'confidence' (frames, 12), one "
+                        "row per video frame from the first (jaxtrack.vision.keypoints); the "
+                        "likelihood's keypoint term scores them")
+    parser.add_argument("--keypoint-weight", type=float, default=None, metavar="ETA",
+                        help="latent, with --keypoints: the keypoint term's weight (default "
+                        "1.5, the Cauchy density's own: jaxtrack.likelihoods.edges)")
     parser.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
                         help="the person's masks, one .npz ('masks') or .npy of (frames, height, "
                         "width) bool per --video, in order (a person segmenter's): the "
@@ -119,6 +128,28 @@ def add_parser(subparsers) -> None:
                        "a fixed chroma box)")
     # mixed-state options
     parser.set_defaults(handler=run)
+
+
+def _read_keypoints(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """``--keypoints FILE``'s keypoints and confidences, or a one-line error naming it."""
+    from jaxtrack.vision.keypoints import KeypointFileError, read_keypoints
+
+    try:
+        return read_keypoints(path)
+    except KeypointFileError as error:
+        raise UserError(f"--keypoints: {error}") from None
+
+
+def _keypoints_for_frames(keypoints, path: Path, frame_indices, scale: float
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """The keypoints of the video frames tracked, in tracking pixels."""
+    points, confidence = keypoints
+    last = int(np.max(frame_indices))
+    if len(points) <= last:
+        raise UserError(f"--keypoints: {path} holds {len(points)} frames; the video frames "
+                        f"tracked run to frame {last}")
+    chosen = np.asarray(frame_indices)
+    return points[chosen] * scale, confidence[chosen]
 
 
 def _load_prior(path: Path):
@@ -204,10 +235,13 @@ def _inside(markers: np.ndarray, scale: float, size: tuple[int, int]) -> np.ndar
     return markers * scale
 
 
-def _initialise(args, model, template, frames, scale, masks=None) -> tuple[np.ndarray, dict]:
+def _initialise(args, model, template, frames, scale, masks=None, keypoints=None
+                ) -> tuple[np.ndarray, dict]:
     """First-frame markers (tracking pixels) and a description of how they were found; with
     ``masks`` (the person's masks of the tracked frames) ``--init face`` reads the first frame's
-    mask as its foreground instead of the difference from the video's median."""
+    mask as its foreground instead of the difference from the video's median; ``--init
+    keypoints`` takes ``keypoints``' first frame (the detector's, tracking pixels)."""
+    from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
     from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask, median_background
 
@@ -216,8 +250,17 @@ def _initialise(args, model, template, frames, scale, masks=None) -> tuple[np.nd
     if args.init.startswith("manual:"):
         markers = _inside(_manual_markers(args.init[len("manual:"):]), scale, original)
         return markers, {"method": "manual"}
+    if args.init == "keypoints":
+        points, confidence = keypoints
+        if not np.all(confidence[0] > 0):
+            missing = [name for name, sure in zip(UPPER_BODY_12, confidence[0], strict=True)
+                       if not sure > 0]
+            raise UserError(f"--init keypoints: {args.keypoints} has no {', '.join(missing)} "
+                            f"in the first frame tracked; give --init face or manual:...")
+        return points[0].astype(np.float64), {"method": "keypoints",
+                                              "file": str(args.keypoints)}
     if args.init != "face":
-        raise UserError(f"--init must be face or manual:x,y,... (24 numbers), got "
+        raise UserError(f"--init must be face, keypoints or manual:x,y,... (24 numbers), got "
                         f"{args.init!r}")
     if masks is not None:
         foreground, source = np.asarray(masks[0], bool), "masks"
@@ -281,9 +324,15 @@ def run(args: argparse.Namespace) -> int:
     _check_particle_memory(args.particles)
     if args.init.startswith("manual:"):
         _manual_markers(args.init[len("manual:"):])  # refused before anything is loaded
-    elif args.init != "face":
-        raise UserError(f"--init must be face or manual:x,y,... (24 numbers), got "
+    elif args.init not in ("face", "keypoints"):
+        raise UserError(f"--init must be face, keypoints or manual:x,y,... (24 numbers), got "
                         f"{args.init!r}")
+    if args.keypoints is None:
+        for option, given in (("--keypoint-weight", args.keypoint_weight is not None),
+                              ("--init keypoints", args.init == "keypoints")):
+            if given:
+                raise UserError(f"{option}: it reads a detector's keypoints; give --keypoints")
+    given_keypoints = None if args.keypoints is None else _read_keypoints(args.keypoints)
     if args.max_size < 32:
         raise UserError(f"--max-size must be at least 32, got {args.max_size}")
     options = tracker_options(args)
@@ -291,14 +340,28 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--masks: the {options.likelihood.kind!r} likelihood has no foreground "
                         f"term to read them (the default limbs+edges has)")
     likelihood = options.likelihood
+    terms = {}
     if args.coverage_weight is not None:
         if given_masks is None:
             raise UserError("--coverage-weight: the coverage term reads the person's masks; "
                             "give --masks")
+        terms["coverage_weight"] = ("--coverage-weight", args.coverage_weight)
+    if given_keypoints is not None:
+        from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT
+
+        if not likelihood.needs_edges:
+            raise UserError(f"--keypoints: the {likelihood.kind!r} likelihood has no keypoint "
+                            f"term to read them (the default limbs+edges has)")
+        terms["keypoint_weight"] = ("--keypoint-weight", CAUCHY_KEYPOINT_WEIGHT
+                                    if args.keypoint_weight is None else args.keypoint_weight)
+    for name, (option, value) in terms.items():
         try:
-            likelihood = Likelihood(likelihood.kind, coverage_weight=args.coverage_weight)
+            Likelihood(likelihood.kind, **{name: value})
         except ValueError as error:
-            raise UserError(f"--coverage-weight: {error}") from None
+            raise UserError(f"{option}: {error}") from None
+    if terms:
+        likelihood = Likelihood(likelihood.kind,
+                                **{name: value for name, (_, value) in terms.items()})
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model)
@@ -322,7 +385,9 @@ def run(args: argparse.Namespace) -> int:
           f"{frames.shape[1]}")
     masks = None if given_masks is None else fit_mask_file(
         given_masks, args.masks[0], video.frame_indices, (frames.shape[2], frames.shape[1]))
-    markers, init = _initialise(args, model, template, frames, scale, masks)
+    keypoints = None if given_keypoints is None else _keypoints_for_frames(
+        given_keypoints, args.keypoints, video.frame_indices, scale)
+    markers, init = _initialise(args, model, template, frames, scale, masks, keypoints)
     print(f"initialised ({init['method']}"
           + (f", {init['source']} box, overlap {init['score']:.2f} against the "
              f"{init['foreground']}" if "score" in init else "")
@@ -333,7 +398,8 @@ def run(args: argparse.Namespace) -> int:
     tracker = latent_tracker(model, template, engine=Engine(args.particles), fps=fps,
                              likelihood=likelihood, refinement=options.refinement,
                              background=median_grey_background(grey) if foreground else None)
-    result = track(tracker, jr.PRNGKey(args.seed), grey, markers, masks=masks)
+    result = track(tracker, jr.PRNGKey(args.seed), grey, markers, masks=masks,
+                   keypoints=keypoints)
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
         raise UserError(f"tracking produced non-finite markers from frame {bad}; nothing written")
@@ -361,7 +427,8 @@ def run(args: argparse.Namespace) -> int:
         "video": str(args.video), "model": str(args.model), "size": [width, height],
         "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
         "particles": args.particles, "seed": args.seed, "tracker": result.options,
-        "masks": None if args.masks is None else str(args.masks[0]), "init": init,
+        "masks": None if args.masks is None else str(args.masks[0]),
+        "keypoints": None if args.keypoints is None else str(args.keypoints), "init": init,
         "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
         "frames": per_frame})
     print(f"tracked {len(frames)} frames: {1e3 * result.seconds_per_frame:.2f} ms/frame "

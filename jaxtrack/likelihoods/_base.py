@@ -124,6 +124,13 @@ class PartTemplates(eqx.Module):
         some): ``log_likelihood`` is the sum of :meth:`part_log_likelihoods` plus this."""
         return jnp.zeros((), jnp.result_type(jnp.asarray(markers_2d), float))
 
+    def whole_pose_residuals(self, markers_2d: Float[ArrayLike, "markers 2"],
+                             observation: Array) -> Float[Array, " residuals"]:
+        """The residuals of :meth:`whole_pose_log_likelihood` (half their squared norm is its
+        negative), which :meth:`residuals` holds after the parts'; empty unless a subclass has
+        such terms."""
+        return jnp.zeros((0,), jnp.result_type(jnp.asarray(markers_2d), float))
+
     @abc.abstractmethod
     def log_likelihood(self, markers_2d: Float[ArrayLike, "markers 2"], observation: Array,
                        sharpness: Float[ArrayLike, ""], nearest: bool = True

@@ -69,7 +69,8 @@ def make_appearance_templates(
     in ``SPM_MARKERS`` order, with the static camera's grey ``background`` for
     ``"limbs+edges"``'s foreground term (None: none; the other likelihoods take none), cast to
     the templates' dtype. ``edge_options`` (``edge_weight``, ``edge_tolerance``,
-    ``foreground_weight``) go to ``make_edge_limb_templates``; other likelihoods take none."""
+    ``foreground_weight``, ``coverage_weight``, ``keypoint_weight``, ``keypoint_scale``) go to
+    ``make_edge_limb_templates``; other likelihoods take none."""
     _check(likelihood)
     if likelihood == "limbs+edges":
         return make_edge_limb_templates(image, markers_2d, background=background,
@@ -92,8 +93,8 @@ def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, .
 
     Grey frames ``(time, height, width)`` suit every likelihood; the edge-limb templates also
     take ``(time, 3, height, width)`` grey frames with their edge maps
-    (``jaxtrack.vision.edge_observations``), and ``(time, 4, height, width)`` with the
-    person's mask too. Anything else raises a ValueError.
+    (``jaxtrack.vision.edge_observations``), and ``(time, 4 or 5, height, width)`` with the
+    person's mask or a detector's keypoints or both. Anything else raises a ValueError.
 
     Returns:
         True when ``templates`` need edge maps and the frames are grey.
@@ -103,7 +104,7 @@ def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, .
              else isinstance(templates, EdgeLimbTemplates))
     if len(shape) == 3:
         return edges
-    if edges and len(shape) == 4 and shape[1] in (3, 4):
+    if edges and len(shape) == 4 and shape[1] in (3, 4, 5):  # 5: mask and keypoints
         return False
     expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
                 "with their edge maps, or (time, 4, height, width) with the person's mask too "

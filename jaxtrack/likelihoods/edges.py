@@ -60,9 +60,31 @@ depends on the whole pose, not on one strip, so it is no part's term:
 :meth:`residuals` include it (the residuals with their gradient), the part functions leave it
 out, and the refinement solves with the whole residual vector where it is on.
 
-Observations are ``(3, height, width)``: the grey frame, its edge distance map and the nearest
-edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
-sequence), or ``(4, height, width)`` with the person's mask as the fourth. Trackers take grey
+**The keypoint term** (``keypoint_weight`` η > 0, with a keypoint channel; off by default). A
+per-frame detector's keypoints (:mod:`jaxtrack.vision.keypoints`: the 12 markers' positions
+``k_j`` and confidences ``w_j`` in [0, 1]) say where the joints are. The term is the
+detector's error model: a bivariate Cauchy (Student's t with one degree of freedom) about each
+keypoint, a Gaussian core whose tails let a wrong detection cost only logarithmically, so a
+tracker keeps a pull towards the keypoints however far it is and is not dragged by one wrong
+keypoint. A detector may also swap the person's left and right (seen from behind, or
+turning); the tracker, which knows which side was which a frame ago, should not follow it, so
+the term scores the better of the two assignments, the keypoints as given and with left and
+right exchanged (``π``, :data:`MIRRORED_MARKERS`):
+
+    log p(z | y) = … − η min_{π ∈ {id, mirror}} Σ_j w_π(j) log(1 + q_j(y)²),
+    q_j = ‖m_j − k_π(j)‖ / (τ_j · s · spine),
+
+``τ_j`` = :data:`KEYPOINT_SCALES` (the detector's scale per marker, fitted on validation
+subjects), ``s`` = ``keypoint_scale`` (a factor on them, 1 by default); η = 3/2 is the
+bivariate Cauchy density's own exponent (:data:`CAUCHY_KEYPOINT_WEIGHT`). The assignment is
+piecewise constant in the pose (its choice carries no gradient). Like the coverage term, the
+keypoint term is no part's (:meth:`EdgeLimbTemplates.whole_pose_log_likelihood`; the
+refinement takes its 12 residuals apart from the parts').
+
+Observations are ``(3, height, width)``: the grey frame, its edge distance map and the
+nearest edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
+sequence), or ``(4, height, width)`` with the person's mask as the fourth; templates with the
+keypoint term read one more channel, last, that carries the keypoints. Trackers take grey
 frames as with the other likelihoods: ``jaxtrack.trackers.track`` adds the edge maps chunk by
 chunk (and the masks, given with ``masks=``).
 
@@ -79,6 +101,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from jaxtrack.body import SPM_MARKERS
 from jaxtrack.likelihoods._base import SPINE_MARKERS, PartTemplates, check_markers
 from jaxtrack.likelihoods._correlation import correlation, template_residuals
 from jaxtrack.likelihoods._sampling import (
@@ -98,12 +121,14 @@ from jaxtrack.likelihoods._strips import (
     strip_points,
 )
 from jaxtrack.likelihoods.limbs import DEFAULT_STRIP_WIDTH, LimbTemplates, make_limb_templates
+from jaxtrack.vision.keypoints import unpack_keypoints
 
 __all__ = ["COVERAGE_DEPTH", "COVERAGE_GRID", "COVERAGE_SCALE", "DEFAULT_BORDER_MARGIN",
            "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE",
            "DEFAULT_EDGE_WEIGHT", "DEFAULT_FOREGROUND_THRESHOLD", "DEFAULT_FOREGROUND_WEIGHT",
-           "EdgeLimbTemplates", "FOREGROUND_SEGMENTS", "fit_border_widths", "limb_edge_distances",
-           "make_edge_limb_templates"]
+           "CAUCHY_KEYPOINT_WEIGHT", "EdgeLimbTemplates", "FOREGROUND_SEGMENTS", "KEYPOINT_SCALES",
+           "MIRRORED_MARKERS",
+           "fit_border_widths", "limb_edge_distances", "make_edge_limb_templates"]
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
@@ -154,19 +179,53 @@ COVERAGE_DEPTH = 1.1
 """The coverage term counts mask points down to this far along the spine from the neck (1: the
 pelvis): below that are the legs, which an upper-body pose does not explain."""
 
+KEYPOINT_SCALES = (0.082, 0.037, 0.018, 0.051, 0.051, 0.027, 0.039, 0.028, 0.049, 0.029, 0.033,
+                   0.047)
+"""τ_j: the keypoint term's scale per marker (``SPM_MARKERS`` order) as a fraction of the spine
+(neck–pelvis), the detector's error scale: the median distance between MediaPipe Pose's
+keypoints and the true markers over √3 (a bivariate Cauchy's median radius is √3 times its
+scale), on the validation subjects' rendered gesture clips (``python -m benchmarks.keypoint_term``,
+2026-11-27: 3 Bandai clips × 2 views × 2 backgrounds, 60 frames each; docs/real-video.md). The
+head is the least sure: MediaPipe has no such marker, and it is placed from the shoulders and
+ears (``benchmarks/_mediapipe.py``)."""
+
+CAUCHY_KEYPOINT_WEIGHT = 1.5
+"""η = 3/2, the exponent of the bivariate Cauchy density ``(1 + q²)^(−3/2)``: the keypoint term
+as the detector's error model, with no weight tuned."""
+
+MIRRORED_MARKERS = tuple(SPM_MARKERS.index(name.replace("left", "@").replace("right", "left")
+                                           .replace("@", "right")) for name in SPM_MARKERS)
+"""``SPM_MARKERS`` with the person's left and right exchanged (the keypoint term's second
+assignment)."""
+
 _CHANNELS = 3
 MASK_CHANNEL = 3
 """The observation channel that holds the person's mask, where there is one."""
 
 
-def _check_observation(observation: Array) -> Array:
+def _check_observation(observation: Array, keypoints: bool = False) -> Array:
     observation = jnp.asarray(observation)
-    if observation.ndim != 3 or observation.shape[0] not in (_CHANNELS, _CHANNELS + 1):
-        raise ValueError(f"observation must be (3, height, width): the grey frame, its edge "
-                         f"distance map and the edges' orientation (edge_observations), or "
-                         f"(4, height, width) with the person's mask, got shape "
-                         f"{observation.shape}")
+    extra = int(keypoints)
+    if observation.ndim != 3 or observation.shape[0] not in (_CHANNELS + extra,
+                                                            _CHANNELS + 1 + extra):
+        raise ValueError("observation must be (3, height, width): the grey frame, its edge "
+                         "distance map and the edges' orientation (edge_observations), or "
+                         "(4, height, width) with the person's mask"
+                         + (", then the keypoint channel" if keypoints else "")
+                         + f", got shape {observation.shape}")
     return observation
+
+
+def _edge_maps_of(observation: Array) -> Array:
+    """The grey frame and its edge maps, the first three channels of an observation with or
+    without a mask and keypoints (all a reference frame is read for)."""
+    observation = jnp.asarray(observation)
+    if observation.ndim != 3 or not _CHANNELS <= observation.shape[0] <= _CHANNELS + 2:
+        raise ValueError(f"observation must be (3, height, width): the grey frame, its edge "
+                         f"distance map and the edges' orientation (edge_observations), with "
+                         f"the person's mask and keypoints after them or not, got shape "
+                         f"{observation.shape}")
+    return observation[:_CHANNELS]
 
 
 def _borders(values: Array) -> Array:
@@ -217,6 +276,10 @@ class EdgeLimbTemplates(PartTemplates):
         foreground_weight: μ, nats per arm strip whose centre line lies on the background.
         foreground_threshold: grey-level difference from the background above which a pixel
             is foreground.
+        coverage_weight: ν, the coverage term's weight (0: off).
+        keypoint_weight, keypoint_scale: η of the keypoint term and ``s``, the factor on its
+            scales :data:`KEYPOINT_SCALES` (η = 0: off; then the observations carry no keypoint
+            channel).
     """
 
     strips: LimbTemplates
@@ -228,11 +291,17 @@ class EdgeLimbTemplates(PartTemplates):
     foreground_weight: Float[Array, ""] = DEFAULT_FOREGROUND_WEIGHT
     foreground_threshold: Float[Array, ""] = DEFAULT_FOREGROUND_THRESHOLD
     coverage_weight: float = eqx.field(static=True, default=0.0)
+    keypoint_weight: float = eqx.field(static=True, default=0.0)
+    keypoint_scale: float = eqx.field(static=True, default=1.0)
 
     def __check_init__(self):
-        if not (np.isfinite(self.coverage_weight) and self.coverage_weight >= 0):
-            raise ValueError(f"coverage_weight must be a non-negative number, got "
-                             f"{self.coverage_weight}")
+        for name in ("coverage_weight", "keypoint_weight"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a non-negative number, got {value}")
+        if not (np.isfinite(self.keypoint_scale) and self.keypoint_scale > 0):
+            raise ValueError(f"keypoint_scale must be a positive factor on KEYPOINT_SCALES, "
+                             f"got {self.keypoint_scale}")
         if self.border_widths.shape != (len(LIMB_SEGMENTS),):
             raise ValueError(f"border_widths must be ({len(LIMB_SEGMENTS)},), got "
                              f"{self.border_widths.shape}")
@@ -271,7 +340,7 @@ class EdgeLimbTemplates(PartTemplates):
         the nearest pixel (angles do not interpolate). ``spine``: the length the widths and σ
         are fractions of, None: the markers' own.
         """
-        observation = _check_observation(observation)
+        observation = _check_observation(observation, self.reads_keypoints)
         markers = jnp.asarray(markers_2d)
         dtype = float_dtype(observation, markers)
         markers, observation = markers.astype(dtype), observation.astype(dtype)
@@ -293,7 +362,7 @@ class EdgeLimbTemplates(PartTemplates):
         the grey level is within ``foreground_threshold`` of the background's; 0 for the other
         strips; None with neither. Piecewise constant in the pose, so its gradient is taken as
         0."""
-        has_mask = observation.shape[0] > MASK_CHANNEL
+        has_mask = self._has_mask(observation)
         if self.background is None and not has_mask:
             return None
         dtype = samples.dtype
@@ -312,16 +381,50 @@ class EdgeLimbTemplates(PartTemplates):
         return jax.lax.stop_gradient(off.at[arms].set(jnp.mean(still.astype(dtype), axis=-1)))
 
     @property
+    def reads_keypoints(self) -> bool:
+        """Whether the keypoint term is on: its observations end with a keypoint channel."""
+        return self.keypoint_weight > 0
+
+    def _has_mask(self, observation: Array) -> bool:
+        """Whether the observation (static shape) carries the person's mask."""
+        return observation.shape[0] - int(self.reads_keypoints) > MASK_CHANNEL
+
+    @property
     def has_whole_pose_terms(self) -> bool:
-        """Whether :meth:`log_likelihood` holds a term no part holds (the coverage term)."""
-        return self.coverage_weight > 0
+        """Whether :meth:`log_likelihood` holds a term no part holds (the coverage term, the
+        keypoint term)."""
+        return self.coverage_weight > 0 or self.reads_keypoints
+
+    def _keypoint_costs(self, markers_2d, observation, spine=None) -> tuple[Array, Array] | None:
+        """``(log(1 + q_j²), w_π(j))`` of the keypoint term's better assignment (module
+        docstring), or None without the term; the first is differentiable in the markers."""
+        if not self.reads_keypoints:
+            return None
+        observation = _check_observation(observation, True)
+        markers = jnp.asarray(markers_2d)
+        dtype = float_dtype(observation, markers)
+        markers = markers.astype(dtype)
+        points, confidence = unpack_keypoints(observation[-1].astype(dtype))
+        spine = spine_length(markers) if spine is None else jnp.asarray(spine, dtype)
+        scales = jnp.asarray(KEYPOINT_SCALES, dtype) * self.keypoint_scale * spine
+
+        def costs(order):
+            squared = jnp.sum((markers - points[order]) ** 2, axis=-1)
+            return jnp.log1p(squared / scales**2), confidence[order]
+
+        given, given_weight = costs(np.arange(len(SPM_MARKERS)))
+        mirrored, mirrored_weight = costs(np.asarray(MIRRORED_MARKERS))
+        swap = jax.lax.stop_gradient(jnp.sum(mirrored_weight * mirrored)
+                                     < jnp.sum(given_weight * given))
+        return (jnp.where(swap, mirrored, given),
+                jax.lax.stop_gradient(jnp.where(swap, mirrored_weight, given_weight)))
 
     def _coverage(self, markers_2d, observation, spine=None) -> tuple[Array, Array] | None:
         """``(c_g, m_g / max(Σ m, 1))`` of the coverage term's grid points (module
         docstring), or None without the term or a mask channel. ``c_g`` is differentiable in
         the markers; the mask is read at the nearest pixel."""
-        observation = _check_observation(observation)
-        if not self.has_whole_pose_terms or observation.shape[0] <= MASK_CHANNEL:
+        observation = _check_observation(observation, self.reads_keypoints)
+        if not self.coverage_weight > 0 or not self._has_mask(observation):
             return None
         markers = jnp.asarray(markers_2d)
         dtype = float_dtype(observation, markers)
@@ -350,13 +453,36 @@ class EdgeLimbTemplates(PartTemplates):
         return jnp.minimum(distance / scale, 2.0), mask / jnp.maximum(jnp.sum(mask), 1.0)
 
     def whole_pose_log_likelihood(self, markers_2d, observation) -> Array:
-        """The coverage term ``−ν Σ_g m_g c_g² / max(Σ m, 1)`` of one pose (module docstring);
-        0 without the term or a mask channel."""
+        """The coverage term ``−ν Σ_g m_g c_g² / max(Σ m, 1)`` and the keypoint term ``−η
+        Σ_j w_j log(1 + q_j²)`` of one pose (module docstring); 0 without them."""
+        value = jnp.zeros((), float_dtype(jnp.asarray(observation), jnp.asarray(markers_2d)))
         coverage = self._coverage(markers_2d, observation)
-        if coverage is None:
-            return jnp.zeros((), float_dtype(jnp.asarray(observation), jnp.asarray(markers_2d)))
-        cost, weight = coverage
-        return -jnp.asarray(self.coverage_weight, cost.dtype) * jnp.sum(weight * cost**2)
+        if coverage is not None:
+            cost, weight = coverage
+            value = value - self.coverage_weight * jnp.sum(weight * cost**2)
+        keypoints = self._keypoint_costs(markers_2d, observation)
+        if keypoints is not None:
+            cost, weight = keypoints
+            value = value - self.keypoint_weight * jnp.sum(weight * cost)
+        return value
+
+    def whole_pose_residuals(self, markers_2d, observation, spine=None) -> Array:
+        """The residuals of the whole-pose terms, after the parts' in :meth:`residuals`:
+        ``√(2ν m_g / Σ m) c_g`` per grid point (coverage), then ``√(2η w_j log(1 + q_j²))``
+        per marker (keypoints); empty without them."""
+        residuals = [jnp.zeros((0,), float_dtype(jnp.asarray(observation),
+                                                 jnp.asarray(markers_2d)))]
+        coverage = self._coverage(markers_2d, observation, spine)
+        if coverage is not None:
+            cost, weight = coverage  # differentiable in the pose
+            residuals.append(jnp.sqrt(2.0 * self.coverage_weight * weight) * cost)
+        keypoints = self._keypoint_costs(markers_2d, observation, spine)
+        if keypoints is not None:
+            cost, weight = keypoints
+            # √ has no derivative at 0: a marker on its keypoint is given a floor of 1e-12
+            residuals.append(jnp.sqrt(2.0 * self.keypoint_weight * weight
+                                      * jnp.maximum(cost, 1e-12)))
+        return jnp.concatenate([residual.astype(residuals[0].dtype) for residual in residuals])
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
@@ -379,12 +505,10 @@ class EdgeLimbTemplates(PartTemplates):
         Σ m) c_g`` per grid point with the coverage term: half the squared norm is the negative
         log-likelihood. ``spine``: as in :meth:`part_residuals`."""
         residuals = self._part_terms_residuals(markers_2d, observation, sharpness, spine)
-        coverage = self._coverage(markers_2d, observation, spine)
-        if coverage is None:
+        if not self.has_whole_pose_terms:
             return residuals
-        cost, weight = coverage  # differentiable in the pose
-        return jnp.concatenate([residuals, jnp.sqrt(
-            2.0 * jnp.asarray(self.coverage_weight, cost.dtype) * weight) * cost])
+        return jnp.concatenate([residuals, self.whole_pose_residuals(markers_2d, observation,
+                                                                     spine)])
 
     def _part_terms_residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
         """:meth:`residuals` without the coverage term (the parts' terms alone)."""
@@ -499,7 +623,7 @@ def fit_border_widths(
     half width by ``margin``; a strip whose outline the frame does not show (the spine, a limb
     across the body) keeps the strips' half width.
     """
-    observation = _check_observation(observation)
+    observation = _edge_maps_of(observation)
     scales = np.asarray(scales, np.float64)
     if scales.ndim != 1 or scales.size == 0 or not np.all(np.isfinite(scales) & (scales > 0)):
         raise ValueError(f"scales must be positive numbers, got {scales}")
@@ -530,6 +654,8 @@ def make_edge_limb_templates(
     foreground_weight: float = DEFAULT_FOREGROUND_WEIGHT,
     foreground_threshold: float = DEFAULT_FOREGROUND_THRESHOLD,
     coverage_weight: float = 0.0,
+    keypoint_weight: float = 0.0,
+    keypoint_scale: float = 1.0,
     **strip_options,
 ) -> EdgeLimbTemplates:
     """Strip templates cut from the reference grey frame (or the grey channel of its
@@ -541,11 +667,14 @@ def make_edge_limb_templates(
     camera's grey background, the frame's size and grey scale:
     ``jaxtrack.vision.median_grey_background``) the arm strips are also scored by the
     foreground term (μ = ``foreground_weight``, module docstring); with ``coverage_weight``
-    ν > 0, observations with a mask are also scored by the coverage term."""
+    ν > 0, observations with a mask are also scored by the coverage term; with
+    ``keypoint_weight`` η > 0, observations end with a detector's keypoints, scored by the
+    keypoint term with its scales :data:`KEYPOINT_SCALES` times ``keypoint_scale`` (a reference
+    observation then carries them too)."""
     image = jnp.asarray(image)
     observation = None
     if image.ndim == 3:
-        observation = _check_observation(image)
+        observation = _edge_maps_of(image)
         image = observation[0]
     elif image.ndim != 2:
         raise ValueError(f"the reference frame must be (height, width) grey levels or a (3, "
@@ -580,7 +709,8 @@ def make_edge_limb_templates(
         background=None if background is None else jnp.asarray(background, dtype),
         foreground_weight=jnp.asarray(foreground_weight, dtype),
         foreground_threshold=jnp.asarray(foreground_threshold, dtype),
-        coverage_weight=float(coverage_weight))
+        coverage_weight=float(coverage_weight), keypoint_weight=float(keypoint_weight),
+        keypoint_scale=float(keypoint_scale))
     if border_scales is None:
         return templates
     if observation is None:

@@ -177,9 +177,13 @@ def refine_pose(
             markers, observation = read(markers)
             return templates.part_residuals(markers, observation, problem.sharpness, *spine)
 
+        def whole(markers):  # the terms of the whole pose (coverage, keypoints)
+            return templates.whole_pose_residuals(*read(markers))
+
         return parts_gauss_newton(
             parts, templates.direct_part_markers, lambda pose: spm_forward(pose, template),
             state, problem.prior_mean, problem.prior_std, spine_markers=templates.spine_markers,
+            whole=whole if templates.has_whole_pose_terms else None,
             max_steps=max_steps, tolerance=tolerance)
     solver = _solver(tolerance, dtype)
     solution = optx.least_squares(_residuals, solver, state, args=problem, max_steps=max_steps,

@@ -64,7 +64,8 @@ def _number(value, name: str, low: float, high: float = math.inf, *, closed_low:
 
 
 _EDGE_BOUNDS = {"edge_weight": math.inf, "edge_tolerance": 90.0, "foreground_weight": math.inf,
-                "coverage_weight": math.inf}
+                "coverage_weight": math.inf, "keypoint_weight": math.inf,
+                "keypoint_scale": math.inf}
 """The ``"limbs+edges"`` settings a :class:`Likelihood` may give, and their upper bounds."""
 
 
@@ -84,6 +85,9 @@ class Likelihood(eqx.Module):
         coverage_weight: ``"limbs+edges"``'s ν, the weight of its coverage term, which charges
             the person's mask for what the body leaves unexplained (needs masks:
             ``jaxtrack.trackers.track(..., masks=...)``); None or 0: off, the default.
+        keypoint_weight, keypoint_scale: ``"limbs+edges"``'s η and τ, the weight and scale of
+            its keypoint term, which scores a per-frame detector's keypoints (needs them:
+            ``jaxtrack.trackers.track(..., keypoints=...)``); η None or 0: off, the default.
     """
 
     kind: str = eqx.field(static=True, default=DEFAULT_LIKELIHOOD)
@@ -93,6 +97,8 @@ class Likelihood(eqx.Module):
     edge_tolerance: float | None = eqx.field(static=True, default=None)
     foreground_weight: float | None = eqx.field(static=True, default=None)
     coverage_weight: float | None = eqx.field(static=True, default=None)
+    keypoint_weight: float | None = eqx.field(static=True, default=None)
+    keypoint_scale: float | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         if self.kind not in LIKELIHOODS:
@@ -108,7 +114,8 @@ class Likelihood(eqx.Module):
             if self.kind != "limbs+edges":
                 raise ValueError(f"{name} is a setting of the 'limbs+edges' likelihood, not of "
                                  f"{self.kind!r}")
-            _number(value, name, 0, high, closed_low=name != "edge_tolerance")
+            _number(value, name, 0, high,
+                    closed_low=name not in ("edge_tolerance", "keypoint_scale"))
 
     @property
     def edge_options(self) -> dict:
@@ -120,6 +127,11 @@ class Likelihood(eqx.Module):
     def has_coverage(self) -> bool:
         """Whether the coverage term is on (it needs the person's masks)."""
         return bool(self.coverage_weight)
+
+    @property
+    def has_keypoints(self) -> bool:
+        """Whether the keypoint term is on (it needs a detector's keypoints per frame)."""
+        return bool(self.keypoint_weight)
 
     @property
     def lam(self) -> float:

@@ -25,6 +25,11 @@ neck and pelvis, whose distance sets its width), so ``∂r/∂m`` is block spars
   compressed block and ``D_p`` the rows of ``∂(m, s)/∂y`` (from the 25-tangent Jacobian of the
   SPM's 12 markers and the spine length, which is cheap) for the markers p reads; ``Jᵀr``
   likewise.
+* **Terms of the whole pose** (the coverage and keypoint terms of
+  ``jaxtrack.likelihoods.edges``), which no part holds, come as a second, short residual
+  vector ``whole(m)``: its Jacobian in the markers is taken densely (one tangent per marker
+  coordinate, 24; cheap, since these terms read no image but a few values) and chained
+  through ``∂m/∂y``, then added to ``JᵀJ`` and ``Jᵀr``.
 * **The same iteration as optimistix's.** Each trial step costs one residual and Jacobian
   evaluation; a step is accepted when it lowers the cost by at least ``slope`` times the
   decrease the linearisation predicts (Armijo), and then the Newton direction (Cholesky of
@@ -94,7 +99,8 @@ def _structure(part_markers: tuple[tuple[int, ...], ...], num_markers: int, spin
 
 def _linearise(state: Array, to_markers: Callable, parts: Callable, prior_mean: Array,
                prior_std: Array, part_markers: tuple[tuple[int, ...], ...],
-               spine_markers: tuple[int, int] | None) -> tuple[Array, Array, Array, Array]:
+               spine_markers: tuple[int, int] | None, whole: Callable | None = None
+               ) -> tuple[Array, Array, Array, Array]:
     """``(cost, gradient Jᵀr, normal matrix JᵀJ, residuals)`` at ``state``, prior included."""
     dtype = state.dtype
 
@@ -131,7 +137,17 @@ def _linearise(state: Array, to_markers: Callable, parts: Callable, prior_mean: 
     prior = (state - prior_mean) / prior_std
     gradient = jnp.sum(rows_of * projected.T[..., None], axis=(0, 1)) + prior / prior_std
     cost = 0.5 * (jnp.sum(residuals**2) + jnp.sum(prior**2))
-    return cost, gradient, normal, jnp.concatenate([residuals.reshape(-1), prior])
+    flat = [residuals.reshape(-1)]
+    if whole is not None:  # dense in the markers (module docstring)
+        extra, whole_tangent = jax.linearize(whole, markers)
+        marker_tangents = jnp.eye(2 * num_markers, dtype=dtype).reshape(-1, num_markers, 2)
+        whole_jacobian = jax.vmap(whole_tangent, out_axes=-1)(marker_tangents) @ \
+            marker_jacobian[:2 * num_markers]  # (k, 25)
+        normal = normal + whole_jacobian.T @ whole_jacobian
+        gradient = gradient + whole_jacobian.T @ extra
+        cost = cost + 0.5 * jnp.sum(extra**2)
+        flat.append(extra)
+    return cost, gradient, normal, jnp.concatenate([*flat, prior])
 
 
 def parts_gauss_newton(
@@ -143,6 +159,7 @@ def parts_gauss_newton(
     prior_std: Float[Array, " n"],
     *,
     spine_markers: tuple[int, int] | None = None,
+    whole: Callable[[Array], Float[Array, " k"]] | None = None,
     max_steps: int,
     tolerance: float,
     slope: float = 0.1,
@@ -162,6 +179,8 @@ def parts_gauss_newton(
         spine_markers: static; None, or two markers (neck, pelvis) whose distance every part
             also reads, as ``parts``' second argument: it gets one tangent of its own (module
             docstring).
+        whole: None, or markers → the residuals of terms of the whole pose, added to the
+            cost (module docstring).
         max_steps: static cap on residual evaluations (the start's included).
         tolerance: rtol = atol of the Cauchy termination test.
         slope, decrease_factor: Armijo's sufficient-decrease fraction and the backtracking
@@ -177,7 +196,8 @@ def parts_gauss_newton(
     dtype = state.dtype
     linearise = functools.partial(_linearise, to_markers=to_markers, parts=parts,
                                   prior_mean=prior_mean, prior_std=prior_std,
-                                  part_markers=part_markers, spine_markers=spine_markers)
+                                  part_markers=part_markers, spine_markers=spine_markers,
+                                  whole=whole)
 
     def newton(gradient, normal):
         return -jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(normal), True), gradient)

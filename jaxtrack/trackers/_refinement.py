@@ -156,12 +156,10 @@ def _refine_one(refinement: Refinement, start: Array, observed: Array | FrameInC
             start = search_arms(refinement.arm_search, start, frame, appearance, template,
                                 sharpness, predicted)
     with jax.named_scope("gauss_newton"):
-        # a FrameInChunk is read from the chunk in place (refine_pose)
-        # the block-sparse solver needs a sum of parts; terms of the whole pose (the
-        # coverage term) take the whole residual vector
-        solver = "optimistix" if appearance.has_whole_pose_terms else "parts"
+        # a FrameInChunk is read from the chunk in place (refine_pose); terms of the whole
+        # pose (coverage, keypoints) join the block-sparse solver's parts densely
         refined, _ = refine_pose(start, observed, appearance, template, start, prior_std,
-                                 sharpness, max_steps=refinement.steps, solver=solver)
+                                 sharpness, max_steps=refinement.steps, solver="parts")
     with jax.named_scope("choice"):
         refined = jnp.where(jnp.all(jnp.isfinite(refined)), refined, start)
         return refined, score_pose(refined, frame, appearance, template, sharpness)

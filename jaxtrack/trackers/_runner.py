@@ -72,10 +72,11 @@ def _frames_per_chunk(chunk_size: int, frame_shape: tuple[int, ...], dtype) -> i
 
 
 def _edge_observations(frames: np.ndarray, out: np.ndarray | None = None,
-                       masks: np.ndarray | None = None) -> np.ndarray:
+                       masks: np.ndarray | None = None,
+                       keypoints: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     from jaxtrack.vision import edge_observations
 
-    return edge_observations(frames, out=out, masks=masks)
+    return edge_observations(frames, out=out, masks=masks, keypoints=keypoints)
 
 
 def _copy_frames(frames: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -102,7 +103,8 @@ def _chunk(tracker, state, keys, frames):
 def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height width"],
           initial_pose: Float[ArrayLike, "markers 2"], *, chunk_size: int = 64,
           progress: bool = True, description: str = "tracking",
-          masks: np.ndarray | None = None) -> TrackResult:
+          masks: np.ndarray | None = None,
+          keypoints: tuple[np.ndarray, np.ndarray] | np.ndarray | None = None) -> TrackResult:
     """Track ``frames`` (grey) from ``initial_pose``, the ``(markers, 2)`` pose in frame 0.
 
     A tracker scored by ``"limbs+edges"`` also needs each frame's edge maps: they are computed
@@ -110,7 +112,10 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
     time), or may be given, ``frames`` being ``(time, 3, height, width)`` (or ``(time, 4,
     height, width)`` with the person's mask). ``masks``: ``(time, height, width)`` bool person
     masks of grey ``frames``, added to each chunk's edge maps as the foreground term's
-    per-frame mask (``jaxtrack.likelihoods.edges``).
+    per-frame mask (``jaxtrack.likelihoods.edges``). ``keypoints``: a per-frame detector's
+    keypoints of grey ``frames``, ``(points (time, 12, 2), confidence (time, 12))`` in their
+    pixels, or the points alone (NaN where not found; :mod:`jaxtrack.vision.keypoints`), for
+    the likelihood's keypoint term (``Likelihood(keypoint_weight=...)``), which needs them.
 
     Frames after the first run in equal chunks of at most ``chunk_size`` frames (fewer for
     frames so large that a chunk would pass :data:`CHUNK_BYTES`) through one compiled scan;
@@ -126,10 +131,30 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
         raise ValueError("frames hold no frame")
     if not np.all(np.isfinite(frames[:1])):
         raise ValueError("frames hold non-finite values")
-    if tracker.likelihood.has_coverage and masks is None and (
-            add_edges or frames.ndim != 4 or frames.shape[1] != 4):
+    likelihood = tracker.likelihood
+    if add_edges:
+        with_keypoints, with_mask = keypoints is not None, masks is not None
+    else:  # observations made beforehand: channels beyond the edge maps (mask, keypoints)
+        extra = frames.shape[1] - 3 if frames.ndim == 4 else 0
+        with_keypoints = likelihood.has_keypoints and extra >= 1
+        with_mask = extra - with_keypoints >= 1
+    if likelihood.has_coverage and not with_mask:
         raise ValueError("the likelihood's coverage term (coverage_weight) reads the person's "
                          "masks: give masks=..., or observations with a mask channel")
+    if likelihood.has_keypoints and not with_keypoints:
+        raise ValueError("the likelihood's keypoint term (keypoint_weight) reads a detector's "
+                         "keypoints: give keypoints=..., or observations with a keypoint channel")
+    if keypoints is not None and not likelihood.has_keypoints:
+        raise ValueError("keypoints are read by the likelihood's keypoint term only: give "
+                         "Likelihood(keypoint_weight=...) or leave keypoints out")
+    if keypoints is not None:
+        from jaxtrack.vision.keypoints import check_keypoints
+
+        if not add_edges:
+            raise ValueError("keypoints go with grey frames and the 'limbs+edges' likelihood "
+                             "(edge observations made beforehand carry their own keypoints)")
+        points, confidence = keypoints if isinstance(keypoints, tuple) else (keypoints, None)
+        keypoints = check_keypoints(points, confidence, num_frames=frames.shape[0])
     if masks is not None:
         from jaxtrack.vision.masks import check_masks
 
@@ -143,13 +168,16 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
     def observe(begin: int, count: int, out: np.ndarray | None = None) -> np.ndarray:
         if not add_edges:
             return _copy_frames(frames[begin:begin + count], out=out)
-        return _edge_observations(frames[begin:begin + count], out=out,
-                                  masks=None if masks is None else masks[begin:begin + count])
+        return _edge_observations(
+            frames[begin:begin + count], out=out,
+            masks=None if masks is None else masks[begin:begin + count],
+            keypoints=None if keypoints is None else tuple(
+                values[begin:begin + count] for values in keypoints))
 
     state = tracker.start(key_start, observe(0, 1)[0], initial_pose)
     first = _first_estimate(tracker, state)
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
-    channels = 3 if masks is None else 4
+    channels = 3 + (masks is not None) + (keypoints is not None)
     shape, dtype = (((channels, *frames.shape[1:]), np.float32) if add_edges
                     else (frames.shape[1:], jax.dtypes.canonicalize_dtype(frames.dtype)))
     chunk_size = _frames_per_chunk(chunk_size, shape, dtype)

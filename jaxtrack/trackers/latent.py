@@ -375,9 +375,11 @@ def latent_tracker(
         if likelihood.kind not in ("limbs+edges", "limbs"):
             raise ValueError(f"partitioned sampling weighs each part by its limb strips; the "
                              f"{likelihood.kind!r} likelihood has none (use 'limbs+edges')")
-        if likelihood.has_coverage:
-            raise ValueError("partitioned sampling weighs each part by its own terms; the "
-                             "coverage term belongs to no part (leave coverage_weight off)")
+        for on, term, option in ((likelihood.has_coverage, "coverage", "coverage_weight"),
+                                 (likelihood.has_keypoints, "keypoint", "keypoint_weight")):
+            if on:
+                raise ValueError(f"partitioned sampling weighs each part by its own terms; the "
+                                 f"{term} term belongs to no part (leave {option} off)")
     cast = lambda value: jnp.asarray(np.asarray(value, np.float64), dtype)  # noqa: E731
     return LatentTracker(
         prior=prior.astype(dtype), template=jax.tree.map(cast, template), likelihood=likelihood,

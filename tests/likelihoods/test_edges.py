@@ -466,3 +466,83 @@ def test_the_coverage_term_is_the_documented_formula_and_belongs_to_no_part():
         pose, np.concatenate([observation, legs[None]])), 0.0)
     with pytest.raises(ValueError, match="coverage_weight must be a non-negative number"):
         make_edge_limb_templates(observations[0], markers[0], coverage_weight=-1.0)
+
+
+def _keypoint_term_numpy(markers, points, confidence, weight, factor=1.0):
+    """The keypoint term written out: a bivariate Cauchy per marker at the scales of
+    KEYPOINT_SCALES (in spines), the better of the as-given and left/right-swapped
+    assignments."""
+    from jaxtrack.likelihoods.edges import KEYPOINT_SCALES, MIRRORED_MARKERS
+
+    markers = np.asarray(markers, np.float64)
+    spine = np.linalg.norm(markers[3] - markers[1])
+    scales = np.asarray(KEYPOINT_SCALES) * factor * spine
+    costs = []
+    for order in (list(range(12)), list(MIRRORED_MARKERS)):
+        squared = np.sum((markers - points[order]) ** 2, axis=-1)
+        costs.append(np.sum(confidence[order] * np.log1p(squared / scales**2)))
+    return -weight * min(costs)
+
+
+def test_the_keypoint_term_is_the_documented_formula_and_ignores_a_left_right_swap():
+    """η > 0 with a keypoint channel adds −η min_π Σ w log(1 + q²) (written out with NumPy);
+    the detections with left and right exchanged score the same; a keypoint of confidence 0
+    counts for nothing; the residuals give the cost, the parts leave it out; a pose on the
+    keypoints beats one a spine away, and the pull has a gradient however far."""
+    from jaxtrack.likelihoods.edges import MIRRORED_MARKERS
+    from jaxtrack.vision.keypoints import pack_keypoints
+
+    observations, markers, templates = wave()
+    pose = np.asarray(markers[5], np.float32)
+    rng = np.random.default_rng(3)
+    points = (pose + rng.normal(0, 3, pose.shape)).astype(np.float32)
+    confidence = rng.uniform(0.3, 1.0, 12).astype(np.float32)
+
+    def observation_with(points, confidence):
+        channel = np.zeros((1, *observations.shape[2:]), np.float32)
+        pack_keypoints(points[None], confidence[None], channel)
+        return np.concatenate([np.asarray(observations[5]), channel])
+
+    keyed = make_edge_limb_templates(observations[0], markers[0], keypoint_weight=1.5)
+    assert keyed.has_whole_pose_terms and keyed.reads_keypoints
+    observation = observation_with(points, confidence)
+    plain = templates.log_likelihood(pose, np.asarray(observations[5]), 4.0)
+    for candidate in (pose, pose + 20.0):
+        expected = _keypoint_term_numpy(candidate, points, confidence, 1.5)
+        np.testing.assert_allclose(keyed.whole_pose_log_likelihood(candidate, observation),
+                                   expected, rtol=1e-4)
+    np.testing.assert_allclose(keyed.log_likelihood(pose, observation, 4.0),
+                               plain + _keypoint_term_numpy(pose, points, confidence, 1.5),
+                               rtol=1e-4)
+    np.testing.assert_allclose(jnp.sum(keyed.part_log_likelihoods(pose, observation, 4.0)),
+                               plain, rtol=1e-4)
+    swapped = observation_with(points[list(MIRRORED_MARKERS)],
+                               confidence[list(MIRRORED_MARKERS)])
+    np.testing.assert_allclose(keyed.whole_pose_log_likelihood(pose, swapped),
+                               keyed.whole_pose_log_likelihood(pose, observation), rtol=1e-6)
+    unsure = confidence.copy()
+    unsure[6] = 0.0
+    moved = points.copy()
+    moved[6] += 500.0  # a keypoint not found: its position means nothing
+    np.testing.assert_allclose(
+        keyed.whole_pose_log_likelihood(pose, observation_with(moved, unsure)),
+        _keypoint_term_numpy(pose, points, unsure, 1.5), rtol=1e-4)
+    np.testing.assert_allclose(keyed.whole_pose_log_likelihood(
+        pose, observation_with(points, np.zeros(12, np.float32))), 0.0, atol=1e-6)
+    residuals = residuals_of(keyed, pose, observation, 4.0)
+    np.testing.assert_allclose(0.5 * jnp.sum(residuals**2),
+                               -keyed.log_likelihood(pose, observation, 4.0, False), rtol=1e-4)
+    spine = np.linalg.norm(pose[3] - pose[1])
+    assert (keyed.whole_pose_log_likelihood(pose, observation)
+            > keyed.whole_pose_log_likelihood(pose + spine, observation) + 10.0)
+    far = jax.grad(lambda m: keyed.whole_pose_log_likelihood(m, observation))(
+        jnp.asarray(pose + 3 * spine))
+    # pulled back towards the keypoints
+    assert np.all(np.isfinite(far)) and float(jnp.sum(far * -3 * spine)) > 0
+    with pytest.raises(ValueError, match="keypoint_weight must be a non-negative number"):
+        make_edge_limb_templates(observations[0], markers[0], keypoint_weight=-1.0)
+    with pytest.raises(ValueError, match="keypoint_scale must be a positive factor"):
+        make_edge_limb_templates(observations[0], markers[0], keypoint_weight=1.0,
+                                 keypoint_scale=0.0)
+    with pytest.raises(ValueError, match="then the keypoint channel"):
+        keyed.log_likelihood(pose, np.asarray(observations[5])[:2], 4.0)

@@ -124,6 +124,37 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
                  "--masks", str(masks)]) == 2
     assert "--masks: the 'limbs' likelihood has no foreground term" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
+    # a detector's keypoints (here the truth, in the video's pixels): read, scaled to the
+    # tracked frames, scored by the keypoint term and the first frame's as the initial pose
+    from jaxtrack.vision.keypoints import write_keypoints
+
+    keypoints = write_keypoints(tmp_path / "keypoints.npz", sequence.truth[:10])
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
+                 "keypoints", "--out", str(tmp_path / "keyed"), "--particles", "50",
+                 "--max-size", "160", "--keypoints", str(keypoints)]) == 0
+    keyed = json.loads((tmp_path / "keyed" / "track.json").read_text())
+    assert keyed["keypoints"] == str(keypoints) and keyed["init"]["method"] == "keypoints"
+    assert keyed["tracker"]["likelihood"]["keypoint_weight"] == 1.5
+    keyed_markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
+                              for frame in keyed["frames"]])
+    initial = np.array([keyed["init"]["markers"][name] for name in UPPER_BODY_12])
+    np.testing.assert_allclose(initial, sequence.truth[0], atol=0.05)
+    keyed_errors = np.linalg.norm(keyed_markers - sequence.truth[:10], axis=-1).mean(-1) / torso
+    assert keyed_errors.mean() < 0.1, keyed_errors
+    short = write_keypoints(tmp_path / "short.npz", sequence.truth[:4])
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
+                 "keypoints", "--out", str(tmp_path / "bad"), "--keypoints", str(short),
+                 "--max-size", "160"]) == 2
+    assert "short.npz holds 4 frames; the video frames tracked run to frame 9" in (
+        capsys.readouterr().err)
+    unsure = np.ones((10, 12))
+    unsure[0, 6] = 0.0
+    gap = write_keypoints(tmp_path / "gap.npz", sequence.truth[:10], unsure)
+    assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
+                 "keypoints", "--out", str(tmp_path / "bad"), "--keypoints", str(gap),
+                 "--max-size", "160"]) == 2
+    assert "--init keypoints: " in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
 
 
 def model_file_prior(path):
@@ -173,6 +204,14 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--coverage-weight", "5")
     assert code == 2 and "--coverage-weight: the coverage term reads the person's masks" in error
+    for arguments, message in (
+            (("--keypoint-weight", "2"), "--keypoint-weight: it reads a detector's keypoints"),
+            (("--init", "keypoints"), "--init keypoints: it reads a detector's keypoints"),
+            (("--keypoints", str(tmp_path / "none.npz")),
+             "--keypoints: " + str(tmp_path / "none.npz") + ": no such keypoints file")):
+        code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
+                          *arguments)
+        assert code == 2 and message in error, error
     for option, value in (("--calibration", "calib.txt"), ("--view-selection", "paper"),
                           ("--skeleton", "best"),
                           ("--skin", "200,150,120"), ("--cameras", "0"), ("--iterations", "5")):

@@ -359,16 +359,29 @@ def test_marker_colours_never_put_two_markers_of_one_part_together():
         marker_colours([(0, 12)], 12)
 
 
-@pytest.mark.parametrize("likelihood", ["markers", "limbs+edges"])
+@pytest.mark.parametrize("likelihood", ["markers", "limbs+edges", "whole-pose terms"])
 def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
     """``refine_pose(solver="parts")`` (Jacobian blocks per likelihood part, own Armijo loop)
-    reaches the iterate of optimistix's Armijo Gauss–Newton from the same start (float64)."""
+    reaches the iterate of optimistix's Armijo Gauss–Newton from the same start (float64),
+    also with terms of the whole pose (coverage and keypoints), whose Jacobian it takes
+    densely."""
     from jaxtrack.likelihoods import make_appearance_templates
 
     template, frame, templates, _, start = _refinement_problem(wave, jnp.float64)
-    if likelihood == "limbs+edges":
-        frames = edge_observations(wave["frames"][:2])
-        templates = make_appearance_templates(likelihood, frames[0], wave["truth"][0])
+    if likelihood != "markers":
+        whole = likelihood == "whole-pose terms"
+        truth = np.asarray(wave["truth"][:2])
+        grey = np.asarray(wave["frames"][:2])
+        masks = np.zeros(grey.shape, bool)
+        masks[:, 40:-40, 200:-200] = True
+        keypoints = (truth + np.random.default_rng(0).normal(0, 4, truth.shape),
+                     np.full(truth.shape[:2], 0.9))
+        frames = edge_observations(grey, masks=masks if whole else None,
+                                   keypoints=keypoints if whole else None)
+        options = {"coverage_weight": 2.0, "keypoint_weight": 1.5} if whole else {}
+        templates = make_appearance_templates("limbs+edges", frames[0], wave["truth"][0],
+                                              **options)
+        assert templates.has_whole_pose_terms == whole
         frame = jnp.asarray(frames[1], jnp.float64)
     std = jnp.full(25, 0.3, jnp.float64).at[1:3].set(5.0)
 

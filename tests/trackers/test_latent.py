@@ -391,3 +391,46 @@ def test_the_coverage_term_tracks_with_the_persons_masks_and_needs_them(prior, s
         Likelihood(coverage_weight=-1.0)
     with pytest.raises(ValueError, match="coverage_weight is a setting of the 'limbs\\+edges'"):
         Likelihood("limbs", coverage_weight=1.0)
+
+
+def test_the_keypoint_term_tracks_through_a_detectors_left_right_swaps(prior, sequence):
+    """``keypoint_weight`` > 0: the particles and the refinement read a detector's keypoints.
+    Given the true markers, noisy and with left and right swapped in a stretch of frames (as a
+    detector does for a person seen from behind), the track stays with the true sides and is
+    closer to the truth than without the term; the keypoints are refused without the term
+    and the term without them, in one line."""
+    from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT, MIRRORED_MARKERS
+
+    truth = sequence.truth
+    rng = np.random.default_rng(5)
+    points = truth + rng.normal(0, 2.0, truth.shape)
+    swapped = slice(3, 7)
+    points[swapped] = points[swapped][:, list(MIRRORED_MARKERS)]
+    confidence = np.full(truth.shape[:2], 0.9)
+    confidence[5, 6] = 0.0  # one wrist not found
+    options = dict(engine=Engine(50), fps=sequence.fps, refinement=Refinement(steps=3))
+    keyed = latent_tracker(prior.model, prior.template,
+                           likelihood=Likelihood(keypoint_weight=CAUCHY_KEYPOINT_WEIGHT),
+                           **options)
+    result = track(keyed, jr.PRNGKey(0), sequence.frames, truth[0], chunk_size=8,
+                   progress=False, keypoints=(points, confidence))
+    plain = track(latent_tracker(prior.model, prior.template, **options), jr.PRNGKey(0),
+                  sequence.frames, truth[0], chunk_size=8, progress=False)
+    error = evaluate_track(result.markers, truth, UPPER_BODY_12)["mean_error_torso"]
+    assert error < 0.08, error
+    assert error < evaluate_track(plain.markers, truth, UPPER_BODY_12)["mean_error_torso"]
+    sides = [UPPER_BODY_12.index(name) for name in ("right_wrist", "left_wrist")]
+    for frame in range(swapped.start, swapped.stop):  # the true sides, not the detector's
+        right, left = result.markers[frame, sides]
+        assert np.linalg.norm(right - truth[frame, sides[0]]) < np.linalg.norm(
+            right - truth[frame, sides[1]])
+    with pytest.raises(ValueError, match="keypoint term .* reads a detector's keypoints"):
+        track(keyed, jr.PRNGKey(0), sequence.frames, truth[0], progress=False)
+    with pytest.raises(ValueError, match="keypoints are read by the likelihood's keypoint"):
+        track(latent_tracker(prior.model, prior.template, **options), jr.PRNGKey(0),
+              sequence.frames, truth[0], progress=False, keypoints=points)
+    with pytest.raises(ValueError, match="hold 3 frames, the frames tracked are"):
+        track(keyed, jr.PRNGKey(0), sequence.frames, truth[0], progress=False,
+              keypoints=points[:3])
+    with pytest.raises(ValueError, match="keypoint_scale must be a finite number > 0"):
+        Likelihood(keypoint_weight=1.0, keypoint_scale=0.0)

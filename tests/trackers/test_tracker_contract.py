@@ -257,7 +257,9 @@ def test_evaluate_runs_the_baselines_with_the_latent_trackers_refinement(prior, 
     assert plain["tracker"]["likelihood"] == {"kind": "limbs+edges", "sharpness": None,
                                               "nearest": True, "edge_weight": None,
                                               "edge_tolerance": None, "foreground_weight": None,
-                                              "coverage_weight": None}
+                                              "coverage_weight": None,
+                                              "keypoint_weight": None,
+                                              "keypoint_scale": None}
     assert plain["overall"]["mean_error_px"] != refined["overall"]["mean_error_px"]
 
 
