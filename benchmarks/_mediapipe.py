@@ -207,6 +207,25 @@ def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
     return write_masks(out, masks)
 
 
+def person_keypoints(video: Path, out: Path, *, max_size: int = 960) -> Path | dict:
+    """MediaPipe's keypoints of every frame of ``video`` (decoded so its longer side is at most
+    ``max_size``), in the video's own pixels with their confidences, written to ``out``
+    (:func:`jaxtrack.vision.keypoints.write_keypoints`; ``jaxtrack track --keypoints`` reads
+    it). Returns ``out``, or ``{"skipped": reason}`` when MediaPipe cannot run or finds no
+    person."""
+    from jaxtrack.vision import read_video
+    from jaxtrack.vision.keypoints import write_keypoints
+
+    height, width = read_video(video, max_frames=1).frames.shape[1:3]
+    frames = read_video(video, scale=min(1.0, max_size / max(width, height))).frames
+    result = run_mediapipe(frames)
+    if "skipped" in result:
+        return result
+    points, confidence = detected_keypoints(result)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return write_keypoints(out, points * (width / frames.shape[2]), confidence)
+
+
 def demo_masks(folder: Path, camera: str) -> Path | dict:
     """:func:`person_masks` of a Pose2Sim take's video (``folder/videos/CAMERA.mp4``), cached
     in :data:`MASKS` under the take's and the camera's names."""

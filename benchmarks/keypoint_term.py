@@ -18,13 +18,15 @@ about each keypoint with a scale τ_j per marker in fractions of the spine. This
    fitted by this script);
 3. tracks every sequence with the latent tracker, CONDENSATION and MHT (the scripted
    comparison's particle counts and training poses) × {own estimate, + refinement} × {without
-   the term, with it at η = 3/2, the Cauchy density's own, and the library's τ_j}, from frame
-   0's truth, and scores them (mean error in % of the torso, frames within 15 %, runs lost),
-   with MediaPipe alone beside them.
+   the term, with it at η = 3/2, the Cauchy density's own, or the weights
+   ``--keypoint-weights`` gives, and the library's τ_j}, from frame 0's truth, and scores them
+   (mean error in % of the torso, frames within 15 %, runs lost), with MediaPipe alone beside
+   them.
 
 No setting is chosen from step 3: it says what the term does where the image likelihood
 already holds the person (on rendered frames it does), so that a user knows what it costs
-there. Writes ``benchmarks/results/keypoint_term.json`` and prints markdown tables.
+there, and at which weight. Writes ``benchmarks/results/keypoint_term.json`` and prints
+markdown tables.
 """
 
 from __future__ import annotations
@@ -71,13 +73,13 @@ def fit_scales(distances: np.ndarray) -> np.ndarray:
     return np.nanmedian(distances, axis=0) / MEDIAN_RADIUS
 
 
-def make_tracker(method: str, estimate: str, prior, sequence, keypoints: bool):
+def make_tracker(method: str, estimate: str, prior, sequence, weight: float):
+    """One configuration; ``weight`` the keypoint term's η (0: off)."""
     from jaxtrack import trackers
     from jaxtrack.experiments import DEFAULT_PARTICLES
-    from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT
     from jaxtrack.vision import median_grey_background
 
-    likelihood = (trackers.Likelihood(keypoint_weight=CAUCHY_KEYPOINT_WEIGHT) if keypoints
+    likelihood = (trackers.Likelihood(keypoint_weight=weight) if weight
                   else trackers.Likelihood())
     refinement = trackers.Refinement() if estimate == "refined" else None
     background = median_grey_background(sequence.frames)
@@ -113,7 +115,7 @@ def table(runs: list[dict]) -> str:
     order = {name: index for index, name in enumerate((*METHODS, "mediapipe"))}
     for (method, estimate, keypoints), group in itertools.groupby(
             sorted(runs, key=lambda run: (order[run["method"]], run["estimate"],
-                                          run["keypoints"])), key=key):
+                                          run.get("keypoint_weight", 0.0))), key=key):
         group = list(group)
         ms = [run["ms_per_frame"] for run in group if run.get("ms_per_frame") is not None]
         compile_s = [run["compile_seconds"] for run in group if run.get("compile_seconds")]
@@ -133,6 +135,9 @@ def main(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=60, help="frames per sequence (60)")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
+    parser.add_argument("--keypoint-weights", type=float, nargs="+", default=None,
+                        metavar="ETA", help="the term's weights η to track with (default 1.5, "
+                        "the Cauchy density's own)")
     parser.add_argument("--no-tracking", action="store_true",
                         help="fit the scales only (steps 1-2)")
     parser.add_argument("--quick", action="store_true",
@@ -144,6 +149,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.frames < 2:
         parser.error(f"--frames must be at least 2, got {args.frames}")
+    from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT
+
+    weights = args.keypoint_weights or [CAUCHY_KEYPOINT_WEIGHT]
+    if not all(np.isfinite(weight) and weight > 0 for weight in weights):
+        parser.error(f"--keypoint-weights must be positive numbers, got {weights}")
     started = time.perf_counter()
 
     from benchmarks._mediapipe import detected_keypoints, run_mediapipe
@@ -196,14 +206,15 @@ def main(argv=None) -> int:
         cache.parent.mkdir(parents=True, exist_ok=True)
         prior = train_prior(TRAINING_CLIPS, progress=False, cache=cache, **training)
         print(f"prior: {', '.join(TRAINING_CLIPS)}; {device_description()}")
-        for method, estimate, keypoints in itertools.product(methods, estimates, (False, True)):
+        for method, estimate, weight in itertools.product(methods, estimates, [0.0, *weights]):
             for sequence, (points, confidence, _) in zip(sequences, detections, strict=True):
-                tracker = make_tracker(method, estimate, prior, sequence, keypoints)
+                tracker = make_tracker(method, estimate, prior, sequence, weight)
                 result = track(tracker, jr.PRNGKey(0), sequence.frames, sequence.truth[0],
                                progress=False,
-                               keypoints=(points, confidence) if keypoints else None)
+                               keypoints=(points, confidence) if weight else None)
                 run = {"method": method, "estimate": estimate,
-                       "keypoints": "η = 3/2" if keypoints else "off",
+                       "keypoints": f"η = {weight:g}" if weight else "off",
+                       "keypoint_weight": weight,
                        "sequence": sequence.name,
                        "ms_per_frame": 1000 * result.seconds_per_frame,
                        "compile_seconds": result.compile_seconds,
@@ -217,7 +228,7 @@ def main(argv=None) -> int:
     header = run_header("benchmarks.keypoint_term", argv, started)
     write_json_atomically(out, {
         **header, "clips": list(clips), "views": views, "backgrounds": list(backgrounds),
-        "frames": frames, "markers": list(SPM_MARKERS),
+        "frames": frames, "markers": list(SPM_MARKERS), "keypoint_weights": weights,
         "fitted_scales": [float(value) for value in fitted],
         "library_scales": list(KEYPOINT_SCALES), "scales_table": scales_table,
         "table": text, "runs": runs})

@@ -153,11 +153,41 @@ class LatentState(eqx.Module):
 
 
 class _HostPrior:
-    """The prior as trained (float64), for μ⁻¹ at ``start`` on the host. Compared and hashed by
-    identity, so a tracker can hold it as a static field that never enters compiled code."""
+    """The prior as trained (float64), for μ⁻¹ at ``start`` on the host: a static field of the
+    tracker that never enters compiled code.
+
+    Compared and hashed by the prior's contents (a digest of its arrays and structure), not by
+    identity: compiled programs are cached by their static arguments, so with identity every
+    new tracker of the same prior compiled anew and its programs stayed cached, about 1 000
+    memory mappings each, until a process that built ~50 trackers ran out of them (the
+    kernel's vm.max_map_count, 65 530 here; measured with /proc/self/maps).
+    """
 
     def __init__(self, prior: GPLVM):
+        import hashlib
+
         self.prior = prior
+        leaves, structure = jax.tree.flatten(prior)
+        digest = hashlib.sha256(str(structure).encode())
+        for leaf in leaves:
+            array = np.asarray(leaf)
+            digest.update(f"{array.dtype}{array.shape}".encode())
+            digest.update(np.ascontiguousarray(array).tobytes())
+        self._digest = digest.hexdigest()
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _HostPrior) and other._digest == self._digest
+
+    def __hash__(self) -> int:
+        return hash(self._digest)
+
+
+@eqx.filter_jit
+def _inverse_latent(prior, features: Array) -> Array:
+    """μ⁻¹ of one pose's features, compiled once per prior's shapes: solved eagerly, the
+    optimiser compiles its loop on every call and keeps it (about 190 memory mappings per
+    tracker started)."""
+    return prior.inverse(features[None]).latents[0]
 
 
 class LatentTracker(Tracker):
@@ -231,7 +261,7 @@ class LatentTracker(Tracker):
         with jax.enable_x64(True):  # μ⁻¹ (eq. 5) in the prior's float64
             features = pose_features(jnp.asarray(state), jax.tree.map(
                 lambda leaf: jnp.asarray(np.asarray(leaf), jnp.float64), self.template))
-            latent = np.asarray(prior.inverse(features[None]).latents[0])
+            latent = np.asarray(_inverse_latent(prior, features))
             link_scale = np.ones(len(SPM_LINKS))
             if self.subject_lengths:
                 decoded = np.asarray(prior.mean(jnp.asarray(latent))).reshape(-1, 2)

@@ -434,3 +434,25 @@ def test_the_keypoint_term_tracks_through_a_detectors_left_right_swaps(prior, se
               keypoints=points[:3])
     with pytest.raises(ValueError, match="keypoint_scale must be a finite number > 0"):
         Likelihood(keypoint_weight=1.0, keypoint_scale=0.0)
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/proc/self/maps"),
+                    reason="counts the process's memory mappings in /proc/self/maps (Linux)")
+def test_new_trackers_of_one_prior_reuse_their_compiled_programs(prior, sequence):
+    """Trackers built anew from the same prior share their compiled programs: a sweep that
+    builds one per run must not keep every run's programs (about 1 200 memory mappings each
+    when it did, which ended a process after ~50 runs)."""
+    import gc
+
+    def mappings():
+        with open("/proc/self/maps") as handle:
+            return sum(1 for _ in handle)
+
+    counts = []
+    for _ in range(3):
+        tracker = latent_tracker(prior.model, prior.template, engine=Engine(20),
+                                 fps=sequence.fps, refinement=Refinement(steps=2))
+        track(tracker, jr.PRNGKey(0), sequence.frames[:4], sequence.truth[0], progress=False)
+        gc.collect()
+        counts.append(mappings())
+    assert counts[2] - counts[1] < 100, counts
