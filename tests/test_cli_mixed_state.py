@@ -222,6 +222,8 @@ def _gplvm_file(path):
     ("out is a file", "--out {tmp}/v.mp4 is a file; give a folder"),
     ("two masks", "--masks: one file per --video, got 2 for 1"),
     ("not masks", "--masks {tmp}/v.mp4: not a .npz or .npy file"),
+    ("keypoints", "--keypoints does not apply to --method mixed-state (it is read by the "
+                  "latent tracker's likelihood)"),
 ])
 def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, case, message):
     (tmp_path / "v.mp4").write_text("not a video")
@@ -245,6 +247,8 @@ def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, cas
         extra = ["--masks", tmp_path / "v.mp4", tmp_path / "v.mp4"]
     elif case == "not masks":
         extra = ["--masks", tmp_path / "v.mp4"]
+    elif case == "keypoints":
+        extra = ["--keypoints", tmp_path / "v.mp4"]
     before = sorted(tmp_path.iterdir())
     code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", model,
                          "--video", *videos, "--out", out, *extra)
