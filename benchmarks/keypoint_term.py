@@ -74,30 +74,15 @@ def fit_scales(distances: np.ndarray) -> np.ndarray:
 
 
 def make_tracker(method: str, estimate: str, prior, sequence, weight: float):
-    """One configuration; ``weight`` the keypoint term's η (0: off)."""
+    """One configuration (the protocol's ``build_tracker``); ``weight`` the keypoint term's η
+    (0: off)."""
     from jaxtrack import trackers
-    from jaxtrack.experiments import DEFAULT_PARTICLES
-    from jaxtrack.vision import median_grey_background
+    from jaxtrack.experiments import DEFAULT_PARTICLES, build_tracker
 
     likelihood = (trackers.Likelihood(keypoint_weight=weight) if weight
                   else trackers.Likelihood())
-    refinement = trackers.Refinement() if estimate == "refined" else None
-    background = median_grey_background(sequence.frames)
-    particles = DEFAULT_PARTICLES[method]
-    if method == "latent":
-        return trackers.latent_tracker(prior.model, prior.template,
-                                       engine=trackers.Engine(particles), fps=sequence.fps,
-                                       refinement=refinement, background=background,
-                                       likelihood=likelihood)
-    states, ids = prior.training_states, prior.training_sequence_ids
-    if method == "condensation":
-        return trackers.condensation_tracker(prior.template, states,
-                                             engine=trackers.Engine(particles),
-                                             refinement=refinement, background=background,
-                                             sequence_ids=ids, likelihood=likelihood)
-    return trackers.mht_tracker(prior.template, states, num_modes=particles,
-                                refinement=refinement, background=background,
-                                sequence_ids=ids, likelihood=likelihood)
+    return build_tracker(method, prior, sequence, DEFAULT_PARTICLES[method], likelihood,
+                         trackers.Refinement() if estimate == "refined" else None)
 
 
 def score(markers: np.ndarray, truth: np.ndarray) -> dict:
