@@ -20,6 +20,12 @@ from jaxtrack.vision.foreground import (
     median_background,
     median_grey_background,
 )
+from jaxtrack.vision.keypoints import (
+    KeypointFileError,
+    check_keypoints,
+    read_keypoints,
+    write_keypoints,
+)
 from jaxtrack.vision.masks import (
     MaskFileError,
     check_masks,
@@ -51,12 +57,13 @@ from jaxtrack.vision.video import (
 )
 
 __all__ = [
-    "METHOD_COLOURS", "TRUTH_COLOUR", "FaceDetectorUnavailableError", "MaskFileError",
-    "VideoError", "VideoFrames", "check_masks", "compose_views", "contour_panel", "detect_face",
+    "METHOD_COLOURS", "TRUTH_COLOUR", "FaceDetectorUnavailableError", "KeypointFileError",
+    "MaskFileError", "VideoError", "VideoFrames", "check_keypoints", "check_masks",
+    "compose_views", "contour_panel", "detect_face",
     "detect_faces", "draw_contour", "draw_tracks", "edge_distance_maps", "edge_observations",
     "face_candidates", "face_detector_available", "foreground_mask", "head_boxes",
     "iter_video_chunks", "masks_for_frames", "median_background", "median_grey_background",
-    "read_masks", "read_video", "resample_closed_curve", "signed_area", "silhouette_contour",
-    "skeleton_panel", "to_grey", "write_frames", "write_masks", "write_overlay_video",
-    "write_video", "write_views_video",
+    "read_keypoints", "read_masks", "read_video", "resample_closed_curve", "signed_area",
+    "silhouette_contour", "skeleton_panel", "to_grey", "write_frames", "write_keypoints",
+    "write_masks", "write_overlay_video", "write_video", "write_views_video",
 ]
