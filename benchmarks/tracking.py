@@ -4,6 +4,7 @@
     python -m benchmarks.tracking --split validation  # the same grid on validation subjects
     python -m benchmarks.tracking --quick             # one short sequence, two methods (CI)
     python -m benchmarks.tracking --no-real-video     # the rendered grid only
+    python -m benchmarks.tracking --keypoints mediapipe --likelihoods limbs+edges
 
 The grid is methods {latent (200 particles), CONDENSATION (1 000), MHT (10 modes)} × estimate
 {the filter's own, + the shared refinement stage} × likelihood {eq. 7 marker patches, the default
@@ -16,7 +17,10 @@ protocol), or with ``--init auto`` from the automatic initialisation a user with
 truth runs (``jaxtrack track --init face``: the prior's pose that best explains frame 0's
 foreground against the sequence's median background, :func:`auto_initial_markers`), the same
 pose for every method, seed and estimate of a sequence; a sequence where it finds no one is
-reported and left out.
+reported and left out. With ``--keypoints mediapipe`` the default likelihood also scores
+MediaPipe Pose's keypoints of every frame (the keypoint term at η = 3/2,
+``jaxtrack.likelihoods.edges``; MediaPipe in its venv, ``benchmarks/_mediapipe.py``): rows
+``limbs+edges+keypoints``.
 
 On the test split the same methods and estimates then track the four real Pose2Sim videos of a
 test subject (:mod:`benchmarks.real_video`: the default likelihood, initialised from the
@@ -163,12 +167,18 @@ _MHT = ("velocity_weight", "prior_scale", "prune_below")
 
 def run_one(prior, sequence, config: dict, seed: int, particles: int,
             baseline_dynamics: str, initial: np.ndarray | None = None,
-            settings: dict | None = None) -> dict:
+            settings: dict | None = None, keypoints: tuple | None = None) -> dict:
     """Track one sequence with one configuration and seed from ``initial`` (frame 0's truth
-    when None), with ``settings`` (of :data:`SETTINGS`) overriding the defaults; the
-    evaluation's scalars."""
+    when None), with ``settings`` (of :data:`SETTINGS`) overriding the defaults and, given
+    ``keypoints`` (a detector's ``(points, confidence)`` of the sequence), the default
+    likelihood's keypoint term; the evaluation's scalars."""
+    from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT
+
     settings = settings or {}
     edges = {name: settings[name] for name in _EDGES if name in settings}
+    keyed = keypoints is not None and config["likelihood"] == "limbs+edges"
+    if keyed:
+        edges["keypoint_weight"] = CAUCHY_KEYPOINT_WEIGHT
     likelihood = Likelihood(config["likelihood"],
                             **(edges if config["likelihood"] == "limbs+edges" else {}))
     latent_options = {name: settings[name] for name in _LATENT if name in settings
@@ -183,7 +193,10 @@ def run_one(prior, sequence, config: dict, seed: int, particles: int,
                             refinement=refinement, baseline_dynamics=baseline_dynamics,
                             latent_options=latent_options, mht_options=mht_options)
     initial = sequence.truth[0] if initial is None else initial
-    result = track(tracker, jr.PRNGKey(seed), sequence.frames, initial, progress=False)
+    result = track(tracker, jr.PRNGKey(seed), sequence.frames, initial, progress=False,
+                   keypoints=keypoints if keyed else None)
+    if keyed:
+        config = {**config, "likelihood": "limbs+edges+keypoints"}
     metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12,
                              seconds_per_frame=result.seconds_per_frame,
                              compile_seconds=result.compile_seconds)
@@ -247,7 +260,8 @@ def wants_real_video(args, tag: str, settings: dict) -> bool:
     and settings (real video has no validation subject; benchmarks.real_video tracks with the
     default prior and settings)."""
     return not (args.no_real_video or args.quick or args.split != "test" or tag != "waves"
-                or settings or args.baseline_dynamics != "training")
+                or settings or args.baseline_dynamics != "training"
+                or args.keypoints != "none")  # benchmarks.real_video --keypoints runs those
 
 
 def real_video_table(out: Path, methods: tuple[str, ...], estimates: tuple[str, ...]) -> str:
@@ -314,6 +328,9 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true",
                         help="a small prior; one clip, one view, one seed, 20 frames; latent and "
                              "CONDENSATION with the default likelihood (a smoke run for CI)")
+    parser.add_argument("--keypoints", choices=("none", "mediapipe"), default="none",
+                        help="the default likelihood also scores MediaPipe Pose's keypoints of "
+                             "every frame (the keypoint term; MediaPipe's venv)")
     parser.add_argument("--no-real-video", action="store_true",
                         help="do not track the real Pose2Sim videos after the rendered grid")
     parser.add_argument("--out", type=Path, default=None,
@@ -342,6 +359,7 @@ def main(argv=None) -> int:
     settings = dict(args.set)
     out = args.out or RESULTS / (args.split + ("" if tag == "waves" else "-" + tag)
                                  + ("-auto" if args.init == "auto" else "")
+                                 + ("-keypoints" if args.keypoints != "none" else "")
                                  + "".join(f"-{name}={value:g}"
                                            for name, value in sorted(settings.items()))
                                  + ("-quick" if args.quick else ""))
@@ -374,6 +392,15 @@ def main(argv=None) -> int:
         if not sequences:
             print("the automatic initialisation found no one in any sequence; nothing to track")
             return 1
+    detections = {}
+    if args.keypoints == "mediapipe":
+        from benchmarks._mediapipe import detected_keypoints, run_mediapipe
+
+        for sequence in sequences:
+            found = run_mediapipe(sequence.images)
+            if "skipped" in found:
+                parser.error(f"--keypoints mediapipe, {sequence.name}: {found['skipped']}")
+            detections[sequence.name] = detected_keypoints(found)
     jobs = [(sequence, config, seed) for config in configs for sequence in sequences
             for seed in range(seeds)]
     print(f"{len(configs)} configurations × {len(sequences)} sequences × {seeds} seeds = "
@@ -383,7 +410,8 @@ def main(argv=None) -> int:
     with open(out / "runs.jsonl", "w") as handle:
         for sequence, config, seed in tqdm(jobs, desc="tracking", unit="run"):
             run = run_one(prior, sequence, config, seed, DEFAULT_PARTICLES[config["method"]],
-                          args.baseline_dynamics, initial.get(sequence.name), settings)
+                          args.baseline_dynamics, initial.get(sequence.name), settings,
+                          detections.get(sequence.name))
             runs.append(run)
             handle.write(json.dumps(run) + "\n")
             handle.flush()
@@ -401,6 +429,7 @@ def main(argv=None) -> int:
             f"seeds; prior trained on {', '.join(training_clips)}"
             f"{' and their mirror images' if args.mirror else ''}"
             f"{', one GPLVM per body part' if args.parts else ''}"
+            f"{'; MediaPipe keypoints scored by the keypoint term' if detections else ''}"
             + "".join(f"; {SETTINGS[name]} {value:g}" for name, value in settings.items())
             + "; baselines' dynamics from "
             f"{args.baseline_dynamics}; {init_note}. error: mean over runs, "
@@ -415,6 +444,7 @@ def main(argv=None) -> int:
         "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
         "baseline_dynamics": args.baseline_dynamics, "init": args.init, "auto_init": inits,
+        "keypoints": args.keypoints,
         "settings": settings, "rows": rows})
     if wants_real_video(args, tag, settings):  # the rendered grid's outputs are already written
         real = real_video_table(out, tuple(args.methods), tuple(args.estimates))

@@ -116,7 +116,7 @@ def test_the_test_grid_tracks_the_real_videos_with_the_same_methods(tmp_path, mo
 
     def parsed(*extra):
         namespace = argparse.Namespace(no_real_video=False, quick=False, split="test",
-                                       baseline_dynamics="training")
+                                       baseline_dynamics="training", keypoints="none")
         for name, value in extra:
             setattr(namespace, name, value)
         return namespace
@@ -127,6 +127,7 @@ def test_the_test_grid_tracks_the_real_videos_with_the_same_methods(tmp_path, mo
     assert not tracking.wants_real_video(parsed(("no_real_video", True)), "waves", {})
     assert not tracking.wants_real_video(parsed(), "gestures", {})
     assert not tracking.wants_real_video(parsed(), "waves", {"edge_weight": 2.0})
+    assert not tracking.wants_real_video(parsed(("keypoints", "mediapipe")), "waves", {})
 
 
 def test_a_failed_real_video_run_is_not_reported_as_a_table(tmp_path, monkeypatch):
