@@ -392,7 +392,7 @@ def main(argv=None) -> int:
         if not sequences:
             print("the automatic initialisation found no one in any sequence; nothing to track")
             return 1
-    detections = {}
+    detections, detector = {}, []
     if args.keypoints == "mediapipe":
         from benchmarks._mediapipe import detected_keypoints, run_mediapipe
 
@@ -401,6 +401,11 @@ def main(argv=None) -> int:
             if "skipped" in found:
                 parser.error(f"--keypoints mediapipe, {sequence.name}: {found['skipped']}")
             detections[sequence.name] = detected_keypoints(found)
+            # the detector alone, every frame (a frame without a person holds the last one)
+            alone = evaluate_track(found["markers"], sequence.truth, UPPER_BODY_12)
+            detector.append({"sequence": sequence.name,
+                             **{key: alone[key] for key in ("mean_error_torso",
+                                                            "fraction_within_15")}})
     jobs = [(sequence, config, seed) for config in configs for sequence in sequences
             for seed in range(seeds)]
     print(f"{len(configs)} configurations × {len(sequences)} sequences × {seeds} seeds = "
@@ -435,6 +440,12 @@ def main(argv=None) -> int:
             f"{args.baseline_dynamics}; {init_note}. error: mean over runs, "
             "± the 95 % t-interval; lost: error above 25 % of the torso for 10 frames in a row; "
             "ms/frame: median over runs; compile s: apart.")
+    if detector:
+        print(f"MediaPipe alone: {detector}")
+        note += (" MediaPipe alone on the same sequences: "
+                 f"{100 * statistics.mean(r['mean_error_torso'] for r in detector):.1f} % of the "
+                 f"torso, {100 * statistics.mean(r['fraction_within_15'] for r in detector):.0f} "
+                 "% of frames within 15 %.")
     (out / "table.md").write_text(table + "\n\n" + note + "\n")
     plot(rows, out / "errors.png", f"{args.split} subjects: mean marker error")
     write_json_atomically(out / "summary.json", {
@@ -444,7 +455,7 @@ def main(argv=None) -> int:
         "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
         "baseline_dynamics": args.baseline_dynamics, "init": args.init, "auto_init": inits,
-        "keypoints": args.keypoints,
+        "keypoints": args.keypoints, "mediapipe_alone": detector,
         "settings": settings, "rows": rows})
     if wants_real_video(args, tag, settings):  # the rendered grid's outputs are already written
         real = real_video_table(out, tuple(args.methods), tuple(args.estimates))
