@@ -3,6 +3,7 @@
     python -m benchmarks.real_video                  # 4 views × 3 methods × 2 estimates × 2 inits
     python -m benchmarks.real_video --frames 40      # the first 40 video frames of each view
     python -m benchmarks.real_video --quick          # one view, 10 frames, the latent tracker
+    python -m benchmarks.real_video --score out/track.json   # a jaxtrack track run, scored
 
 Each video (``shared/data/pose2sim_demo_singleperson/videos/cam0N.mp4``, 1080 × 1920 at 60 fps,
 a man balancing on a beam) is downscaled as ``jaxtrack track`` does (longer side at most
@@ -187,6 +188,32 @@ def run_mediapipe_view(view: View) -> dict:
                     seconds_per_frame=float(np.median(found["seconds"])))}
 
 
+def score_track_file(path: Path, folder: Path) -> dict:
+    """A ``jaxtrack track`` run's ``track.json`` of one of the Pose2Sim videos (named by its
+    file, ``cam0N.mp4``) against the reference: every frame it tracked after the first that the
+    reference covers, in the video's own pixels, as the table scores them."""
+    import json
+
+    record = json.loads(Path(path).read_text())
+    camera = Path(record["video"]).stem
+    if camera not in VIEWS:
+        raise SystemExit(f"--score {path}: its video {record['video']} is none of the Pose2Sim "
+                         f"demo's {', '.join(VIEWS)}")
+    reference = load_reference(folder, num_video_frames=100)[camera]
+    covered = set(int(index) for index in reference.frame_indices)
+    frames = [entry for entry in record["frames"] if entry["frame"] in covered]
+    if len(frames) < 2:
+        raise SystemExit(f"--score {path}: fewer than 2 of its frames have a reference")
+    markers = np.array([[entry["markers"][name] for name in UPPER_BODY_12]
+                        for entry in frames])
+    truth = reference.select([entry["frame"] for entry in frames]).markers
+    metrics = evaluate_track(markers[1:], truth[1:], UPPER_BODY_12)
+    return {"track": str(path), "view": camera, "frames_scored": len(frames) - 1,
+            "keypoint_weight": record["tracker"]["likelihood"].get("keypoint_weight"),
+            **{key: metrics[key] for key in ("mean_error_torso", "fraction_within_15",
+                                             "mean_error_px")}}
+
+
 def table(runs: list[dict], views: tuple[str, ...]) -> str:
     """Markdown: one row per (method, estimate, init); per view "error % / within 15 %"."""
     done = [run for run in runs if "skipped" not in run]
@@ -266,6 +293,9 @@ def main(argv=None) -> int:
     parser.add_argument("--keypoint-weight", type=float, default=None, metavar="ETA",
                         help="the keypoint term's η (default 3/2, the Cauchy density's own; "
                              "needs --keypoints)")
+    parser.add_argument("--score", type=Path, default=None, metavar="TRACK_JSON",
+                        help="only score a jaxtrack track run of one of the videos (its "
+                             "track.json) against the reference, and print it")
     parser.add_argument("--data", type=Path, default=None,
                         help="the pose2sim_demo_singleperson folder (default: shared data)")
     parser.add_argument("--out", type=Path, default=None,
@@ -307,6 +337,14 @@ def main(argv=None) -> int:
         folder = args.data or default_folder()
     except FileNotFoundError as error:
         parser.error(str(error))
+    if args.score is not None:
+        if not args.score.is_file():
+            parser.error(f"--score {args.score}: no such file")
+        scored = score_track_file(args.score, folder)
+        print(f"{scored['view']}, {scored['frames_scored']} frames: "
+              f"{100 * scored['mean_error_torso']:.1f} % of the torso, "
+              f"{100 * scored['fraction_within_15']:.0f} % of frames within 15 %")
+        return 0
     out = args.out or RESULTS / (("real_video_quick" if args.quick else "real_video") + suffix
                                  + ".json")
 

@@ -58,3 +58,38 @@ def test_mediapipe_landmarks_map_to_the_twelve_markers():
     np.testing.assert_allclose(markers["left_wrist"], named["left_wrist"])
     np.testing.assert_allclose(markers["right_hip"], named["right_hip"])
     assert np.isfinite(np.stack(list(markers.values()))).all()  # the nose and face are unused
+
+
+@needs_data
+def test_a_track_file_is_scored_against_the_reference(tmp_path, capsys):
+    """``--score``: a ``jaxtrack track`` run's track.json, its markers in the video's pixels;
+    the reference itself scores 0, a copy 30 px off scores that, and a video that is not one of
+    the demo's is refused in one line."""
+    import json
+
+    from jaxtrack.evaluation.reference import load_reference
+
+    reference = load_reference(FOLDER, num_video_frames=100)["cam03"]
+    indices = [int(index) for index in reference.frame_indices[:6]]
+    truth = reference.select(indices).markers
+
+    def write(markers, video="videos/cam03.mp4"):
+        path = tmp_path / "track.json"
+        path.write_text(json.dumps({
+            "video": video, "tracker": {"likelihood": {"keypoint_weight": 1.5}},
+            "frames": [{"frame": index, "markers": {name: list(map(float, point))
+                                                    for name, point in zip(UPPER_BODY_12, pose,
+                                                                           strict=True)}}
+                       for index, pose in zip(indices, markers, strict=True)]}))
+        return path
+
+    exact = real_video.score_track_file(write(truth), FOLDER)
+    assert exact["view"] == "cam03" and exact["frames_scored"] == 5
+    assert exact["mean_error_torso"] < 1e-9 and exact["fraction_within_15"] == 1.0
+    shifted = real_video.score_track_file(write(truth + [30.0, 0.0]), FOLDER)
+    assert shifted["mean_error_px"] == pytest.approx(30.0)
+    assert real_video.main(["--score", str(write(truth)), "--data", str(FOLDER)]) == 0
+    assert "cam03, 5 frames: 0.0 % of the torso, 100 % of frames within 15 %" in (
+        capsys.readouterr().out)
+    with pytest.raises(SystemExit, match="none of the Pose2Sim demo's"):
+        real_video.score_track_file(write(truth, "my_clip.mp4"), FOLDER)
