@@ -142,11 +142,10 @@ def main(argv=None) -> int:
     started = time.perf_counter()
 
     from benchmarks._mediapipe import detected_keypoints, run_mediapipe
-    from benchmarks.tracking import GESTURE_CLIPS, QUICK_TRAINING, TRAINING_CLIPS
+    from benchmarks.tracking import GESTURE_CLIPS, QUICK_TRAINING, TRAINING_CLIPS, candidate_prior
     from jaxtrack.body import SPM_MARKERS
     from jaxtrack.experiments import render_test_sequences
     from jaxtrack.likelihoods.edges import KEYPOINT_SCALES
-    from jaxtrack.priors.train import train_prior
 
     clips, views, backgrounds, frames = GESTURE_CLIPS["validation"], 2, ("photo", "clutter"), \
         args.frames
@@ -186,10 +185,7 @@ def main(argv=None) -> int:
 
         _share_compilations()  # every sequence is 640 × 480: one compilation per configuration
 
-        training = QUICK_TRAINING if args.quick else {}
-        cache = RESULTS / "tracking" / f"prior_training_waves{'_quick' if args.quick else ''}.npz"
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        prior = train_prior(TRAINING_CLIPS, progress=False, cache=cache, **training)
+        prior = candidate_prior("waves", **(QUICK_TRAINING if args.quick else {}))
         print(f"prior: {', '.join(TRAINING_CLIPS)}; {device_description()}")
         for method, estimate, weight in itertools.product(methods, estimates, [0.0, *weights]):
             for sequence, (points, confidence, _) in zip(sequences, detections, strict=True):

@@ -215,16 +215,13 @@ def main(argv=None) -> int:
     use_background = args.likelihood == "limbs+edges" and not args.no_background
 
     from benchmarks.real_video import View
-    from benchmarks.tracking import GESTURE_CLIPS, TRAINING_CLIPS
+    from benchmarks.tracking import GESTURE_CLIPS, TRAINING_CLIPS, candidate_prior
     from jaxtrack.evaluation.reference import default_folder
     from jaxtrack.experiments import render_test_sequences
-    from jaxtrack.priors.train import train_prior
     from jaxtrack.vision import median_grey_background
 
     started = time.perf_counter()
-    cache = RESULTS / "tracking" / "prior_training_waves.npz"
-    cache.parent.mkdir(parents=True, exist_ok=True)
-    prior = train_prior(TRAINING_CLIPS, progress=False, cache=cache)
+    prior = candidate_prior("waves")
     print(f"prior: {', '.join(TRAINING_CLIPS)}; {device_description()}")
     rows, records = [], []
     if not args.no_rendered:

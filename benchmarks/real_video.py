@@ -348,16 +348,12 @@ def main(argv=None) -> int:
     out = args.out or RESULTS / (("real_video_quick" if args.quick else "real_video") + suffix
                                  + ".json")
 
-    from benchmarks.tracking import QUICK_TRAINING, TRAINING_CLIPS
-    from jaxtrack.priors.train import train_prior
+    from benchmarks.tracking import QUICK_TRAINING, TRAINING_CLIPS, candidate_prior
 
     assert all(split_of(clip) == "training" for clip in TRAINING_CLIPS)
     started = time.perf_counter()
     _share_compilations()
-    training = QUICK_TRAINING if args.quick else {}
-    cache = RESULTS / "tracking" / f"prior_training_waves{'_quick' if args.quick else ''}.npz"
-    cache.parent.mkdir(parents=True, exist_ok=True)
-    prior = train_prior(TRAINING_CLIPS, progress=False, cache=cache, **training)
+    prior = candidate_prior("waves", **(QUICK_TRAINING if args.quick else {}))
     print(f"prior: {', '.join(TRAINING_CLIPS)} ({time.perf_counter() - started:.0f} s); "
           f"{device_description()}")
 
