@@ -189,18 +189,25 @@ def likelihood_options(args) -> dict:
             if value is not None}
 
 
+def _decoded(video: Path, max_size: int) -> tuple[np.ndarray, int]:
+    """Every frame of ``video``, downscaled so its longer side is at most ``max_size``, and the
+    video's own width."""
+    from jaxtrack.vision import read_video
+
+    height, width = read_video(video, max_frames=1).frames.shape[1:3]
+    return read_video(video, scale=min(1.0, max_size / max(width, height))).frames, width
+
+
 def person_masks(video: Path, out: Path, *, max_size: int = 640) -> Path | dict:
     """MediaPipe's person masks for every frame of ``video``, decoded so its longer side is at
     most ``max_size``, written to ``out`` (:func:`jaxtrack.vision.write_masks`; ``jaxtrack
     track --masks`` reads it) unless ``out`` is already there. Returns ``out``, or
     ``{"skipped": reason}`` when MediaPipe cannot run or finds no person."""
-    from jaxtrack.vision import read_video, write_masks
+    from jaxtrack.vision import write_masks
 
     if out.is_file():
         return out
-    height, width = read_video(video, max_frames=1).frames.shape[1:3]
-    frames = read_video(video, scale=min(1.0, max_size / max(width, height))).frames
-    masks = mask_array(frames)
+    masks = mask_array(_decoded(video, max_size)[0])
     if isinstance(masks, dict):
         return masks
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -213,11 +220,9 @@ def person_keypoints(video: Path, out: Path, *, max_size: int = 960) -> Path | d
     (:func:`jaxtrack.vision.keypoints.write_keypoints`; ``jaxtrack track --keypoints`` reads
     it). Returns ``out``, or ``{"skipped": reason}`` when MediaPipe cannot run or finds no
     person."""
-    from jaxtrack.vision import read_video
     from jaxtrack.vision.keypoints import write_keypoints
 
-    height, width = read_video(video, max_frames=1).frames.shape[1:3]
-    frames = read_video(video, scale=min(1.0, max_size / max(width, height))).frames
+    frames, width = _decoded(video, max_size)
     result = run_mediapipe(frames)
     if "skipped" in result:
         return result

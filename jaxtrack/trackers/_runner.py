@@ -148,13 +148,12 @@ def track(tracker: Tracker, key: PRNGKeyArray, frames: Float[Array, "time height
         raise ValueError("keypoints are read by the likelihood's keypoint term only: give "
                          "Likelihood(keypoint_weight=...) or leave keypoints out")
     if keypoints is not None:
-        from jaxtrack.vision.keypoints import check_keypoints
+        from jaxtrack.vision.keypoints import check_keypoint_input
 
         if not add_edges:
             raise ValueError("keypoints go with grey frames and the 'limbs+edges' likelihood "
                              "(edge observations made beforehand carry their own keypoints)")
-        points, confidence = keypoints if isinstance(keypoints, tuple) else (keypoints, None)
-        keypoints = check_keypoints(points, confidence, num_frames=frames.shape[0])
+        keypoints = check_keypoint_input(keypoints, num_frames=frames.shape[0])
     if masks is not None:
         from jaxtrack.vision.masks import check_masks
 

@@ -151,10 +151,9 @@ def edge_observations(frames: np.ndarray, *, out: np.ndarray | None = None, low:
         masks = check_masks(masks, frames.shape)
         channels = 4
     if keypoints is not None:
-        from jaxtrack.vision.keypoints import check_keypoints
+        from jaxtrack.vision.keypoints import check_keypoint_input
 
-        points, confidence = (keypoints if isinstance(keypoints, tuple) else (keypoints, None))
-        points, confidence = check_keypoints(points, confidence, num_frames=frames.shape[0])
+        points, confidence = check_keypoint_input(keypoints, num_frames=frames.shape[0])
         channels += 1
     out = _check_out(out, (frames.shape[0], channels, *frames.shape[1:]))
     if masks is not None:

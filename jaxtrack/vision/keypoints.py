@@ -34,8 +34,9 @@ import numpy as np
 from jaxtrack._files import write_npz_atomically
 from jaxtrack.body import SPM_MARKERS
 
-__all__ = ["KEYPOINT_VALUES", "KeypointFileError", "NUM_KEYPOINTS", "check_keypoints",
-           "pack_keypoints", "read_keypoints", "unpack_keypoints", "write_keypoints"]
+__all__ = ["KEYPOINT_VALUES", "KeypointFileError", "NUM_KEYPOINTS", "check_keypoint_input",
+           "check_keypoints", "pack_keypoints", "read_keypoints", "unpack_keypoints",
+           "write_keypoints"]
 
 NUM_KEYPOINTS = len(SPM_MARKERS)
 """Keypoints per frame: the tracker's markers, in ``SPM_MARKERS`` order."""
@@ -78,6 +79,14 @@ def check_keypoints(keypoints, confidence=None, *, num_frames: int | None = None
     if np.abs(points).max(initial=0) > 1e6:
         raise ValueError(f"{name} hold positions beyond 10^6 pixels")
     return points.astype(np.float32), confidence.astype(np.float32)
+
+
+def check_keypoint_input(keypoints, *, num_frames: int | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`check_keypoints` of what a caller hands over: ``(points, confidence)``, or the
+    points alone (confidence 1 where found)."""
+    points, confidence = keypoints if isinstance(keypoints, tuple) else (keypoints, None)
+    return check_keypoints(points, confidence, num_frames=num_frames)
 
 
 def pack_keypoints(points: np.ndarray, confidence: np.ndarray, out: np.ndarray) -> np.ndarray:
