@@ -107,7 +107,7 @@ def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, .
     if edges and len(shape) == 4 and shape[1] in (3, 4, 5):  # 5: mask and keypoints
         return False
     expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
-                "with their edge maps, or (time, 4, height, width) with the person's mask too "
-                "(jaxtrack.vision.edge_observations)" if edges
+                "with their edge maps, or (time, 4 or 5, height, width) with the person's mask "
+                "or a detector's keypoints or both (jaxtrack.vision.edge_observations)" if edges
                 else "(time, height, width) grey images")
     raise ValueError(f"frames must be {expected}, got shape {shape}")

@@ -407,7 +407,8 @@ class EdgeLimbTemplates(PartTemplates):
         markers = jnp.asarray(markers_2d)
         dtype = float_dtype(observation, markers)
         markers = markers.astype(dtype)
-        points, confidence = unpack_keypoints(observation[-1].astype(dtype))
+        points, confidence = (values.astype(dtype) for values in
+                              unpack_keypoints(observation[-1]))
         spine = spine_length(markers) if spine is None else jnp.asarray(spine, dtype)
         scales = jnp.asarray(KEYPOINT_SCALES, dtype) * self.keypoint_scale * spine
 
@@ -489,8 +490,9 @@ class EdgeLimbTemplates(PartTemplates):
 
     def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
                        ) -> Array:
-        """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i² (− μ Σ_arms b_s) (− ν coverage)`` for one
-        pose."""
+        """``−λ Σ (1 − NCC_s) − κ Σ_s mean_i e_i² (− μ Σ_arms b_s)`` for one pose, plus the
+        whole-pose terms where they are on (:meth:`whole_pose_log_likelihood`: coverage,
+        keypoints)."""
         samples, scaled, off = self._read(markers_2d, observation, nearest)
         scores = correlation(samples, self.strips.strips)
         appearance = -jnp.asarray(sharpness, scores.dtype) * jnp.sum(1 - scores)
@@ -504,9 +506,9 @@ class EdgeLimbTemplates(PartTemplates):
 
     def residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
         """The strips' residuals, then ``√(2κ / n) e_i`` per border point (bilinear samples
-        and distances), then ``√(2μ b_s)`` per strip with a background, then ``√(2ν m_g /
-        Σ m) c_g`` per grid point with the coverage term: half the squared norm is the negative
-        log-likelihood. ``spine``: as in :meth:`part_residuals`."""
+        and distances), then ``√(2μ b_s)`` per strip with a background, then the whole-pose
+        terms' (:meth:`whole_pose_residuals`: coverage, keypoints): half the squared norm is
+        the negative log-likelihood. ``spine``: as in :meth:`part_residuals`."""
         residuals = self._part_terms_residuals(markers_2d, observation, sharpness, spine)
         if not self.has_whole_pose_terms:
             return residuals
@@ -514,7 +516,7 @@ class EdgeLimbTemplates(PartTemplates):
                                                                      spine)])
 
     def _part_terms_residuals(self, markers_2d, observation, sharpness, spine=None) -> Array:
-        """:meth:`residuals` without the coverage term (the parts' terms alone)."""
+        """:meth:`residuals` without the whole-pose terms (the parts' terms alone)."""
         samples, scaled, off = self._read(markers_2d, observation, nearest=False, spine=spine)
         appearance = template_residuals(samples, self.strips.strips, sharpness)
         weight = jnp.sqrt(2.0 * self.edge_weight.astype(scaled.dtype) / scaled.shape[-1])
@@ -528,7 +530,7 @@ class EdgeLimbTemplates(PartTemplates):
                              parts: tuple[int, ...] | None = None) -> Array:
         """``−λ (1 − NCC_s) − κ mean_i e_i²`` of each strip ``parts`` picks (static indices
         into ``LIMB_SEGMENTS``; None: all): the terms :meth:`log_likelihood` sums, computed
-        for the picked strips alone (the coverage term, no part's, left out:
+        for the picked strips alone (the whole-pose terms, no part's, left out:
         :meth:`whole_pose_log_likelihood`)."""
         samples, scaled, off = self._read(markers_2d, observation, nearest, parts)
         scores = correlation(samples, self.strips.strips[jnp.asarray(select_segments(parts))])
@@ -544,7 +546,7 @@ class EdgeLimbTemplates(PartTemplates):
         foreground residual) depends only on the markers :attr:`part_markers` names for it.
         With ``spine`` (the length the widths and σ are fractions of; None: the markers' own)
         given, a row depends only on the markers :attr:`direct_part_markers` names and on
-        ``spine``. The coverage term, no part's, is left out."""
+        ``spine``. The whole-pose terms, no part's, are left out."""
         residuals = self._part_terms_residuals(markers_2d, observation, sharpness, spine)
         segments = len(LIMB_SEGMENTS)
         split = segments * self.strips.along * self.strips.across
