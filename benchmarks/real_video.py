@@ -177,6 +177,21 @@ def run_tracker(prior, view: View, method: str, estimate: str, init: str,
                     compile_seconds=result.compile_seconds)}
 
 
+def swapped_frames(markers: np.ndarray, view: View) -> dict:
+    """Of the scored frames (every one after the first), those where the markers with the
+    person's left and right exchanged are nearer the reference than as given (a detector's
+    left/right swap), and how far those are once swapped back (% of the torso)."""
+    from jaxtrack.likelihoods.edges import MIRRORED_MARKERS
+
+    truth = view.truth[1:]
+    torso = torso_lengths(truth, UPPER_BODY_12)
+    given = np.linalg.norm(markers[1:] - truth, axis=-1).mean(-1) / torso
+    back = np.linalg.norm(markers[1:, list(MIRRORED_MARKERS)] - truth, axis=-1).mean(-1) / torso
+    swapped = back < given
+    return {"frames_swapped": int(swapped.sum()),
+            "swapped_back_errors_torso": np.sort(back[swapped]).round(4).tolist()}
+
+
 def run_mediapipe_view(view: View) -> dict:
     found = detections(view)
     row = {"method": "mediapipe", "estimate": "own", "init": "none", "view": view.name}
@@ -184,6 +199,7 @@ def run_mediapipe_view(view: View) -> dict:
         return {**row, "skipped": found["skipped"]}
     return {**row, "version": found["version"], "frames_without_person": found["filled"],
             "first_frame_seconds": found["first_seconds"],
+            **swapped_frames(found["markers"], view),
             **score(found["markers"], view,
                     seconds_per_frame=float(np.median(found["seconds"])))}
 
@@ -418,7 +434,8 @@ def main(argv=None) -> int:
             print("  mediapipe: " + (run["skipped"] if "skipped" in run else
                                      f"{100 * run['mean_error_torso']:.1f} % torso, "
                                      f"{100 * run['fraction_within_15']:.0f} % within 15 %, "
-                                     f"{run['ms_per_frame']:.1f} ms/frame"))
+                                     f"{run['ms_per_frame']:.1f} ms/frame; left and right "
+                                     f"swapped in {run['frames_swapped']} frames"))
     text = table(runs, views)
     print(text)
     header = run_header("benchmarks.real_video", argv, started)

@@ -93,3 +93,22 @@ def test_a_track_file_is_scored_against_the_reference(tmp_path, capsys):
         capsys.readouterr().out)
     with pytest.raises(SystemExit, match="none of the Pose2Sim demo's"):
         real_video.score_track_file(write(truth, "my_clip.mp4"), FOLDER)
+
+
+def test_a_detectors_left_right_swaps_are_counted():
+    """``swapped_frames``: the scored frames (after the first) whose markers lie nearer the
+    reference with left and right exchanged, and their errors once swapped back."""
+    from types import SimpleNamespace
+
+    from jaxtrack.likelihoods.edges import MIRRORED_MARKERS
+
+    truth = np.array([[80, 20], [80, 35], [80, 60], [80, 95], [65, 38], [55, 55], [50, 70],
+                      [70, 95], [95, 38], [105, 55], [110, 70], [90, 95]], float)
+    truth = np.repeat(truth[None], 5, axis=0)
+    markers = truth + 1.5
+    markers[2:4] = markers[2:4][:, list(MIRRORED_MARKERS)]
+    counted = real_video.swapped_frames(markers, SimpleNamespace(truth=truth))
+    assert counted["frames_swapped"] == 2
+    torso = np.linalg.norm(truth[0, 1] - truth[0, 3])
+    np.testing.assert_allclose(counted["swapped_back_errors_torso"],
+                               [1.5 * np.sqrt(2) / torso] * 2, atol=1e-4)
