@@ -2,8 +2,10 @@
 clips, then the paper's Table 1 metrics on the test clips.
 
 1. The posture model is trained on ``experiments.mixed_state.TRAINING_CLIPS`` with each
-   covariance ridge of ``--regularisation`` (cached beside ``--out``), and the ridge is chosen
-   by the instantaneous (extended Ghost) posture error on the validation clips
+   number of Gaussians per posture of ``--components`` and covariance ridge of
+   ``--regularisation`` (by default the library's, which ``benchmarks.posture_classifier``
+   chose; cached beside ``--out``), and where several are given the pair is chosen by the
+   instantaneous (extended Ghost) posture error on the validation clips
    (``experiments.mixed_state.VALIDATION_CLIPS``: subject 77's half-crouch and subject 02's
    walk, validation subjects of ``jaxtrack.data.splits``, and held-out clips of the training
    subjects who sit and lie down: 75_17 and DeepMimic's roll).
@@ -53,23 +55,29 @@ _COLUMNS = [("estimate", "estimate", "s"), ("mse_head", "MSE head", ".1f"),
             ("max_head", "max head px", ".1f")]
 
 
-def trained_models(folder: Path, ridges) -> dict:
-    """The posture model trained on the training clips with each covariance ridge, cached in
-    ``folder`` (the clips rendered once for all of them)."""
+def model_path(folder: Path, components: int, ridge: float) -> Path:
+    """Where :func:`trained_models` caches the model of ``components`` and ``ridge``."""
+    return folder / f"mixed_state_posture_model_k{components}_ridge{ridge:g}.npz"
+
+
+def trained_models(folder: Path, settings) -> dict:
+    """The posture model trained on the training clips with each ``(components, ridge)`` of
+    ``settings``, cached in ``folder`` (the clips rendered once for all of them)."""
     from jaxtrack.experiments import mixed_state as ms
     from jaxtrack.priors.postures import load_posture_model, save_posture_model
 
-    paths = {ridge: folder / f"mixed_state_posture_model_ridge{ridge:g}.npz" for ridge in ridges}
-    models = {ridge: load_posture_model(path).model for ridge, path in paths.items()
+    paths = {pair: model_path(folder, *pair) for pair in settings}
+    models = {pair: load_posture_model(path).model for pair, path in paths.items()
               if path.is_file()}
-    missing = [ridge for ridge in ridges if ridge not in models]
+    missing = [pair for pair in settings if pair not in models]
     if missing:
-        features, labels, settings = ms.training_features()
-        for ridge in missing:
-            models[ridge], description = ms.fit(features, labels, regularisation=ridge,
-                                                **settings)
-            save_posture_model(paths[ridge], models[ridge], description=description)
-    return {ridge: models[ridge] for ridge in ridges}
+        features, labels, rendering = ms.training_features()
+        for components, ridge in missing:
+            models[components, ridge], description = ms.fit(
+                features, labels, regularisation=ridge, components=components, **rendering)
+            save_posture_model(paths[components, ridge], models[components, ridge],
+                               description=description)
+    return {pair: models[pair] for pair in settings}
 
 
 def labelled_features(sequences, num_bins: int):
@@ -87,11 +95,17 @@ def instantaneous_posture_error(model, features, labels) -> float:
 
 
 def main(argv=None) -> int:
+    from jaxtrack.experiments.mixed_state import DEFAULT_COMPONENTS, DEFAULT_REGULARISATION
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=150, help="frames per clip (30 fps)")
     parser.add_argument("--particles", type=int, default=500)
-    parser.add_argument("--regularisation", type=float, nargs="+", default=[0.01, 0.05, 0.2],
-                        help="the posture model's covariance ridges to choose among")
+    parser.add_argument("--regularisation", type=float, nargs="+",
+                        default=[DEFAULT_REGULARISATION],
+                        help="the posture model's covariance ridges to choose among (default: "
+                             "the library's)")
+    parser.add_argument("--components", type=int, nargs="+", default=[DEFAULT_COMPONENTS],
+                        help="Gaussians per posture to choose among (default: the library's)")
     parser.add_argument("--redetect", type=float, nargs="+", default=[0.0, 0.02])
     parser.add_argument("--cutoff", type=float, nargs="+", default=[9.0, 25.0, 100.0],
                         help="the part likelihood's cutoffs delta to choose among")
@@ -118,6 +132,8 @@ def main(argv=None) -> int:
                     high is not None and not 0.0 <= value <= high):
                 bound = f"above {low:g}" if low is not None else f"in [0, {high:g}]"
                 parser.error(f"{name} values must be finite and {bound}, got {value:g}")
+    if any(value < 1 for value in args.components):
+        parser.error(f"--components must be whole numbers >= 1, got {args.components}")
     for name in ("frames", "particles"):
         if getattr(args, name) < (2 if name == "frames" else 1):
             parser.error(f"--{name} must be at least {2 if name == 'frames' else 1}, got "
@@ -125,7 +141,8 @@ def main(argv=None) -> int:
     from jaxtrack.experiments import mixed_state as ms
 
     begin = time.perf_counter()
-    models = trained_models(Path(args.out).parent, args.regularisation)
+    models = trained_models(Path(args.out).parent,
+                            list(itertools.product(args.components, args.regularisation)))
     train_seconds = time.perf_counter() - begin
     azimuths = ms.VIEW_AZIMUTHS if args.azimuths is None else tuple(
         float(np.radians(value)) for value in args.azimuths)
@@ -133,13 +150,13 @@ def main(argv=None) -> int:
     sequences = ms.render_sequences(ms.VALIDATION_CLIPS, azimuths, ("clutter",), (640, 480),
                                     args.frames, args.seed)
     features, labels = labelled_features(sequences, num_bins=16)
-    posture_errors = {ridge: instantaneous_posture_error(model, features, labels)
-                      for ridge, model in models.items()}
-    for ridge, error in posture_errors.items():
-        print(f"validation, regularisation {ridge:g}: instantaneous posture error "
-              f"{100 * error:.1f} %")
-    ridge = min(posture_errors, key=posture_errors.get)
-    posture_model = models[ridge]
+    posture_errors = {pair: instantaneous_posture_error(model, features, labels)
+                      for pair, model in models.items()}
+    for (components, ridge), error in posture_errors.items():
+        print(f"validation, {components} Gaussians per posture, regularisation {ridge:g}: "
+              f"instantaneous posture error {100 * error:.1f} %")
+    components, ridge = min(posture_errors, key=posture_errors.get)
+    posture_model = models[components, ridge]
     validation = {}
     for cutoff, switch, value in itertools.product(args.cutoff, args.switch, args.redetect):
         result = ms.evaluate(posture_model, ms.VALIDATION_CLIPS, azimuths=azimuths,
@@ -169,9 +186,10 @@ def main(argv=None) -> int:
                                       redraw_on_switch=chosen_switch == "redraw",
                                       part_cutoff=cutoff)
     print(f"device: {device_description()}")
-    print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; posture model regularisation "
-          f"{ridge:g} (instantaneous posture error " + ", ".join(
-              f"{100 * error:.1f} % at {value:g}" for value, error in posture_errors.items())
+    print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; posture model {components} "
+          f"Gaussians per posture, regularisation {ridge:g} (instantaneous posture error "
+          + ", ".join(f"{100 * error:.1f} % at {k}, {value:g}"
+                      for (k, value), error in posture_errors.items())
           + "); smoothed MSE all (px², 640 x 480) by part cutoff, re-detection and switch rule:")
     print_table([{"cutoff": delta, "redetect": value, "switch": switch,
                   "mse": scores["smoothed"]["mse"]["all"],
@@ -181,7 +199,8 @@ def main(argv=None) -> int:
                  ("switch", "on a switch", "s"),
                  ("mse", "smoothed MSE all", ".1f"),
                  ("posture_error", "posture error %", ".1f")])
-    print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, regularisation {ridge:g}, cutoff "
+    print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, {components} Gaussians per posture, "
+          f"regularisation {ridge:g}, cutoff "
           f"{cutoff:g}, redetect {chosen:g}, {chosen_switch} on a switch, "
           f"{args.particles} particles, {args.frames} frames per clip, {len(azimuths)} views, "
           f"clutter; "
@@ -194,9 +213,10 @@ def main(argv=None) -> int:
     write_json(args.out, {"benchmark": "mixed_state_evaluation", "device": device_description(),
                           "arguments": vars(args), "train_seconds": train_seconds,
                           "validation_posture_error": [
-                              {"regularisation": value, "instantaneous_posture_error": error}
-                              for value, error in posture_errors.items()],
-                          "chosen_regularisation": ridge,
+                              {"components": k, "regularisation": value,
+                               "instantaneous_posture_error": error}
+                              for (k, value), error in posture_errors.items()],
+                          "chosen_regularisation": ridge, "chosen_components": components,
                           "validation": [{"part_cutoff": delta, "redetect_probability": value,
                                           "on_switch": switch, **scores}
                                          for (delta, value, switch), scores

@@ -88,12 +88,13 @@ def truth_postures(trc_keypoints: np.ndarray, image_keypoints: np.ndarray) -> np
 
 
 def posture_model(folder: Path):
-    """The training clips' posture model with the default covariance ridge, shared with
-    ``benchmarks.mixed_state_evaluation``'s cache in ``folder``."""
+    """The training clips' posture model with the default components and covariance ridge,
+    shared with ``benchmarks.mixed_state_evaluation``'s cache in ``folder``."""
     from benchmarks.mixed_state_evaluation import trained_models
-    from jaxtrack.experiments.mixed_state import DEFAULT_REGULARISATION
+    from jaxtrack.experiments.mixed_state import DEFAULT_COMPONENTS, DEFAULT_REGULARISATION
 
-    return trained_models(folder, [DEFAULT_REGULARISATION])[DEFAULT_REGULARISATION]
+    pair = (DEFAULT_COMPONENTS, DEFAULT_REGULARISATION)
+    return trained_models(folder, [pair])[pair]
 
 
 def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles: int,

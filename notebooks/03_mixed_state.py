@@ -71,7 +71,8 @@ BENCHMARK = Path("benchmarks/results/mixed_state_evaluation.json")
 BENCHMARK_MODEL = None
 BINS = 16
 if SMOKE:  # 45 frames of each training clip from both profiles (every posture seen at least twice)
-    TRAIN = dict(azimuths=(np.pi / 2, -np.pi / 2), image_size=(160, 120), max_frames=45)
+    TRAIN = dict(azimuths=(np.pi / 2, -np.pi / 2), image_size=(160, 120), max_frames=45,
+                 pose2sim_cameras=())
     TEST = dict(azimuths=(np.pi / 2,), image_size=(160, 120), max_frames=12,
                 num_particles=64, lag=4, seed=1)
     MODEL_OPTIONS, CACHE, saved_benchmark = {}, None, None
@@ -86,11 +87,12 @@ else:  # the benchmark's evaluation: the settings it recorded, else its defaults
                     num_particles=settings["num_particles"], lag=settings["lag"],
                     seed=settings["seed"])
         # the re-detection probability and switch rule it chose on the validation clips, and
-        # the posture model of the covariance ridge it chose there
+        # the posture model of the components and covariance ridge it chose there
         MODEL_OPTIONS = settings["model"]
         ridge = saved_benchmark.get("chosen_regularisation")
-        BENCHMARK_MODEL = None if ridge is None else BENCHMARK.with_name(
-            f"mixed_state_posture_model_ridge{ridge:g}.npz")
+        components = saved_benchmark.get("chosen_components")
+        BENCHMARK_MODEL = None if ridge is None or components is None else BENCHMARK.with_name(
+            f"mixed_state_posture_model_k{components}_ridge{ridge:g}.npz")
         print(f"settings of {BENCHMARK}:", TEST, MODEL_OPTIONS)
     else:  # --frames 150 --particles 500 --seed 1; the library's default re-detection
         TEST = dict(azimuths=ms.VIEW_AZIMUTHS, image_size=(640, 480), max_frames=150,

@@ -209,6 +209,53 @@ class Motion:
                  for j in range(self.num_joints)]
         return self._replace(reflected[:, order])
 
+    def laid_down(self, face: Literal["up", "down"]) -> Motion:
+        """The performance turned a quarter turn onto its back (``face="up"``) or its front
+        (``"down"``), resting on the floor: the same joints moving the same way, lying.
+
+        Each frame's pose turns about the horizontal axis through its trunk's centre (the mean
+        of its pelvis, hips, shoulders and neck) along the subject's left-right axis (the first
+        frame's, as :meth:`mirror` finds it), so the head goes backward (face up) or forward
+        (face down) and the subject's left stays on its left; the centres keep their path over
+        the floor, and their rise and fall is dropped (turned with the body, a walk forward
+        would become a climb). Then the trunk is laid on the floor (the clip's lowest joint
+        before the turn): its lowest point over the clip is lowered or lifted onto it, and a
+        limb the turn takes below the floor (a hand held behind the back or in front of the
+        chest) rests on it instead (its joints' height clamped to the floor). A standing
+        gesture becomes a person lying and moving the same limbs: lying postures of real motion
+        for a posture classifier, whose data hold few people lying down
+        (``jaxtrack.experiments.mixed_state``).
+        """
+        from jaxtrack.body.markers import marker_positions
+
+        if face not in ("up", "down"):
+            raise ValueError(f"face must be 'up' or 'down', got {face!r}")
+        pairs = [counterpart_joint(name, self.joint_names) for name in self.joint_names]
+        left = [j for j, name in enumerate(self.joint_names) if _side(name) == "left" and pairs[j]]
+        if not left:
+            raise ValueError(f"{self.source}: no Left/Right joint pairs to tell its left from")
+        right = [self.joint_names.index(pairs[j]) for j in left]
+        first = self.positions[0]
+        across = (first[left] - first[right]).mean(axis=0)
+        across[1] = 0.0
+        axis = across / np.linalg.norm(across)  # the subject's left, horizontal
+        # +90 degrees about the left axis takes up to forward (face down); about the right
+        # axis, up to backward (face up): Rodrigues' formula for a quarter turn
+        axis = axis if face == "down" else -axis
+        cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]],
+                          [-axis[1], axis[0], 0.0]])
+        rotation = np.eye(3) + cross + cross @ cross
+        trunk_markers = ("pelvis", "left_hip", "right_hip", "left_shoulder", "right_shoulder",
+                         "neck")
+        centre = marker_positions(self, trunk_markers).mean(axis=1, keepdims=True)
+        centre[..., 1] = centre[..., 1].mean()
+        turned = self._replace((self.positions - centre) @ rotation.T + centre)
+        trunk = marker_positions(turned, trunk_markers)
+        floor = self.positions[..., 1].min()
+        positions = np.array(turned.positions)
+        positions[..., 1] = np.maximum(positions[..., 1] + floor - trunk[..., 1].min(), floor)
+        return self._replace(positions)
+
 
 _SIDE_PATTERNS = (
     (re.compile(r"Left"), "Right"), (re.compile(r"Right"), "Left"),

@@ -172,9 +172,14 @@ def _training_settings(clips: list[str], sources: list, azimuths, size, bins, ma
                        seed) -> dict:
     """What a posture model is trained from, as its saved description holds it: a saved model
     with these values is reused."""
+    from jaxtrack.experiments import mixed_state as ms
+
     settings = {"clips": list(clips), "azimuths": [float(value) for value in azimuths],
                 "backgrounds": list(TRAINING_BACKGROUNDS), "image_size": list(size),
                 "num_bins": bins, "max_frames": max_frames, "seed": seed,
+                "pose2sim_cameras": list(ms.TRAINING_POSE2SIM_CAMERAS),
+                "components": ms.DEFAULT_COMPONENTS, "covariance": ms.DEFAULT_COVARIANCE,
+                "regularisation": ms.DEFAULT_REGULARISATION,
                 "clip_sha256": [_file_digest(source.file) for source in sources]}
     return json.loads(json.dumps(settings))
 
@@ -209,7 +214,9 @@ def _fit(settings: dict, option: str, frames_option: str):
             settings["clips"], azimuths=settings["azimuths"],
             backgrounds=settings["backgrounds"], image_size=tuple(settings["image_size"]),
             num_bins=settings["num_bins"], max_frames=settings["max_frames"],
-            seed=settings["seed"])
+            seed=settings["seed"], pose2sim_cameras=settings["pose2sim_cameras"],
+            components=settings["components"], covariance=settings["covariance"],
+            regularisation=settings["regularisation"])
     except ValueError as error:
         if "training frames" not in str(error):
             raise

@@ -43,10 +43,11 @@ from jaxtrack.trackers.mixed_state import (
     smooth_fixed_lag,
 )
 
-__all__ = ["DEFAULT_REGULARISATION", "EPSILONS", "POSE2SIM_SCALE", "TEST_CLIPS",
-           "TRAINING_CLIPS", "VALIDATION_CLIPS", "VIEW_AZIMUTHS", "PostureSequence", "evaluate",
-           "fit", "labelled_features", "render_posture_sequence", "render_sequences", "score",
-           "track", "train", "training_features"]
+__all__ = ["DEFAULT_COMPONENTS", "DEFAULT_COVARIANCE", "DEFAULT_REGULARISATION", "EPSILONS",
+           "POSE2SIM_SCALE", "TEST_CLIPS", "TRAINING_CLIPS", "TRAINING_POSE2SIM_CAMERAS",
+           "VALIDATION_CLIPS", "VIEW_AZIMUTHS", "PostureSequence", "evaluate", "fit",
+           "labelled_features", "render_posture_sequence", "render_sequences", "score", "track",
+           "train", "training_features"]
 
 TRAINING_CLIPS = ("cmu_posture_bvh/75_19", "cmu_posture_bvh/64_26",
                   "deepmimic_getup_bvh/getup_facedown", "deepmimic_getup_bvh/crawl",
@@ -69,11 +70,27 @@ VIEW_AZIMUTHS = (np.pi / 2, -np.pi / 2, np.pi / 4, -np.pi / 4, 0.0)
 facing left and right), two obliques, frontal."""
 PART_TRUTH_MARKERS = ("head", "left_wrist", "right_wrist", "left_ankle", "right_ankle")
 EPSILONS = (10.0, 20.0, 30.0, 50.0)
-DEFAULT_REGULARISATION = 0.2
+TRAINING_POSE2SIM_CAMERAS = (0, 1, 2, 3)
+"""The real Pose2Sim cameras (:func:`render_posture_sequence`'s ``pose2sim_camera``) the training
+clips are also seen through, beside :data:`VIEW_AZIMUTHS`: silhouettes from above, as real
+lab cameras see people. Chosen with the posture model's settings below."""
+DEFAULT_COVARIANCE = "pooled"
+"""One within-component covariance shared by every posture's Gaussians
+(:data:`jaxtrack.priors.postures.COVARIANCES`); chosen with the settings below."""
+DEFAULT_COMPONENTS = 2
+"""Gaussians per posture (:func:`jaxtrack.priors.postures.fit_posture_model`; 1 is the
+paper's). Chosen together with :data:`DEFAULT_REGULARISATION`, :data:`DEFAULT_COVARIANCE` and
+the training views (:data:`TRAINING_POSE2SIM_CAMERAS`) on the validation clips, by the lowest
+instantaneous posture error over the frames of all three validation groups of ``python -m
+benchmarks.posture_classifier`` pooled, mean over five k-means seeds (2026-11-27): 17.5 %
+(level views 18.4 %, standing with the arms out 0.4 %, through the Pose2Sim cameras 28.8 %),
+against 26.6 % (23.4, 15.2, 38.9 %) for the paper's one Gaussian per posture with its own
+covariance at ridge 0.2 from the level views alone, the earlier default."""
+DEFAULT_REGULARISATION = 1.0
 """The posture model's covariance ridge λ (:func:`jaxtrack.priors.postures.fit_posture_model`),
-chosen on the validation clips by the instantaneous posture error (``python -m
-benchmarks.mixed_state_evaluation``, 2026-11-27: 23.4 % against 23.6 % at 0.05 and 35.1 % at
-0.01)."""
+chosen with :data:`DEFAULT_COMPONENTS` (above). One Gaussian per posture was best at 0.2 by the
+level validation clips alone (``python -m benchmarks.mixed_state_evaluation``, 2026-11-27:
+23.4 % against 23.6 % at 0.05 and 35.1 % at 0.01)."""
 
 
 @dataclass(frozen=True)
@@ -129,8 +146,8 @@ _HAND_TIP_RADIUS = 0.03
 
 def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int, int] = (640, 480),
                             background: str = "photo", fps: float = 30.0, seed: int = 0,
-                            max_frames: int | None = None, pose2sim_camera: int | None = None
-                            ) -> PostureSequence:
+                            max_frames: int | None = None, pose2sim_camera: int | None = None,
+                            laid_down: str | None = None) -> PostureSequence:
     """Render ``clip`` seen from ``azimuth`` over a ``background`` whose empty scene is known,
     and take its silhouettes by background subtraction
     (:func:`jaxtrack.vision.histograms.silhouettes`).
@@ -138,7 +155,8 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
     With ``pose2sim_camera`` (0–3) the clip is staged in the Pose2Sim lab and seen through that
     real camera instead (its calibration, elevation and portrait frame, scaled by
     :data:`POSE2SIM_SCALE`: 363 × 640 or 360 × 640); ``azimuth`` and ``image_size`` are then
-    unused."""
+    unused. With ``laid_down`` (``"up"`` or ``"down"``) the clip is first laid on its back or
+    its front (:meth:`jaxtrack.body.motion.Motion.laid_down`) and labelled by the same rule."""
     from jaxtrack.body._backgrounds import make_background
     from jaxtrack.body._figure import FIGURE_MARKERS
     from jaxtrack.body._staging import frontal_camera, project_numpy
@@ -146,7 +164,10 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
     from jaxtrack.data import load_clip
     from jaxtrack.vision.histograms import silhouettes
 
-    motion = load_clip(clip).resample(fps)
+    motion = load_clip(clip)
+    if laid_down is not None:
+        motion = motion.laid_down(laid_down)
+    motion = motion.resample(fps)
     if max_frames is not None:
         if max_frames < 2:
             raise ValueError(f"max_frames must be at least 2, got {max_frames}")
@@ -165,18 +186,20 @@ def render_posture_sequence(clip: str, azimuth: float, *, image_size: tuple[int,
     truth, _ = project_numpy(rendered.camera, extremities(rendered.joints_3d))
     labels = posture_labels(rendered.joints_3d, rendered.markers_2d, names)
     masks = silhouettes(rendered.images, scene)
-    return PostureSequence(f"{clip.split('/')[-1]}_{view}_{background}",
+    lying = "" if laid_down is None else f"_face-{laid_down}"
+    return PostureSequence(f"{clip.split('/')[-1]}{lying}_{view}_{background}",
                            masks, np.asarray(truth, np.float64), labels,
                            rendered.image_size, np.asarray(joints, np.float64))
 
 
 def render_sequences(clips: Sequence[str], azimuths: Sequence[float],
                      backgrounds: Sequence[str], image_size: tuple[int, int],
-                     max_frames: int | None, seed: int, pose2sim_cameras: Sequence[int] = ()
-                     ) -> list[PostureSequence]:
+                     max_frames: int | None, seed: int, pose2sim_cameras: Sequence[int] = (),
+                     laid_down: str | None = None) -> list[PostureSequence]:
     """Every clip from every azimuth, then through every Pose2Sim camera of
-    ``pose2sim_cameras``, over every background (:func:`render_posture_sequence`), clip by
-    clip; the seeds :func:`evaluate` uses for the same arguments."""
+    ``pose2sim_cameras``, over every background (:func:`render_posture_sequence`, every clip
+    laid down as ``laid_down`` says), clip by clip; the seeds :func:`evaluate` uses for the
+    same arguments."""
     views = [(azimuth, None) for azimuth in azimuths] + [(0.0, int(camera))
                                                         for camera in pose2sim_cameras]
     sequences = []
@@ -186,7 +209,7 @@ def render_sequences(clips: Sequence[str], azimuths: Sequence[float],
                 sequences.append(render_posture_sequence(
                     clip, azimuth, image_size=image_size, background=background,
                     seed=seed + 97 * index + view, max_frames=max_frames,
-                    pose2sim_camera=camera))
+                    pose2sim_camera=camera, laid_down=laid_down))
     return sequences
 
 
@@ -224,23 +247,27 @@ def training_features(clips: Sequence[str] = TRAINING_CLIPS, *,
                       azimuths: Sequence[float] = VIEW_AZIMUTHS,
                       backgrounds: Sequence[str] = ("photo",),
                       image_size: tuple[int, int] = (640, 480), num_bins: int = 16,
-                      max_frames: int | None = None, seed: int = 0
+                      max_frames: int | None = None, seed: int = 0,
+                      pose2sim_cameras: Sequence[int] = TRAINING_POSE2SIM_CAMERAS
                       ) -> tuple[list[np.ndarray], list[np.ndarray], dict]:
-    """Render the training clips from every azimuth over every background and label them:
+    """Render the training clips from every azimuth (and through every Pose2Sim camera of
+    ``pose2sim_cameras``) over every background and label them:
     per rendered sequence, the features and labels of its frames with a silhouette (what
     :func:`jaxtrack.priors.postures.fit_posture_model` takes), and the settings they were
     rendered with, JSON-able (for :func:`fit`'s description)."""
-    sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed)
+    sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed,
+                                 pose2sim_cameras)
     pairs = [labelled_features(sequence, num_bins) for sequence in sequences]
     features, labels = [values for values, _ in pairs], [names for _, names in pairs]
     settings = {"clips": list(clips), "azimuths": [float(a) for a in azimuths],
                 "backgrounds": list(backgrounds), "image_size": list(image_size),
-                "num_bins": num_bins}
+                "num_bins": num_bins, "pose2sim_cameras": [int(c) for c in pose2sim_cameras]}
     return features, labels, settings
 
 
 def fit(features: Sequence[np.ndarray], labels: Sequence[np.ndarray], *,
         regularisation: float = DEFAULT_REGULARISATION, pseudocount: float = 0.5,
+        components: int = DEFAULT_COMPONENTS, covariance: str = DEFAULT_COVARIANCE,
         **description
         ) -> tuple[PostureModel, dict]:
     """The posture model of :func:`training_features`' output and a JSON-able description
@@ -248,7 +275,8 @@ def fit(features: Sequence[np.ndarray], labels: Sequence[np.ndarray], *,
     from jaxtrack.priors.postures import transition_counts
 
     model = fit_posture_model(features, labels, regularisation=regularisation,
-                              pseudocount=pseudocount)
+                              pseudocount=pseudocount, components=components,
+                              covariance=covariance)
     all_labels = np.concatenate(labels)
     return model, {
         **description, "frames": int(all_labels.size),
@@ -256,22 +284,28 @@ def fit(features: Sequence[np.ndarray], labels: Sequence[np.ndarray], *,
                          for q, name in enumerate(POSTURE_NAMES)},
         "transition_counts": transition_counts(labels).astype(int).tolist(),
         "regularisation": regularisation, "pseudocount": pseudocount,
+        "components": components, "covariance": covariance,
     }
 
 
 def train(clips: Sequence[str] = TRAINING_CLIPS, *, azimuths: Sequence[float] = VIEW_AZIMUTHS,
           backgrounds: Sequence[str] = ("photo",), image_size: tuple[int, int] = (640, 480),
           num_bins: int = 16, max_frames: int | None = None, seed: int = 0,
-          regularisation: float = DEFAULT_REGULARISATION, pseudocount: float = 0.5
+          regularisation: float = DEFAULT_REGULARISATION, pseudocount: float = 0.5,
+          components: int = DEFAULT_COMPONENTS, covariance: str = DEFAULT_COVARIANCE,
+          pose2sim_cameras: Sequence[int] = TRAINING_POSE2SIM_CAMERAS
           ) -> tuple[PostureModel, dict]:
     """Render the training clips from every azimuth over every background, label them and fit
     the posture model. Returns the model and a JSON-able description (clips, views, label
     counts, transition counts) to save with it (``regularisation``:
-    :data:`DEFAULT_REGULARISATION`)."""
+    :data:`DEFAULT_REGULARISATION`; ``components``: :data:`DEFAULT_COMPONENTS`; ``covariance``:
+    :data:`DEFAULT_COVARIANCE`; ``pose2sim_cameras``: :data:`TRAINING_POSE2SIM_CAMERAS`, the
+    real cameras every clip is also seen through)."""
     features, labels, settings = training_features(
         clips, azimuths=azimuths, backgrounds=backgrounds, image_size=image_size,
-        num_bins=num_bins, max_frames=max_frames, seed=seed)
+        num_bins=num_bins, max_frames=max_frames, seed=seed, pose2sim_cameras=pose2sim_cameras)
     return fit(features, labels, regularisation=regularisation, pseudocount=pseudocount,
+               components=components, covariance=covariance,
                **settings)
 
 

@@ -26,6 +26,18 @@ posture is ever ruled out by a single silhouette:
 with the cutoff c (``cutoff``, default the χ²_D 99.9 % quantile). The instantaneous (extended
 Ghost) posture is argmax_q log p(h | q).
 
+**Mixture components.** The paper learned each posture's Gaussian from one camera. Seen from
+several sides, and done in several ways (a stoop, a crouch, all fours), one posture's
+silhouettes fall in separate groups that one Gaussian covers only with a broad covariance that
+also takes in the other postures. With ``components = K > 1`` each posture's frames are split
+by k-means (:func:`jaxtrack.priors.clustering.kmeans`) into up to K groups, each with its own
+truncated, regularised Gaussian as above, weighted by its share of the posture's frames:
+
+    log p(h | q) = log Σ_k w_qk exp(−½ min(d_qk(h), c) − ½ log |Σ_qk|)
+
+K = 1 is the paper's model. A posture with fewer than :data:`FRAMES_PER_COMPONENT` frames per
+component gets fewer components.
+
 **Transitions**: T_ij = (n_ij + α) / Σ_j (n_ij + α) from the label sequences' frame-to-frame
 counts n_ij; the pseudocount α (``pseudocount``) gives every transition the training data never
 showed (lying → standing directly, say) a small nonzero probability instead of zero, so the
@@ -61,8 +73,11 @@ POSTURE_NAMES = ("standing", "sitting", "crawling_bending", "lying_left", "lying
 STANDING, SITTING, CRAWLING, LYING_LEFT, LYING_RIGHT = range(5)
 NUM_POSTURES = len(POSTURE_NAMES)
 FORMAT_NAME = "jaxtrack.postures"
-FORMAT_VERSION = 1
-_ARRAYS = ("means", "precisions", "log_determinants", "log_transition", "log_initial", "cutoff")
+FORMAT_VERSION = 2
+_ARRAYS = ("means", "precisions", "log_determinants", "log_transition", "log_initial", "cutoff",
+           "log_weights")
+FRAMES_PER_COMPONENT = 20
+"""A posture gets at most one mixture component per this many of its training frames."""
 
 
 @dataclass(frozen=True)
@@ -130,33 +145,61 @@ def posture_labels(joints_3d: np.ndarray, markers_2d: np.ndarray, marker_names: 
 
 
 class PostureModel(eqx.Module):
-    """p(h | q) per posture and the transition matrix T (module docstring).
+    """p(h | q) per posture, a mixture of K truncated Gaussians (K = 1: the paper's one), and
+    the transition matrix T (module docstring).
 
     Attributes:
-        means: ``(postures, features)`` μ_q.
-        precisions: ``(postures, features, features)`` Σ_q⁻¹.
-        log_determinants: ``(postures,)`` log |Σ_q|.
+        means: ``(postures, components, features)`` μ_qk.
+        precisions: ``(postures, components, features, features)`` Σ_qk⁻¹.
+        log_determinants: ``(postures, components)`` log |Σ_qk|.
         log_transition: ``(postures, postures)`` log T_ij (rows sum to one).
         log_initial: ``(postures,)`` log of the first frames' posture frequencies.
         cutoff: the truncation c of the Mahalanobis distance.
+        log_weights: ``(postures, components)`` log w_qk, each posture's summing to one; −inf
+            for a component a posture does not use (it had too few frames).
+
+    One Gaussian per posture may be given without the components axis (``means`` ``(postures,
+    features)``, ``precisions`` ``(postures, features, features)``, ``log_determinants``
+    ``(postures,)``, no ``log_weights``).
     """
 
-    means: Float[Array, "postures features"]
-    precisions: Float[Array, "postures features features"]
-    log_determinants: Float[Array, " postures"]
+    means: Float[Array, "postures components features"]
+    precisions: Float[Array, "postures components features features"]
+    log_determinants: Float[Array, "postures components"]
     log_transition: Float[Array, "postures postures"]
     log_initial: Float[Array, " postures"]
     cutoff: Float[Array, ""]
+    log_weights: Float[Array, "postures components"]
+
+    def __init__(self, means, precisions, log_determinants, log_transition, log_initial, cutoff,
+                 log_weights=None):
+        means, precisions = jnp.asarray(means), jnp.asarray(precisions)
+        log_determinants = jnp.asarray(log_determinants)
+        if means.ndim == 2:  # one Gaussian per posture
+            means, precisions = means[:, None], precisions[:, None]
+            log_determinants = log_determinants[:, None]
+        self.means, self.precisions, self.log_determinants = means, precisions, log_determinants
+        self.log_transition = jnp.asarray(log_transition)
+        self.log_initial = jnp.asarray(log_initial)
+        self.cutoff = jnp.asarray(cutoff)
+        self.log_weights = (jnp.zeros(means.shape[:2], means.dtype) if log_weights is None
+                            else jnp.asarray(log_weights))
 
     @property
     def num_features(self) -> int:
+        return self.means.shape[-1]
+
+    @property
+    def num_components(self) -> int:
         return self.means.shape[1]
 
     def log_likelihoods(self, features: Float[Array, " features"]) -> Float[Array, " postures"]:
-        """log p(h | q) for every posture q: the truncated Gaussian of §3.1."""
-        difference = features[None, :] - self.means
-        distance = jnp.einsum("qi,qij,qj->q", difference, self.precisions, difference)
-        return -0.5 * jnp.minimum(distance, self.cutoff) - 0.5 * self.log_determinants
+        """log p(h | q) for every posture q: the truncated Gaussians of §3.1, mixed."""
+        difference = features[None, None, :] - self.means
+        distance = jnp.einsum("qki,qkij,qkj->qk", difference, self.precisions, difference)
+        per_component = (-0.5 * jnp.minimum(distance, self.cutoff)
+                         - 0.5 * self.log_determinants + self.log_weights)
+        return jax.nn.logsumexp(per_component, axis=1)
 
     def classify(self, features: Float[Array, "*batch features"]) -> Int[Array, "*batch"]:
         """The instantaneous (extended Ghost) posture, argmax_q p(h | q)."""
@@ -179,15 +222,15 @@ def transition_counts(sequences: Sequence[np.ndarray]) -> np.ndarray:
 
 
 COVARIANCES = ("per-posture", "pooled")
-"""``fit_posture_model``'s ``covariance``: each posture's own sample covariance (Ghost's), or
-one within-posture covariance shared by all (linear discriminant analysis's), which needs fewer
-frames of each posture to estimate."""
+"""``fit_posture_model``'s ``covariance``: each posture's (each component's) own sample
+covariance (Ghost's), or one within-posture (within-component) covariance shared by all
+(linear discriminant analysis's), which needs fewer frames of each posture to estimate."""
 
 
 def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarray], *,
                       regularisation: float = 0.2, pseudocount: float = 0.5,
-                      cutoff: float | None = None,
-                      covariance: str = "per-posture") -> PostureModel:
+                      cutoff: float | None = None, covariance: str = "per-posture",
+                      components: int = 1, seed: int = 0) -> PostureModel:
     """Fit the per-posture Gaussians and T from labelled training sequences.
 
     Args:
@@ -200,7 +243,10 @@ def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarra
         cutoff: the Mahalanobis truncation c; None takes the χ²_D 99.9 % quantile.
         covariance: ``"per-posture"`` (S_q, the extended Ghost's) or ``"pooled"``: every
             posture's Gaussian takes the within-posture covariance Σ_q (n_q − 1) S_q / (N − 5),
-            plus the same ridge (:data:`COVARIANCES`).
+            plus the same ridge (:data:`COVARIANCES`); with components, the within-component
+            covariance, pooled the same way.
+        components: K, the most Gaussians per posture (module docstring; 1: the paper's).
+        seed: the k-means seeding's seed (with ``components > 1``).
 
     Raises:
         ValueError: mismatched lengths, non-finite features, or a posture with fewer than two
@@ -229,33 +275,52 @@ def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarra
     if covariance not in COVARIANCES:
         raise ValueError(f"covariance must be one of {', '.join(COVARIANCES)}, got "
                          f"{covariance!r}")
+    if not (isinstance(components, int | np.integer) and components >= 1):
+        raise ValueError(f"components must be a whole number >= 1, got {components!r}")
+    from jaxtrack.priors.clustering import kmeans
+
     ridge = regularisation * np.trace(np.cov(values.T)) / dimension
-    means, covariances = [], []
+    groups = []  # per posture: (frames, mean, sample covariance) of each component
     for posture, name in enumerate(POSTURE_NAMES):
         chosen = values[names == posture]
         if len(chosen) < 2:
             raise ValueError(f"posture {name!r} has {len(chosen)} training frames; at least 2 "
                              "are needed to estimate its covariance (add clips that show it)")
-        means.append(chosen.mean(axis=0))
-        covariances.append((len(chosen), np.cov(chosen.T)))
+        count = int(min(components, max(1, len(chosen) // FRAMES_PER_COMPONENT)))
+        split = (np.zeros(len(chosen), int) if count == 1
+                 else kmeans(chosen, count, seed=seed + posture)[1])
+        members = [chosen[split == k] for k in range(count)]
+        groups.append([(len(part), part.mean(axis=0),
+                        np.cov(part.T) if len(part) > 1 else np.zeros((dimension, dimension)))
+                       for part in members])
     if covariance == "pooled":
-        shared = (sum((count - 1) * sample for count, sample in covariances)
-                  / (len(values) - NUM_POSTURES))
-        covariances = [(count, shared) for count, _ in covariances]
-    precisions, log_determinants = [], []
-    for _, sample in covariances:
-        regularised = sample + ridge * np.eye(dimension)
-        precisions.append(np.linalg.inv(regularised))
-        log_determinants.append(np.linalg.slogdet(regularised)[1])
+        parts = [part for group in groups for part in group]
+        shared = (sum((count - 1) * sample for count, _, sample in parts)
+                  / (len(values) - len(parts)))
+        groups = [[(count, mean, shared) for count, mean, _ in group] for group in groups]
+    size = max(len(group) for group in groups)
+    means = np.zeros((NUM_POSTURES, size, dimension))
+    precisions = np.broadcast_to(np.eye(dimension), (NUM_POSTURES, size, dimension,
+                                                     dimension)).copy()
+    log_determinants = np.zeros((NUM_POSTURES, size))
+    log_weights = np.full((NUM_POSTURES, size), -np.inf)
+    for posture, group in enumerate(groups):
+        total = sum(count for count, _, _ in group)
+        for k, (count, mean, sample) in enumerate(group):
+            regularised = sample + ridge * np.eye(dimension)
+            means[posture, k], precisions[posture, k] = mean, np.linalg.inv(regularised)
+            log_determinants[posture, k] = np.linalg.slogdet(regularised)[1]
+            log_weights[posture, k] = np.log(count / total)
     counts = transition_counts(labels) + pseudocount
     transition = counts / counts.sum(axis=1, keepdims=True)
     first = np.bincount([int(np.asarray(seq)[0]) for seq in labels], minlength=NUM_POSTURES)
     initial = (first + pseudocount + 1e-12) / (first + pseudocount + 1e-12).sum()
     if cutoff is None:
         cutoff = float(stats.chi2.ppf(0.999, dimension))
-    return PostureModel(jnp.asarray(np.stack(means)), jnp.asarray(np.stack(precisions)),
-                        jnp.asarray(np.array(log_determinants)), jnp.asarray(np.log(transition)),
-                        jnp.asarray(np.log(initial)), jnp.asarray(float(cutoff)))
+    return PostureModel(jnp.asarray(means), jnp.asarray(precisions),
+                        jnp.asarray(log_determinants), jnp.asarray(np.log(transition)),
+                        jnp.asarray(np.log(initial)), jnp.asarray(float(cutoff)),
+                        jnp.asarray(log_weights))
 
 
 class PostureFormatError(ValueError):
@@ -276,7 +341,7 @@ def save_posture_model(path: str | os.PathLike, model: PostureModel, *,
     path = Path(path)
     metadata = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
                 "postures": list(POSTURE_NAMES), "num_features": model.num_features,
-                "description": description or {}}
+                "num_components": model.num_components, "description": description or {}}
     contents = {name: np.asarray(getattr(model, name)) for name in _ARRAYS}
     return write_npz_atomically(path, contents, metadata)
 
@@ -310,24 +375,37 @@ def load_posture_model(path: str | os.PathLike) -> SavedPostureModel:
             if metadata.get("format_version", 0) > FORMAT_VERSION:
                 raise fail(f"format version {metadata['format_version']} is newer than this "
                            f"jaxtrack reads ({FORMAT_VERSION}); upgrade jaxtrack")
-            missing = [name for name in _ARRAYS if name not in archive.files]
+            # version 1 held one Gaussian per posture and no weights
+            needed = _ARRAYS if metadata.get("format_version", 0) >= 2 else _ARRAYS[:-1]
+            missing = [name for name in needed if name not in archive.files]
             if missing:
                 raise fail(f"missing arrays {missing}")
-            values = {name: np.array(archive[name], np.float64) for name in _ARRAYS}
+            values = {name: np.array(archive[name], np.float64) for name in needed}
     except PostureFormatError:
         raise
     except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as error:
         raise fail(f"damaged or truncated posture-model file ({type(error).__name__}: "
                    f"{error})") from None
     dimension = metadata.get("num_features")
-    expected = {"means": (NUM_POSTURES, dimension),
-                "precisions": (NUM_POSTURES, dimension, dimension),
-                "log_determinants": (NUM_POSTURES,), "log_transition": (NUM_POSTURES,) * 2,
-                "log_initial": (NUM_POSTURES,), "cutoff": ()}
+    if "log_weights" not in values:
+        values["means"], values["precisions"] = values["means"][:, None], values[
+            "precisions"][:, None]
+        values["log_determinants"] = values["log_determinants"][:, None]
+        values["log_weights"] = np.zeros(values["log_determinants"].shape)
+    size = metadata.get("num_components", 1)
+    expected = {"means": (NUM_POSTURES, size, dimension),
+                "precisions": (NUM_POSTURES, size, dimension, dimension),
+                "log_determinants": (NUM_POSTURES, size), "log_transition": (NUM_POSTURES,) * 2,
+                "log_initial": (NUM_POSTURES,), "cutoff": (), "log_weights": (NUM_POSTURES, size)}
     for name, shape in expected.items():
         if values[name].shape != shape:
             raise fail(f"array {name!r} has shape {values[name].shape}, expected {shape}")
-        if not np.all(np.isfinite(values[name])):
+        finite = np.isfinite(values[name])
+        if name == "log_weights":  # −inf marks a component a posture does not use
+            finite |= values[name] == -np.inf
+            if not np.all(np.any(np.isfinite(values[name]), axis=1)):
+                raise fail("array 'log_weights' gives a posture no component")
+        if not np.all(finite):
             raise fail(f"array {name!r} holds non-finite values")
     model = PostureModel(*(jnp.asarray(values[name]) for name in _ARRAYS))
     return SavedPostureModel(model, metadata.get("description", {}))

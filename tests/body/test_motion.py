@@ -195,6 +195,42 @@ def test_mirror_reflects_and_swaps_sides():
     assert np.ptp(_bone_lengths(mirrored), axis=0).max() < 1e-9
 
 
+@pytest.mark.parametrize("face", ["up", "down"])
+def test_laid_down_lies_on_the_floor_face_up_or_down_with_its_sides_kept(face):
+    motion = load(BUNDLED["animateddrawings/fair1_wave_hello"]).resample(10.0)
+    lying = motion.laid_down(face)
+    names = ("neck", "pelvis", "left_hip", "right_hip", "left_shoulder", "right_shoulder",
+             "right_wrist")
+    before, after = (marker_positions(m, names) for m in (motion, lying))
+    torso = after[:, 0] - after[:, 1]
+    # the trunk is level, on the floor; nothing goes below the floor
+    assert np.all(np.abs(torso[:, 1]) < 0.25 * np.linalg.norm(torso, axis=1))
+    floor = motion.positions[..., 1].min()
+    assert lying.positions[..., 1].min() == pytest.approx(floor)
+    assert after[:, :6, 1].min() == pytest.approx(floor)
+    assert np.median(after[:, 1, 1]) - floor < 0.15
+    # the head went backward (face up) or forward (face down) of where the subject faced
+    across = before[0, 2] - before[0, 3]
+    across[1] = 0.0
+    across /= np.linalg.norm(across)  # the turn's axis: the subject's left, level
+    forward = np.cross(across, [0.0, 1.0, 0.0])
+    forward /= np.linalg.norm(forward)
+    heading = np.mean(torso @ forward) / np.mean(np.linalg.norm(torso, axis=1))
+    assert heading < -0.9 if face == "up" else heading > 0.9
+    # a rigid turn of each frame: the trunk keeps its shape, left stays left
+    for a, b in ((0, 1), (2, 3), (4, 5), (0, 2)):
+        np.testing.assert_allclose(np.linalg.norm(after[:, a] - after[:, b], axis=1),
+                                   np.linalg.norm(before[:, a] - before[:, b], axis=1),
+                                   atol=1e-9)
+    np.testing.assert_allclose((after[:, 2] - after[:, 3]) @ across,
+                               (before[:, 2] - before[:, 3]) @ across, atol=0.01)
+    assert np.all((after[:, 2] - after[:, 3]) @ across > 0.05)
+    # the waving (right) wrist rises toward the head, never through the floor
+    assert after[:, 6, 1].min() >= floor - 1e-12
+    with pytest.raises(ValueError, match="face must be 'up' or 'down'"):
+        motion.laid_down("side")
+
+
 def _wrist_rise(motion: Motion) -> float:
     """How much higher the right wrist gets than the left over the clip (metres)."""
     wrists = marker_positions(motion, ("right_wrist", "left_wrist"))[..., 1]

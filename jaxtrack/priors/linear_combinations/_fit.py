@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxtrack.body.hybrid import HybridLayout
+from jaxtrack.priors.clustering import kmeans
 from jaxtrack.priors.linear_combinations._model import LinearCombinationModel
 
 __all__ = ["LinearCombinationFit", "fit_linear_combinations", "kmeans", "part_weights",
@@ -60,41 +61,6 @@ def part_weights(vectors: np.ndarray, layout: HybridLayout) -> np.ndarray:
         raise ValueError(f"the training vectors' {', '.join(empty)} never vary: a PCA needs "
                          "training frames whose poses differ")
     return np.sqrt(totals[0] / totals)
-
-
-def kmeans(points: np.ndarray, num_clusters: int, *, seed: int = 0, iterations: int = 100
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """k-means of ``points`` ``(n, d)``: k-means++ seeding, then Lloyd iterations to a fixed
-    point. Returns ``(centres (k, d), labels (n,))``; no cluster is left empty (an empty one is
-    re-seeded at the point farthest from its centre)."""
-    points = np.asarray(points, np.float64)
-    n = len(points)
-    if not 1 <= num_clusters <= n:
-        raise ValueError(f"num_clusters must be between 1 and the {n} training vectors, got "
-                         f"{num_clusters}")
-    rng = np.random.default_rng(seed)
-    centres = [points[rng.integers(n)]]
-    nearest = np.sum((points - centres[0]) ** 2, axis=1)
-    for _ in range(1, num_clusters):
-        total = nearest.sum()
-        pick = rng.choice(n, p=nearest / total) if total > 0 else rng.integers(n)
-        centres.append(points[pick])
-        nearest = np.minimum(nearest, np.sum((points - points[pick]) ** 2, axis=1))
-    centres = np.array(centres)
-    labels = np.full(n, -1)
-    for _ in range(iterations):
-        distances = (np.sum(points**2, axis=1)[:, None] - 2 * points @ centres.T
-                     + np.sum(centres**2, axis=1)[None])
-        new_labels = np.argmin(distances, axis=1)
-        for cluster in range(num_clusters):
-            if not np.any(new_labels == cluster):  # re-seed an empty cluster
-                far = np.argmax(distances[np.arange(n), new_labels])
-                new_labels[far] = cluster
-        if np.array_equal(new_labels, labels):
-            break
-        labels = new_labels
-        centres = np.array([points[labels == c].mean(axis=0) for c in range(num_clusters)])
-    return centres, labels
 
 
 def transition_matrix(labels: np.ndarray, sequence_ids: np.ndarray, num_clusters: int, *,
