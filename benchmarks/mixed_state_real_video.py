@@ -90,11 +90,10 @@ def truth_postures(trc_keypoints: np.ndarray, image_keypoints: np.ndarray) -> np
 def posture_model(folder: Path):
     """The training clips' posture model with the default components and covariance ridge,
     shared with ``benchmarks.mixed_state_evaluation``'s cache in ``folder``."""
-    from benchmarks.mixed_state_evaluation import trained_models
-    from jaxtrack.experiments.mixed_state import DEFAULT_COMPONENTS, DEFAULT_REGULARISATION
+    from benchmarks.mixed_state_evaluation import default_spec, trained_models
 
-    pair = (DEFAULT_COMPONENTS, DEFAULT_REGULARISATION)
-    return trained_models(folder, [pair])[pair]
+    spec = default_spec()
+    return trained_models(folder, [spec])[spec]
 
 
 def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles: int,

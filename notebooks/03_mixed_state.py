@@ -87,12 +87,10 @@ else:  # the benchmark's evaluation: the settings it recorded, else its defaults
                     num_particles=settings["num_particles"], lag=settings["lag"],
                     seed=settings["seed"])
         # the re-detection probability and switch rule it chose on the validation clips, and
-        # the posture model of the components and covariance ridge it chose there
+        # the posture model it chose there
         MODEL_OPTIONS = settings["model"]
-        ridge = saved_benchmark.get("chosen_regularisation")
-        components = saved_benchmark.get("chosen_components")
-        BENCHMARK_MODEL = None if ridge is None or components is None else BENCHMARK.with_name(
-            f"mixed_state_posture_model_k{components}_ridge{ridge:g}.npz")
+        chosen_file = saved_benchmark.get("chosen_posture_model_file")
+        BENCHMARK_MODEL = None if chosen_file is None else BENCHMARK.with_name(chosen_file)
         print(f"settings of {BENCHMARK}:", TEST, MODEL_OPTIONS)
     else:  # --frames 150 --particles 500 --seed 1; the library's default re-detection
         TEST = dict(azimuths=ms.VIEW_AZIMUTHS, image_size=(640, 480), max_frames=150,

@@ -1,6 +1,8 @@
 """``python -m benchmarks.mixed_state_evaluation``: its refusals and its posture error (the
 benchmark itself renders and tracks for minutes, so it is a script, not a test)."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,9 @@ from benchmarks import mixed_state_evaluation as evaluation
 
 @pytest.mark.parametrize("argv, message", [
     (["--cutoff", "0"], "--cutoff values must be finite and above 0, got 0"),
-    (["--regularisation", "0.05", "-1"], "--regularisation values must be finite and above 0"),
+    (["--posture-models", "1,per-posture,-1,level"], "K must be >= 1 and RIDGE positive"),
+    (["--posture-models", "2,shared,1,level"], "COVARIANCE must be one of per-posture, pooled"),
+    (["--posture-models", "2,pooled,1"], "is not K,COVARIANCE,RIDGE,VIEWS"),
     (["--redetect", "1.5"], "--redetect values must be finite and in [0, 1], got 1.5"),
     (["--cutoff", "nan"], "--cutoff values must be finite"),
     (["--frames", "1"], "--frames must be at least 2, got 1"),
@@ -30,3 +34,17 @@ def test_instantaneous_posture_error_counts_the_classifiers_mistakes():
     features = np.array([[-1.0], [2.0], [3.0], [-4.0]])
     assert evaluation.instantaneous_posture_error(Classifier(), features,
                                                   np.array([0, 1, 0, 1])) == 0.5
+
+
+def test_posture_model_specs_read_back_and_the_default_is_the_librarys():
+    from jaxtrack.experiments import mixed_state as ms
+
+    spec = evaluation.posture_model_spec("2,pooled,1,level+pose2sim")
+    assert spec == evaluation.CLASSIFIERS_CHOICE
+    assert evaluation.posture_model_spec(evaluation.spec_text(spec)) == spec
+    components, covariance, ridge, views = evaluation.default_spec()
+    assert (components, covariance, ridge) == (ms.DEFAULT_COMPONENTS, ms.DEFAULT_COVARIANCE,
+                                               ms.DEFAULT_REGULARISATION)
+    assert evaluation.VIEWS[views] == tuple(ms.TRAINING_POSE2SIM_CAMERAS)
+    assert evaluation.model_path(Path("r"), spec).name == (
+        "mixed_state_posture_model_k2_pooled_ridge1_level+pose2sim.npz")

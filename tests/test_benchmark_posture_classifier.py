@@ -49,3 +49,17 @@ def test_bad_ridges_are_refused_in_one_line(capsys):
     with pytest.raises(SystemExit):
         pc.main(["--ridges", "0"])
     assert "--ridges must be positive numbers" in capsys.readouterr().err
+
+
+def test_leave_one_clip_out_keeps_the_held_out_clips_other_views_out_of_training():
+    rng = np.random.default_rng(2)
+    everyday = list(range(NUM_POSTURES))
+    training = [_clip("a", everyday, rng), _clip("b", everyday, rng)]
+    # "a" through other cameras, shifted far: were they kept in training while "a" is held
+    # out, the held-out frames would be fitted on a copy of themselves
+    views_of_a = [_clip("a", [1] * NUM_POSTURES, rng, shift=100.0)]
+    rows = pc.leave_one_clip_out(training, 0.2, always=views_of_a)
+    assert rows[0]["held_out"] == "a" and rows[0]["error"] == 0.0
+    # while "b" is held out, a's other views train: their far-off "sitting" frames pull the
+    # sitting Gaussian away, and b's sitting frames are no longer called sitting
+    assert rows[1]["per_posture"]["sitting"] == 1.0

@@ -70,27 +70,29 @@ VIEW_AZIMUTHS = (np.pi / 2, -np.pi / 2, np.pi / 4, -np.pi / 4, 0.0)
 facing left and right), two obliques, frontal."""
 PART_TRUTH_MARKERS = ("head", "left_wrist", "right_wrist", "left_ankle", "right_ankle")
 EPSILONS = (10.0, 20.0, 30.0, 50.0)
-TRAINING_POSE2SIM_CAMERAS = (0, 1, 2, 3)
-"""The real Pose2Sim cameras (:func:`render_posture_sequence`'s ``pose2sim_camera``) the training
-clips are also seen through, beside :data:`VIEW_AZIMUTHS`: silhouettes from above, as real
-lab cameras see people. Chosen with the posture model's settings below."""
-DEFAULT_COVARIANCE = "pooled"
-"""One within-component covariance shared by every posture's Gaussians
-(:data:`jaxtrack.priors.postures.COVARIANCES`); chosen with the settings below."""
-DEFAULT_COMPONENTS = 2
+TRAINING_POSE2SIM_CAMERAS: tuple[int, ...] = ()
+"""Real Pose2Sim cameras (:func:`render_posture_sequence`'s ``pose2sim_camera``) the training
+clips are also seen through, beside :data:`VIEW_AZIMUTHS`; none by default. The posture model
+(these views, :data:`DEFAULT_COVARIANCE`, :data:`DEFAULT_COMPONENTS`,
+:data:`DEFAULT_REGULARISATION`) is chosen on the validation clips by what the tracker does
+with it, the smoothed estimate's mean squared error over all parts (``python -m
+benchmarks.mixed_state_evaluation``, 2026-11-27): the paper's one Gaussian per posture with
+its own covariance, ridge 0.2, level views, 5 482 px², against 5 670 px² for the model the
+classifier alone prefers (all four cameras too, two Gaussians per posture sharing one
+covariance, ridge 1: ``python -m benchmarks.posture_classifier``, 17.5 % instantaneous
+posture error against 26.6 % over the validation groups pooled). See
+``docs/mixed-state.md``."""
+DEFAULT_COVARIANCE = "per-posture"
+"""Each posture's own covariance, Ghost's (:data:`jaxtrack.priors.postures.COVARIANCES`);
+chosen with :data:`TRAINING_POSE2SIM_CAMERAS`."""
+DEFAULT_COMPONENTS = 1
 """Gaussians per posture (:func:`jaxtrack.priors.postures.fit_posture_model`; 1 is the
-paper's). Chosen together with :data:`DEFAULT_REGULARISATION`, :data:`DEFAULT_COVARIANCE` and
-the training views (:data:`TRAINING_POSE2SIM_CAMERAS`) on the validation clips, by the lowest
-instantaneous posture error over the frames of all three validation groups of ``python -m
-benchmarks.posture_classifier`` pooled, mean over five k-means seeds (2026-11-27): 17.5 %
-(level views 18.4 %, standing with the arms out 0.4 %, through the Pose2Sim cameras 28.8 %),
-against 26.6 % (23.4, 15.2, 38.9 %) for the paper's one Gaussian per posture with its own
-covariance at ridge 0.2 from the level views alone, the earlier default."""
-DEFAULT_REGULARISATION = 1.0
+paper's); chosen with :data:`TRAINING_POSE2SIM_CAMERAS`."""
+DEFAULT_REGULARISATION = 0.2
 """The posture model's covariance ridge λ (:func:`jaxtrack.priors.postures.fit_posture_model`),
-chosen with :data:`DEFAULT_COMPONENTS` (above). One Gaussian per posture was best at 0.2 by the
-level validation clips alone (``python -m benchmarks.mixed_state_evaluation``, 2026-11-27:
-23.4 % against 23.6 % at 0.05 and 35.1 % at 0.01)."""
+chosen with :data:`TRAINING_POSE2SIM_CAMERAS`; among ridges of the one-Gaussian model it had
+the lowest instantaneous posture error on the level validation clips (2026-11-27: 23.4 %
+against 23.6 % at 0.05 and 35.1 % at 0.01)."""
 
 
 @dataclass(frozen=True)
