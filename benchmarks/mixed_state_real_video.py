@@ -87,12 +87,13 @@ def truth_postures(trc_keypoints: np.ndarray, image_keypoints: np.ndarray) -> np
                           list(LABEL_KEYPOINTS))
 
 
-def posture_model(folder: Path):
-    """The training clips' posture model with the default components and covariance ridge,
-    shared with ``benchmarks.mixed_state_evaluation``'s cache in ``folder``."""
+def posture_model(folder: Path, spec=None):
+    """The training clips' posture model of ``spec`` (``benchmarks.mixed_state_evaluation``'s
+    ``K,COVARIANCE,RIDGE,VIEWS`` tuple; None: the library's), shared with that benchmark's
+    cache in ``folder``."""
     from benchmarks.mixed_state_evaluation import default_spec, trained_models
 
-    spec = default_spec()
+    spec = default_spec() if spec is None else spec
     return trained_models(folder, [spec])[spec]
 
 
@@ -245,15 +246,24 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--silhouettes", nargs="+", choices=SOURCES, default=list(SOURCES),
                         help="where the silhouettes come from (module docstring)")
+    parser.add_argument("--posture-model", default=None, metavar="K,COV,RIDGE,VIEWS",
+                        help="the posture model (benchmarks.mixed_state_evaluation's "
+                             "--posture-models form; default: the library's)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_real_video.json"))
     args = parser.parse_args(argv)
+    from benchmarks.mixed_state_evaluation import posture_model_spec
     from jaxtrack.evaluation.reference import default_folder
+
+    try:
+        spec = None if args.posture_model is None else posture_model_spec(args.posture_model)
+    except ValueError as error:
+        parser.error(f"--posture-model: {error}")
 
     folder = default_folder()
     if not (folder / "videos").is_dir():
         raise SystemExit(f"{folder / 'videos'}: the Pose2Sim demo's videos are not there")
     begin = time.perf_counter()
-    model = posture_model(Path(args.out).parent)
+    model = posture_model(Path(args.out).parent, spec)
     from jaxtrack.trackers.mixed_state import MixedStateModel
 
     tracker_model = MixedStateModel(model)

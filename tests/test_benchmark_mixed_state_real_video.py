@@ -90,3 +90,12 @@ def test_the_confusion_counts_frames_by_true_and_estimated_posture():
     counts = np.asarray(posture_confusion(np.array([0, 0, 2, 2, 2]), np.array([0, 2, 2, 2, 4])))
     assert counts.shape == (5, 5) and counts.sum() == 5
     assert counts[0, 0] == 1 and counts[0, 2] == 1 and counts[2, 2] == 2 and counts[2, 4] == 1
+
+
+def test_a_bad_posture_model_is_refused_in_one_line(capsys):
+    from benchmarks import mixed_state_real_video as benchmark
+
+    with pytest.raises(SystemExit):
+        benchmark.main(["--posture-model", "2,pooled"])
+    assert "--posture-model: '2,pooled' is not K,COVARIANCE,RIDGE,VIEWS" in (
+        capsys.readouterr().err)
