@@ -193,21 +193,28 @@ class Motion:
         swapped, so joints named left are again on the subject's left: a right-hand wave becomes a
         left-hand wave.
         """
-        pairs = [counterpart_joint(name, self.joint_names) for name in self.joint_names]
-        left = [j for j, name in enumerate(self.joint_names) if _side(name) == "left" and pairs[j]]
-        if not left:
-            raise ValueError(f"{self.source}: no Left/Right joint pairs to mirror")
-        right = [self.joint_names.index(pairs[j]) for j in left]
+        pairs, left, right, normal = self._left_right("mirror")
         first = self.positions[0]
-        across = (first[left] - first[right]).mean(axis=0)
-        across[1] = 0.0  # keep the plane vertical (Y up)
-        normal = across / np.linalg.norm(across)
         centre = 0.5 * (first[left] + first[right]).mean(axis=0)
         distance = (self.positions - centre) @ normal
         reflected = self.positions - 2.0 * distance[..., None] * normal
         order = [self.joint_names.index(pairs[j]) if pairs[j] else j
                  for j in range(self.num_joints)]
         return self._replace(reflected[:, order])
+
+    def _left_right(self, what: str) -> tuple[list, list[int], list[int], np.ndarray]:
+        """Each joint's counterpart name (or None), the Left/Right pairs' indices, and the
+        subject's left in the first frame as a level unit vector (the pairs' mean left − right
+        difference, its height dropped)."""
+        pairs = [counterpart_joint(name, self.joint_names) for name in self.joint_names]
+        left = [j for j, name in enumerate(self.joint_names) if _side(name) == "left" and pairs[j]]
+        if not left:
+            raise ValueError(f"{self.source}: no Left/Right joint pairs to {what}")
+        right = [self.joint_names.index(pairs[j]) for j in left]
+        first = self.positions[0]
+        across = (first[left] - first[right]).mean(axis=0)
+        across[1] = 0.0  # level (Y up)
+        return pairs, left, right, across / np.linalg.norm(across)
 
     def laid_down(self, face: Literal["up", "down"]) -> Motion:
         """The performance turned a quarter turn onto its back (``face="up"``) or its front
@@ -230,15 +237,7 @@ class Motion:
 
         if face not in ("up", "down"):
             raise ValueError(f"face must be 'up' or 'down', got {face!r}")
-        pairs = [counterpart_joint(name, self.joint_names) for name in self.joint_names]
-        left = [j for j, name in enumerate(self.joint_names) if _side(name) == "left" and pairs[j]]
-        if not left:
-            raise ValueError(f"{self.source}: no Left/Right joint pairs to tell its left from")
-        right = [self.joint_names.index(pairs[j]) for j in left]
-        first = self.positions[0]
-        across = (first[left] - first[right]).mean(axis=0)
-        across[1] = 0.0
-        axis = across / np.linalg.norm(across)  # the subject's left, horizontal
+        *_, axis = self._left_right("tell its left from")  # the subject's left, level
         # +90 degrees about the left axis takes up to forward (face down); about the right
         # axis, up to backward (face up): Rodrigues' formula for a quarter turn
         axis = axis if face == "down" else -axis
