@@ -63,3 +63,24 @@ def test_leave_one_clip_out_keeps_the_held_out_clips_other_views_out_of_training
     # while "b" is held out, a's other views train: their far-off "sitting" frames pull the
     # sitting Gaussian away, and b's sitting frames are no longer called sitting
     assert rows[1]["per_posture"]["sitting"] == 1.0
+
+
+def test_the_hmm_smoother_corrects_a_lone_misread_frame_but_not_a_stretch():
+    """Two postures far apart and transitions that rarely switch: a single frame whose
+    features look like the other posture is smoothed back, a long stretch is not."""
+    from jaxtrack.priors.postures import PostureModel
+
+    means = np.zeros((NUM_POSTURES, 1))
+    means[1] = 4.0
+    log_transition = np.log(np.full((NUM_POSTURES, NUM_POSTURES), 0.01 / 4)
+                            + np.eye(NUM_POSTURES) * (0.99 - 0.01 / 4))
+    model = PostureModel(means, np.ones((NUM_POSTURES, 1, 1)), np.zeros(NUM_POSTURES),
+                         log_transition, np.log(np.full(NUM_POSTURES, 0.2)), 100.0)
+    labels = np.zeros(40, int)
+    lone = np.zeros((40, 1))
+    lone[20] = 4.0  # one frame read as posture 1
+    stretch = np.zeros((40, 1))
+    stretch[10:30] = 4.0  # twenty frames read as posture 1
+    assert pc.posture_errors(model, [("a", lone, labels)])["error"] == pytest.approx(1 / 40)
+    assert pc.hmm_smoothed_error(model, [("a", lone, labels)]) == 0.0
+    assert pc.hmm_smoothed_error(model, [("a", stretch, labels)]) == pytest.approx(0.5)
