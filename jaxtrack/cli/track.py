@@ -21,6 +21,7 @@ A run on a real video, and the memory estimate's measurements: ``docs/real-video
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from pathlib import Path
 
@@ -291,7 +292,7 @@ def run(args: argparse.Namespace) -> int:
 
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
-    from jaxtrack.trackers import Engine, Likelihood, latent_tracker, track
+    from jaxtrack.trackers import Engine, latent_tracker, track
     from jaxtrack.vision import (
         VideoError,
         median_grey_background,
@@ -354,14 +355,11 @@ def run(args: argparse.Namespace) -> int:
                             f"term to read them (the default limbs+edges has)")
         terms["keypoint_weight"] = ("--keypoint-weight", CAUCHY_KEYPOINT_WEIGHT
                                     if args.keypoint_weight is None else args.keypoint_weight)
-    for name, (option, value) in terms.items():
+    for name, (option, value) in terms.items():  # the other settings are kept as they are
         try:
-            Likelihood(likelihood.kind, **{name: value})
+            likelihood = dataclasses.replace(likelihood, **{name: value})
         except ValueError as error:
             raise UserError(f"{option}: {error}") from None
-    if terms:
-        likelihood = Likelihood(likelihood.kind,
-                                **{name: value for name, (_, value) in terms.items()})
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} is a file; give a folder")
     model, template = _load_prior(args.model)
