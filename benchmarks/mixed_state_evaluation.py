@@ -167,10 +167,12 @@ def main(argv=None) -> int:
                         help="also score the test clips through these Pose2Sim cameras (0-3)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_evaluation.json"))
     args = parser.parse_args(argv)
-    if any(not 0 <= camera <= 3 for camera in args.pose2sim_cameras) or len(
-            set(args.pose2sim_cameras)) != len(args.pose2sim_cameras):
-        parser.error(f"--pose2sim-cameras must be distinct indices 0-3, got "
-                     f"{args.pose2sim_cameras}")
+    from jaxtrack.cli._common import UserError, pose2sim_cameras
+
+    try:
+        pose2sim_cameras(args.pose2sim_cameras, (), "--pose2sim-cameras")
+    except UserError as error:
+        parser.error(str(error))
     for name, values, low, high in (("--cutoff", args.cutoff, 0.0, None),
                                     ("--redetect", args.redetect, None, 1.0)):
         for value in values:

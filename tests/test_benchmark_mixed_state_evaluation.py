@@ -18,8 +18,8 @@ from benchmarks import mixed_state_evaluation as evaluation
     (["--cutoff", "nan"], "--cutoff values must be finite"),
     (["--frames", "1"], "--frames must be at least 2, got 1"),
     (["--particles", "0"], "--particles must be at least 1, got 0"),
-    (["--pose2sim-cameras", "4"], "--pose2sim-cameras must be distinct indices 0-3"),
-    (["--pose2sim-cameras", "1", "1"], "--pose2sim-cameras must be distinct indices 0-3")])
+    (["--pose2sim-cameras", "4"], "--pose2sim-cameras must be Pose2Sim camera indices 0-3, got 4"),
+    (["--pose2sim-cameras", "1", "1"], "--pose2sim-cameras names a camera twice: 1 1")])
 def test_bad_arguments_are_refused_in_one_line_before_any_work(argv, message, capsys):
     with pytest.raises(SystemExit):
         evaluation.main(argv)

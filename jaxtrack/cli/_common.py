@@ -87,17 +87,18 @@ POSE2SIM_CAMERAS = 4
 """The cameras of the bundled Pose2Sim calibration."""
 
 
-def pose2sim_cameras(cameras: Sequence[int] | None, default: tuple[int, ...]) -> tuple[int, ...]:
-    """``--cameras``: distinct Pose2Sim camera indices (``default`` without the option);
-    refused in one line."""
+def pose2sim_cameras(cameras: Sequence[int] | None, default: tuple[int, ...],
+                     option: str = "--cameras") -> tuple[int, ...]:
+    """``option`` (``--cameras``): distinct Pose2Sim camera indices (``default`` without the
+    option); refused in one line."""
     if cameras is None:
         return default
     bad = [camera for camera in cameras if not 0 <= camera < POSE2SIM_CAMERAS]
     if bad:
-        raise UserError(f"--cameras must be Pose2Sim camera indices 0-{POSE2SIM_CAMERAS - 1}, "
+        raise UserError(f"{option} must be Pose2Sim camera indices 0-{POSE2SIM_CAMERAS - 1}, "
                         f"got {', '.join(map(str, bad))}")
     if len(set(cameras)) != len(cameras):
-        raise UserError(f"--cameras names a camera twice: {' '.join(map(str, cameras))}")
+        raise UserError(f"{option} names a camera twice: {' '.join(map(str, cameras))}")
     return tuple(cameras)
 
 
