@@ -12,6 +12,8 @@ apart), then timed as the median of ``--repeats`` runs with ``block_until_ready`
     smooth          ancestry tracing (smc.trace_ancestry) + MAP posture and expected parts
     filter+smooth   the two together: the target is < 2 s for 1 000 frames × 1 000 particles
     fixed lag       smooth_fixed_lag with ``--lag`` frames
+    backward        smooth_backward, the two-pass smoother (backward simulation), with
+                    ``--backward-paths`` paths: paths × particles densities per frame
 
     python -m benchmarks.mixed_state                      # 1 000 frames × 1 000 particles
     python -m benchmarks.mixed_state --frames 200 --particles 200 --repeats 1
@@ -57,14 +59,18 @@ def main(argv=None) -> dict:
     parser.add_argument("--particles", type=int, default=1000)
     parser.add_argument("--lag", type=int, default=10)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--backward-paths", type=int, default=100,
+                        help="paths of the two-pass smoother (0: not timed)")
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     args = parser.parse_args(argv)
-    if args.frames < 2 or args.particles < 1 or args.repeats < 1:
-        parser.error("--frames must be at least 2, --particles and --repeats at least 1")
+    if args.frames < 2 or args.particles < 1 or args.repeats < 1 or args.backward_paths < 0:
+        parser.error("--frames must be at least 2, --particles and --repeats at least 1, "
+                     "--backward-paths 0 or more")
     from jaxtrack.trackers.mixed_state import (
         MixedStateModel,
         filter_sequence,
         smooth,
+        smooth_backward,
         smooth_fixed_lag,
     )
 
@@ -87,6 +93,13 @@ def main(argv=None) -> dict:
     lagged = lambda result: smooth_fixed_lag(result, args.lag)  # noqa: E731
     compile_s, run_s, cpu_s, _ = time_compiled(lagged, result, repeats=args.repeats)
     rows[f"fixed lag {args.lag}"] = (compile_s, run_s, cpu_s)
+    if args.backward_paths:
+        paths = args.backward_paths
+        backward = lambda key, result, model, obs: smooth_backward(  # noqa: E731
+            key, result, model, obs, paths)
+        compile_s, run_s, cpu_s, _ = time_compiled(backward, key, result, model, observations,
+                                                   repeats=args.repeats)
+        rows[f"backward {paths}"] = (compile_s, run_s, cpu_s)
     device = device_description()
     print(f"mixed-state tracker, {args.frames} frames x {num} particles, float32, "
           f"image 320 x 240; {device}; load average {os.getloadavg()[0]:.1f}")
@@ -96,7 +109,8 @@ def main(argv=None) -> dict:
               f"{1000 * run_s / args.frames:>10.3f}")
     total = rows["filter+smooth"][1]
     print(f"filter+smooth: {total:.3f} s against the 2 s target ({total / 2.0:.2f} x the target)")
-    out = {"frames": args.frames, "particles": num, "lag": args.lag, "device": device,
+    out = {"frames": args.frames, "particles": num, "lag": args.lag,
+           "backward_paths": args.backward_paths, "device": device,
            "load_average": os.getloadavg()[0],
            "stages": {name: dict(zip(("compile_s", "run_s", "cpu_s"), values, strict=True))
                       for name, values in rows.items()}}

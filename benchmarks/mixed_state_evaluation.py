@@ -21,9 +21,12 @@ clips, then the paper's Table 1 metrics on the test clips.
    chosen first, by the instantaneous posture error; the classifier that error prefers made
    the tracker worse on validation.)
 3. The test clips are scored once with the chosen settings, for the instantaneous (extended
-   Ghost), filtered, smoothed and fixed-lag estimates; with ``--pose2sim-cameras`` also seen
-   through those real Pose2Sim cameras (their calibration, elevation and portrait frames at a
-   third, 363 × 640: ``experiments.mixed_state.render_posture_sequence``), a second table.
+   Ghost), filtered, smoothed and fixed-lag estimates, and the two-pass smoother (backward
+   simulation with ``--backward-paths`` paths, ``trackers.mixed_state.smooth_backward``) for
+   comparison with the paper's ancestry tracing, with its run time; with
+   ``--pose2sim-cameras`` also seen through those real Pose2Sim cameras (their calibration,
+   elevation and portrait frames at a third, 363 × 640:
+   ``experiments.mixed_state.render_posture_sequence``), a second table.
 
     python -m benchmarks.mixed_state_evaluation [--frames 150] [--particles 500]
 
@@ -49,7 +52,8 @@ def _rows(overall: dict) -> list[dict]:
     return [{"estimate": kind, **{f"mse_{part}": overall[kind]["mse"][part]
                                   for part in ("head", "hands", "feet", "all")},
              "posture_error": 100 * overall[kind]["posture_error"],
-             "max_head": overall[kind]["max_head_error"]} for kind in KINDS]
+             "max_head": overall[kind]["max_head_error"]}
+            for kind in (*KINDS, "backward") if kind in overall]
 
 
 _COLUMNS = [("estimate", "estimate", "s"), ("mse_head", "MSE head", ".1f"),
@@ -160,6 +164,9 @@ def main(argv=None) -> int:
                         default=["keep", "redraw"],
                         help="what a particle that changes posture does with its parts")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--backward-paths", type=int, default=500,
+                        help="paths of the two-pass smoother scored beside the others on the "
+                             "test clips (0: not scored)")
     parser.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
                         help="views of the validation and test clips (default: the five of "
                         "experiments.mixed_state.VIEW_AZIMUTHS; 90 -90: the paper's side views)")
@@ -187,6 +194,9 @@ def main(argv=None) -> int:
                                          for text in args.posture_models)))
     except ValueError as error:
         parser.error(f"--posture-models: {error}")
+    if args.backward_paths < 0:
+        parser.error(f"--backward-paths must be 0 or more, got {args.backward_paths}")
+    backward_paths = args.backward_paths or None
     for name in ("frames", "particles"):
         if getattr(args, name) < (2 if name == "frames" else 1):
             parser.error(f"--{name} must be at least {2 if name == 'frames' else 1}, got "
@@ -228,7 +238,8 @@ def main(argv=None) -> int:
     test = ms.evaluate(posture_model, ms.TEST_CLIPS, azimuths=azimuths, backgrounds=("clutter",),
                        num_particles=args.particles, max_frames=args.frames, seed=args.seed,
                        redetect_probability=chosen,
-                       redraw_on_switch=chosen_switch == "redraw", part_cutoff=cutoff)
+                       redraw_on_switch=chosen_switch == "redraw", part_cutoff=cutoff,
+                       backward_paths=backward_paths)
     test_seconds = time.perf_counter() - begin
     through_cameras = None
     if args.pose2sim_cameras:
@@ -238,7 +249,7 @@ def main(argv=None) -> int:
                                       max_frames=args.frames, seed=args.seed,
                                       redetect_probability=chosen,
                                       redraw_on_switch=chosen_switch == "redraw",
-                                      part_cutoff=cutoff)
+                                      part_cutoff=cutoff, backward_paths=backward_paths)
     print(f"device: {device_description()}")
     print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; instantaneous posture error "
           + ", ".join(f"{100 * error:.1f} % with {spec_text(key)}"
@@ -262,6 +273,11 @@ def main(argv=None) -> int:
           f"clutter; "
           f"{test_seconds:.0f} s")
     print_table(_rows(test["overall"]), _COLUMNS)
+    if backward_paths is not None:
+        runs = test["sequences"].values()
+        print(f"run time over the {len(runs)} test sequences: filter + ancestry tracing "
+              f"{sum(run['seconds'] for run in runs):.1f} s, backward simulation "
+              f"({backward_paths} paths) {sum(run['backward_seconds'] for run in runs):.1f} s")
     if through_cameras is not None:
         print(f"\nthe test clips through Pose2Sim cameras {args.pose2sim_cameras} (0-based; "
               f"363 x 640), the same settings")

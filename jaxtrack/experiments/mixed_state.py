@@ -355,12 +355,14 @@ def score(parts: np.ndarray, posture: np.ndarray, truth_parts: np.ndarray,
 
 
 def track(key, model: MixedStateModel, observations: MixedStateFrame, num_particles: int = 500,
-          *, lag: int | None = None) -> dict:
+          *, lag: int | None = None, backward_paths: int | None = None) -> dict:
     """Filter and smooth one sequence; every estimate as NumPy arrays.
 
     Returns a dict of ``(time,)`` postures and ``(time, 5, 2)`` parts for ``instantaneous``,
-    ``filtered``, ``smoothed`` (and ``fixed_lag`` when ``lag`` is given), each as
-    ``{"posture", "parts"}``, plus ``status``, ``ess`` and the run time in seconds.
+    ``filtered``, ``smoothed`` (and ``fixed_lag`` when ``lag`` is given, ``backward``, the
+    two-pass smoother of :func:`jaxtrack.trackers.mixed_state.smooth_backward` with that many
+    paths, when ``backward_paths`` is), each as ``{"posture", "parts"}``, plus ``status``,
+    ``ess`` and the run time in seconds (``backward_seconds`` for the two-pass smoother).
     """
     begin = time.perf_counter()
     result = filter_sequence(key, model, observations, num_particles)
@@ -380,6 +382,16 @@ def track(key, model: MixedStateModel, observations: MixedStateFrame, num_partic
         lagged = smooth_fixed_lag(result, lag)
         out["fixed_lag"] = {"posture": np.asarray(lagged.posture),
                             "parts": np.asarray(lagged.parts)}
+    if backward_paths is not None:
+        from jaxtrack.trackers.mixed_state import smooth_backward
+
+        begin = time.perf_counter()
+        backward = smooth_backward(jr.fold_in(key, 1), result, model, observations,
+                                   backward_paths)
+        jax.block_until_ready(backward)
+        out["backward_seconds"] = time.perf_counter() - begin
+        out["backward"] = {"posture": np.asarray(backward.posture),
+                           "parts": np.asarray(backward.parts)}
     return out
 
 
@@ -388,7 +400,8 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
              image_size: tuple[int, int] = (640, 480), num_bins: int = 16,
              num_particles: int = 500, lag: int = 10, max_frames: int | None = None,
              seed: int = 1, sequences: Sequence[PostureSequence] | None = None,
-             pose2sim_cameras: Sequence[int] = (), **model_options) -> dict:
+             pose2sim_cameras: Sequence[int] = (), backward_paths: int | None = None,
+             **model_options) -> dict:
     """Render the test clips, track each view, and score every estimate.
 
     Returns ``{"sequences": {name: {estimate: score}}, "overall": {estimate: score},
@@ -399,7 +412,8 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
     ankle joints. ``sequences``: the rendered views (:func:`render_sequences` of the same
     arguments), to score several settings on one rendering. ``pose2sim_cameras``: also render
     through these real Pose2Sim cameras (0–3; :func:`render_posture_sequence`).
-    ``model_options``:
+    ``backward_paths``: also score the two-pass smoother with that many paths (estimate
+    ``backward``; :func:`track`). ``model_options``:
     :class:`MixedStateModel`'s keywords, and ``part_cutoff``, the part likelihood's δ.
     """
     from jaxtrack.vision.histograms import FRAME_OK
@@ -416,14 +430,16 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
     if sequences is None:
         sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed,
                                      pose2sim_cameras)
-    kinds = ("instantaneous", "filtered", "smoothed", "fixed_lag")
+    kinds = ("instantaneous", "filtered", "smoothed", "fixed_lag") + (
+        () if backward_paths is None else ("backward",))
     pooled = {kind: {"posture": [], "parts": []} for kind in kinds}
     truth_parts, truth_joints, truth_labels, valid_all, per_sequence = [], [], [], [], {}
     key = jr.PRNGKey(seed)
     for sequence in sequences:
         observations = observations_from_silhouettes(sequence.masks, num_bins=num_bins)
         key, subkey = jr.split(key)
-        estimates = track(subkey, model, observations, num_particles, lag=lag)
+        estimates = track(subkey, model, observations, num_particles, lag=lag,
+                          backward_paths=backward_paths)
         valid = estimates["status"] == FRAME_OK
         per_sequence[sequence.name] = {
             kind: score(estimates[kind]["parts"], estimates[kind]["posture"], sequence.parts,
@@ -432,6 +448,8 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
             kind: score(estimates[kind]["parts"], estimates[kind]["posture"], sequence.joints,
                         sequence.labels, valid)["mse"] for kind in kinds}
         per_sequence[sequence.name]["seconds"] = estimates["seconds"]
+        if backward_paths is not None:
+            per_sequence[sequence.name]["backward_seconds"] = estimates["backward_seconds"]
         for kind in kinds:
             for field_name in ("posture", "parts"):
                 pooled[kind][field_name].append(estimates[kind][field_name])
@@ -456,6 +474,7 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
             "settings": {"clips": list(clips), "azimuths": [float(a) for a in azimuths],
                          "backgrounds": list(backgrounds), "image_size": list(image_size),
                          "num_particles": num_particles, "lag": lag, "seed": seed,
+                         "backward_paths": backward_paths,
                          "device": jax.devices()[0].device_kind,
                          "model": {name: value if isinstance(value, bool) else float(value)
                                    for name, value in model_options.items()}}}

@@ -39,7 +39,11 @@ across postures would blur two conventions). The smoother (:func:`smooth`) trace
 particle's ancestry (:func:`jaxtrack.smc.trace_ancestry`, §3.3) and reports, per frame, the MAP
 posture of the paths' posture marginals under the final weights and the expected parts over the
 paths in that posture. :func:`smooth_fixed_lag` gives the same for video streamed in chunks.
-See ``docs/mixed-state.md``.
+:func:`smooth_backward` is the two-pass smoother for comparison: forward filtering, backward
+simulation (:func:`jaxtrack.smc.ffbsi`), which draws each path's particle at frame t from all
+of frame t's particles, weighted by the dynamics' density of the path's next state, instead of
+from its own ancestry: paths that do not collapse onto a few ancestors, at a cost of
+paths × particles density evaluations per frame. See ``docs/mixed-state.md``.
 """
 
 from __future__ import annotations
@@ -62,7 +66,7 @@ from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
 __all__ = ["MixedStateFrame", "MixedStateModel", "MixedStateResult", "MixedStateTracker",
            "SmoothedPostures", "filter_sequence", "instantaneous_estimates",
-           "observations_from_silhouettes", "smooth", "smooth_fixed_lag"]
+           "observations_from_silhouettes", "smooth", "smooth_backward", "smooth_fixed_lag"]
 
 FRAME_OK = 0  # jaxtrack.vision.histograms.FRAME_OK (imported lazily: vision needs OpenCV)
 
@@ -162,12 +166,13 @@ class MixedStateModel(eqx.Module):
 class MixedStateResult(eqx.Module):
     """The filter's outputs for a sequence (leading ``time`` axis on per-frame fields).
 
-    ``postures``/``parts``/``log_weights``/``ancestors`` are the particle history the smoother
-    traces; ``filtered_posture``/``filtered_parts`` the causal estimates.
+    ``postures``/``parts``/``velocities``/``log_weights``/``ancestors`` are the particle
+    history the smoothers trace; ``filtered_posture``/``filtered_parts`` the causal estimates.
     """
 
     postures: Int[Array, "time particles"]
     parts: Float[Array, "time particles parts 2"]
+    velocities: Float[Array, "time particles parts 2"]
     log_weights: Float[Array, "time particles"]
     ancestors: Int[Array, "time particles"]
     log_evidence_increments: Float[Array, " time"]
@@ -303,23 +308,26 @@ def filter_sequence(key: PRNGKeyArray, model: MixedStateModel, observations: Mix
         key, frame = inputs
         postures, parts, velocities, log_weights, ancestors, increment = _step(
             key, model, postures, parts, velocities, log_weights, frame)
-        return (postures, parts, velocities, log_weights), (postures, parts, log_weights,
-                                                            ancestors, increment)
+        return (postures, parts, velocities, log_weights), (postures, parts, velocities,
+                                                            log_weights, ancestors, increment)
 
     rest = jax.tree.map(lambda leaf: leaf[1:], observations)
     num_frames = observations.status.shape[0]
-    _, (all_postures, all_parts, all_log_weights, ancestors, increments) = lax.scan(
+    _, (all_postures, all_parts, all_velocities, all_log_weights, ancestors,
+        increments) = lax.scan(
         body, (postures, parts, velocities, log_weights),
         (jr.split(key_steps, num_frames - 1), rest))
     cat = lambda head, tail: jnp.concatenate([head[None], tail])  # noqa: E731
     all_postures = cat(postures, all_postures)
     all_parts = cat(parts, all_parts)
+    all_velocities = cat(velocities, all_velocities)
     all_log_weights = cat(log_weights, all_log_weights)
     ancestors = cat(jnp.arange(num_particles, dtype=ancestors.dtype), ancestors)
     increments = cat(first_increment.astype(increments.dtype), increments)
     best, probabilities, mean_parts = jax.vmap(_estimate)(all_postures, all_parts,
                                                           all_log_weights)
-    return MixedStateResult(all_postures, all_parts, all_log_weights, ancestors, increments,
+    return MixedStateResult(all_postures, all_parts, all_velocities, all_log_weights,
+                            ancestors, increments,
                             jax.vmap(_ess)(all_log_weights), observations.status, best,
                             probabilities, mean_parts)
 
@@ -328,7 +336,8 @@ def _as_filter_result(result: MixedStateResult) -> smc.FilterResult:
     """The history in the engine's form, for its ancestry-tracing smoother."""
     num_frames = result.status.shape[0]
     flags = jnp.zeros(num_frames, bool)
-    particles = {"posture": result.postures, "parts": result.parts}
+    particles = {"posture": result.postures, "parts": result.parts,
+                 "velocities": result.velocities}
     return smc.FilterResult(
         log_evidence=jnp.sum(result.log_evidence_increments),
         log_evidence_increments=result.log_evidence_increments, ess=result.ess,
@@ -346,6 +355,69 @@ def smooth(result: MixedStateResult) -> SmoothedPostures:
     posture_paths, part_paths = paths.paths["posture"], paths.paths["parts"]
     best, probabilities, parts = jax.vmap(_estimate, in_axes=(0, 0, None))(
         posture_paths, part_paths, paths.log_weights)
+    return SmoothedPostures(best, probabilities, parts)
+
+
+class _Dynamics(eqx.Module):
+    """The dynamics' density p(x_t+1 | x_t), which backward simulation weighs by (the one
+    method :func:`jaxtrack.smc.ffbsi` calls).
+
+    With the posture's transition T, a particle that keeps its parts moves them by
+    d = x_t+1 − x_t = v_t + σ_v ε + σ_x ε' (module docstring, step 4): Gaussian about its
+    velocity, variance σ_v² + σ_x² per coordinate; one whose parts are re-drawn (on a switch,
+    if ``redraw_on_switch``, and with probability ``redetect_probability``) has them about the
+    new posture's hypotheses of frame t + 1, variance σ_init². The projection into the
+    silhouette (step 5) moves a part onto the silhouette's edge, which no density expresses: it
+    is left out, so this is the dynamics' density of an unprojected move."""
+
+    model: MixedStateModel
+    hypotheses: Float[Array, "time postures parts 2"]
+    status: Int[Array, " time"]
+
+    def log_transition_density(self, previous: dict, particle: dict, time) -> Float[Array, ""]:
+        model = self.model
+        dtype = particle["parts"].dtype
+        posture = particle["posture"]
+        log_t = model.postures.log_transition[previous["posture"], posture].astype(dtype)
+
+        def gaussian(residual, variance):
+            return (-0.5 * jnp.sum(residual ** 2) / variance
+                    - 0.5 * residual.size * jnp.log(2 * jnp.pi * variance))
+
+        kept = gaussian(particle["parts"] - previous["parts"] - previous["velocities"],
+                        (model.velocity_std ** 2 + model.position_std ** 2).astype(dtype))
+        fresh = gaussian(particle["parts"] - self.hypotheses[time, posture].astype(dtype),
+                         (model.initial_std ** 2).astype(dtype))
+        ok = self.status[time] == FRAME_OK
+        chance = model.redetect_probability.astype(dtype)
+        either = jnp.logaddexp(jnp.log1p(-chance) + kept, jnp.log(chance) + fresh)
+        switched = posture != previous["posture"]
+        redrawn = switched if model.redraw_on_switch else jnp.zeros_like(switched)
+        return log_t + jnp.where(ok, jnp.where(redrawn, fresh, either), kept)
+
+
+@eqx.filter_jit
+def smooth_backward(key: PRNGKeyArray, result: MixedStateResult, model: MixedStateModel,
+                    observations: MixedStateFrame, num_paths: int) -> SmoothedPostures:
+    """The two-pass smoother (forward filtering, backward simulation: :func:`jaxtrack.smc.ffbsi`)
+    for comparison with :func:`smooth`: ``num_paths`` paths drawn backward, each frame's
+    particle of a path chosen among all that frame's particles by weight × the dynamics'
+    density of the path's next state (:class:`_Dynamics`); per frame the MAP posture of the
+    paths and the mean parts of the paths in it. Its cost is ``num_paths`` × particles density
+    evaluations per frame, against ancestry tracing's one gather per particle.
+
+    Args:
+        key: PRNG key of the backward draws.
+        result: :func:`filter_sequence`'s output for ``model`` and ``observations``.
+        model, observations: what the filter ran on (the hypotheses and status of every frame).
+        num_paths: M, the paths drawn.
+    """
+    if num_paths < 1:
+        raise ValueError(f"num_paths must be at least 1, got {num_paths}")
+    dynamics = _Dynamics(model, observations.hypotheses, observations.status)
+    paths = smc.ffbsi(key, dynamics, _as_filter_result(result), num_paths)
+    best, probabilities, parts = jax.vmap(_estimate, in_axes=(0, 0, None))(
+        paths.paths["posture"], paths.paths["parts"], paths.log_weights)
     return SmoothedPostures(best, probabilities, parts)
 
 

@@ -21,6 +21,7 @@ from jaxtrack.trackers.mixed_state import (
     instantaneous_estimates,
     observations_from_silhouettes,
     smooth,
+    smooth_backward,
     smooth_fixed_lag,
 )
 from jaxtrack.vision.parts import nearest_silhouette_points
@@ -163,6 +164,25 @@ def test_smoothed_posture_matches_enumeration():
     np.testing.assert_allclose(lagged.posture_probabilities, smoothed.posture_probabilities)
     np.testing.assert_allclose(smooth_fixed_lag(result, 0).posture_probabilities,
                                result.filtered_posture_probabilities, atol=1e-12)
+
+
+@pytest.mark.parametrize("redraw_on_switch", [False, True])
+def test_backward_simulation_matches_enumeration(redraw_on_switch):
+    """The two-pass smoother's posture marginals are the exact ones too: where the parts say
+    nothing, the dynamics' density it weighs by must not tilt the postures."""
+    rng = np.random.default_rng(3)
+    postures = _toy_postures(rng)
+    features = rng.normal(size=4) * 1.5
+    marginals, _ = _brute_force(postures, features)
+    model = MixedStateModel(postures, initial_std=1.0, position_std=0.5, velocity_std=0.5,
+                            redraw_on_switch=redraw_on_switch)
+    frames = _flat_frames(features)
+    result = filter_sequence(jr.PRNGKey(0), model, frames, 4000)
+    backward = smooth_backward(jr.PRNGKey(1), result, model, frames, 4000)
+    np.testing.assert_allclose(backward.posture_probabilities, marginals, atol=0.04)
+    assert np.all(np.isfinite(np.asarray(backward.parts)))
+    with pytest.raises(ValueError, match="num_paths must be at least 1"):
+        smooth_backward(jr.PRNGKey(1), result, model, frames, 0)
 
 
 def _drawn_clip(num_frames=16):
