@@ -40,6 +40,7 @@ from jaxtrack.trackers.mixed_state import (
     instantaneous_estimates,
     observations_from_silhouettes,
     smooth,
+    smooth_backward,
     smooth_fixed_lag,
 )
 
@@ -383,8 +384,6 @@ def track(key, model: MixedStateModel, observations: MixedStateFrame, num_partic
         out["fixed_lag"] = {"posture": np.asarray(lagged.posture),
                             "parts": np.asarray(lagged.parts)}
     if backward_paths is not None:
-        from jaxtrack.trackers.mixed_state import smooth_backward
-
         begin = time.perf_counter()
         backward = smooth_backward(jr.fold_in(key, 1), result, model, observations,
                                    backward_paths)
