@@ -205,6 +205,16 @@ def test_save_load_round_trip_and_damaged_files(tmp_path):
     old = load_posture_model(tmp_path / "version1.npz").model
     np.testing.assert_array_equal(old.means, model.means)
     np.testing.assert_array_equal(old.log_weights, np.zeros((NUM_POSTURES, 1)))
+    # a file whose weights leave a posture no component, or hold NaN, is refused in one line
+    with np.load(tmp_path / "mixture.npz") as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    for row, bad, message in ((slice(None), -np.inf, "gives a posture no component"),
+                              (0, np.nan, "'log_weights' holds non-finite values")):
+        broken = dict(arrays, log_weights=arrays["log_weights"].copy())
+        broken["log_weights"][2, row] = bad
+        np.savez(tmp_path / "broken.npz", **broken)
+        with pytest.raises(PostureFormatError, match=message):
+            load_posture_model(tmp_path / "broken.npz")
     truncated = tmp_path / "truncated.npz"
     truncated.write_bytes(path.read_bytes()[:200])
     with pytest.raises(PostureFormatError, match="damaged or truncated"):
