@@ -65,11 +65,11 @@ def nearest_per_part(train: np.ndarray, test: np.ndarray) -> np.ndarray:
 
 
 def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
-                   stride: int) -> list[dict]:
+                   stride: int, back_constraint: float | None = None) -> list[dict]:
     """Rows (one per reconstruction method) for one candidate prior."""
-    tag = prior_tag(name, mirror, parts)
+    tag = prior_tag(name, mirror, parts, back_constraint)
     check_disjoint(PRIOR_CLIPS[name], clips)
-    prior = candidate_prior(name, mirror, parts)
+    prior = candidate_prior(name, mirror, parts, back_constraint)
     held_out = pose_set(clip_motions(clips), views=views, template=prior.template)
     keep = np.arange(0, len(held_out.states), stride)
     held_out = type(held_out)(held_out.states[keep], held_out.markers_2d[keep],
@@ -125,6 +125,9 @@ def main(argv=None) -> int:
                         help="train each prior without, with, or both (both)")
     parser.add_argument("--parts", choices=("no", "yes", "both"), default="both",
                         help="one GPLVM of the whole upper body, one per part, or both (both)")
+    parser.add_argument("--back-constraints", nargs="+", default=["none"], metavar="WIDTH",
+                        help="free latents (none) and/or back-constrained GPLVMs of these "
+                             "kernel widths (fit_gplvm's back_constraint; default none)")
     parser.add_argument("--clips", nargs="+", default=None,
                         help="score only these of the split's clips (default all)")
     parser.add_argument("--views", type=int, default=3, help="viewpoints per held-out clip (3)")
@@ -134,6 +137,14 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.views < 1 or args.stride < 1:
         parser.error("--views and --stride must be at least 1")
+    try:
+        widths = [None if w == "none" else float(w) for w in args.back_constraints]
+    except ValueError:
+        parser.error(f"--back-constraints takes 'none' or positive widths, got "
+                     f"{' '.join(args.back_constraints)}")
+    if any(w is not None and not w > 0 for w in widths):
+        parser.error(f"--back-constraints widths must be positive, got "
+                     f"{' '.join(args.back_constraints)}")
     started = time.perf_counter()
     clips = held_out_clips(args.split)
     if args.clips:
@@ -150,7 +161,9 @@ def main(argv=None) -> int:
     for name in tqdm(args.priors, desc="priors"):
         for mirror in mirrors:
             for parts in parted:
-                rows += evaluate_prior(name, mirror, parts, clips, args.views, args.stride)
+                for width in widths:
+                    rows += evaluate_prior(name, mirror, parts, clips, args.views, args.stride,
+                                           width)
     print_table(rows, [("prior", "prior", "s"), ("training_poses", "training poses", "d"),
                        ("held_out_poses", "held-out poses", "d"), ("method", "method", "s"),
                        ("lengths", "link lengths", "s"), ("error_torso", "error/torso", ".1%"),

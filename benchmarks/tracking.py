@@ -104,19 +104,24 @@ COLUMNS = (("method", "method", "s"), ("estimate", "estimate", "s"),
            ("compile_seconds", "compile s", ".1f"))
 
 
-def prior_tag(name: str, mirror: bool, parts: bool) -> str:
-    """The name of a candidate prior (its results folder and cache): ``gestures_mirrored_parts``."""
-    return name + ("_mirrored" if mirror else "") + ("_parts" if parts else "")
+def prior_tag(name: str, mirror: bool, parts: bool,
+              back_constraint: float | None = None) -> str:
+    """The name of a candidate prior (its results folder and cache): ``gestures_mirrored_parts``,
+    ``waves_bc0.5`` (back-constrained, width 0.5)."""
+    return (name + ("_mirrored" if mirror else "") + ("_parts" if parts else "")
+            + ("" if back_constraint is None else f"_bc{back_constraint:g}"))
 
 
-def candidate_prior(name: str, mirror: bool = False, parts: bool = False, **training):
+def candidate_prior(name: str, mirror: bool = False, parts: bool = False,
+                    back_constraint: float | None = None, **training):
     """The candidate prior ``name`` of :data:`PRIOR_CLIPS` (``training``: ``train_prior``'s
     settings), trained once and cached in ``RESULTS`` under its :func:`prior_tag`."""
     suffix = "_quick" if training else ""
+    tag = prior_tag(name, mirror, parts, back_constraint)
     return train_prior(PRIOR_CLIPS[name], progress=False, mirror=mirror,
-                       parts=UPPER_BODY_PARTS if parts else None, **training,
-                       cache=RESULTS / f"prior_training_{prior_tag(name, mirror, parts)}"
-                                       f"{suffix}.npz")
+                       parts=UPPER_BODY_PARTS if parts else None,
+                       back_constraint=back_constraint, **training,
+                       cache=RESULTS / f"prior_training_{tag}{suffix}.npz")
 
 
 def t_interval(values) -> float:
@@ -315,6 +320,9 @@ def main(argv=None) -> int:
     parser.add_argument("--parts", action="store_true",
                         help="one GPLVM per body part (torso, each arm; PartsGPLVM) instead of "
                              "one of the whole upper body (Tian et al.)")
+    parser.add_argument("--back-constraint", type=float, default=None, metavar="WIDTH",
+                        help="a back-constrained GPLVM of this kernel width (x = g(y); "
+                             "fit_gplvm's back_constraint) instead of free latents")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
     parser.add_argument("--likelihoods", nargs="+", choices=LIKELIHOODS,
@@ -341,6 +349,8 @@ def main(argv=None) -> int:
             parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
     if args.max_frames is not None and args.max_frames < 2:
         parser.error(f"--max-frames must be at least 2, got {args.max_frames}")
+    if args.back_constraint is not None and not args.back_constraint > 0:
+        parser.error(f"--back-constraint must be a positive width, got {args.back_constraint:g}")
     if args.init == "auto" and args.parts:
         parser.error("--init auto searches one GPLVM's poses; it does not take --parts")
     partitioned = dict(args.set).get("partitioned")
@@ -355,7 +365,7 @@ def main(argv=None) -> int:
     training_clips = PRIOR_CLIPS[args.prior]
     check_disjoint(training_clips, clips)
     assert all(split_of(clip) == args.split for clip in clips)
-    tag = prior_tag(args.prior, args.mirror, args.parts)
+    tag = prior_tag(args.prior, args.mirror, args.parts, args.back_constraint)
     settings = dict(args.set)
     out = args.out or RESULTS / (args.split + ("" if tag == "waves" else "-" + tag)
                                  + ("-auto" if args.init == "auto" else "")
@@ -368,7 +378,8 @@ def main(argv=None) -> int:
     started = time.perf_counter()
     # --quick: a small prior (2 views, 10 fps, 60 active points, one outer iteration)
     training = QUICK_TRAINING if args.quick else {}
-    prior = candidate_prior(args.prior, args.mirror, args.parts, **training)
+    prior = candidate_prior(args.prior, args.mirror, args.parts, args.back_constraint,
+                            **training)
     # --init auto takes its median background over the whole clip, as from a user's whole video,
     # then tracks the first --max-frames frames like every other run
     sequences = [sequence for index, clip in enumerate(clips)
@@ -434,7 +445,9 @@ def main(argv=None) -> int:
             f"seeds; prior trained on {', '.join(training_clips)}"
             f"{' and their mirror images' if args.mirror else ''}"
             f"{', one GPLVM per body part' if args.parts else ''}"
-            f"{'; MediaPipe keypoints scored by the keypoint term' if detections else ''}"
+            + ("" if args.back_constraint is None else
+               f", back-constrained (width {args.back_constraint:g})")
+            + f"{'; MediaPipe keypoints scored by the keypoint term' if detections else ''}"
             + "".join(f"; {SETTINGS[name]} {value:g}" for name, value in settings.items())
             + "; baselines' dynamics from "
             f"{args.baseline_dynamics}; {init_note}. error: mean over runs, "
@@ -451,7 +464,7 @@ def main(argv=None) -> int:
     write_json_atomically(out / "summary.json", {
         **run_header("benchmarks.tracking", argv, started),
         "split": args.split, "clips": list(clips), "prior": args.prior, "mirror": args.mirror,
-        "parts": args.parts,
+        "parts": args.parts, "back_constraint": args.back_constraint,
         "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
         "baseline_dynamics": args.baseline_dynamics, "init": args.init, "auto_init": inits,

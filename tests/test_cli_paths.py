@@ -121,12 +121,21 @@ def test_train_command_trains_one_gplvm_per_part_with_parts(tmp_path, own_files,
 
     out = tmp_path / "parts.npz"
     arguments = ["train", "--clips", str(own_files["short_bvh"]), "--views", "1", "--active",
-                 "8", "--iterations", "1", "--parts", "--mirror", "--out", str(out)]
+                 "8", "--iterations", "1", "--parts", "--mirror", "--back-constraint", "0.5",
+                 "--out", str(out)]
     assert main(arguments) == 0, capsys.readouterr().err
     assert "3 GPLVMs, one per part," in capsys.readouterr().out
     prior = load_prior(out)
     assert isinstance(prior.model, PartsGPLVM)
     assert prior.description["num_poses"] == 2 * 20  # the clip and its mirror image
+    assert prior.description["settings"]["back_constraint"] == 0.5
+    bad = ["train", "--clips", str(own_files["short_bvh"]), "--back-constraint", "-1",
+           "--out", str(tmp_path / "bad.npz")]
+    assert main(bad) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == ("jaxtrack train: error: --back-constraint must be a positive width, "
+                     "got -1.0"), error
+    assert not (tmp_path / "bad.npz").exists()
 
 
 def test_train_command_reads_an_asf_amc_pair_with_asf(tmp_path, own_files, monkeypatch,

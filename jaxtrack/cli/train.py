@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from jaxtrack.cli._common import (
@@ -62,6 +63,10 @@ def add_parser(subparsers) -> None:
                              "(docs/tracking.md, 'A prior that generalises across people')")
     parser.add_argument("--mirror", action="store_true",
                         help="latent: also learn from every clip's left-right mirror image")
+    parser.add_argument("--back-constraint", type=float, default=None, metavar="WIDTH",
+                        help="latent: a back-constrained GPLVM, every latent a smooth function "
+                             "of its pose, with this kernel width (relative to the median "
+                             "distance between poses; docs/tracking.md)")
     group = parser.add_argument_group("linear-combination and mixed-state")
     # linear-combination options
     group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
@@ -106,6 +111,9 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, name) < 1:
             raise UserError(f"--{name} must be positive, got {getattr(args, name)}")
     check_seed(args.seed)
+    if args.back_constraint is not None and not (math.isfinite(args.back_constraint)
+                                                 and args.back_constraint > 0):
+        raise UserError(f"--back-constraint must be a positive width, got {args.back_constraint}")
     check_prior_file(args.out, "--out", "delete it or choose another --out to train a new one")
     load_clip_sources(sources, "--clips")
     folder.mkdir(parents=True, exist_ok=True)
@@ -114,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
     prior = train_prior(args.clips, views=args.views, active_size=args.active,
                         iterations=args.iterations, seed=args.seed, cache=args.out,
                         asf=args.asf, mirror=args.mirror,
-                        parts=UPPER_BODY_PARTS if args.parts else None)
+                        parts=UPPER_BODY_PARTS if args.parts else None,
+                        back_constraint=args.back_constraint)
     kind = f"{len(UPPER_BODY_PARTS)} GPLVMs, one per part," if args.parts else "GPLVM"
     print(f"{kind} of {prior.description['num_poses']} poses, active set "
           f"{prior.model.active_size} -> {args.out}")

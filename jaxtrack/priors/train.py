@@ -84,7 +84,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
                 optimiser: str = "bfgs", seed: int = 0, cache: str | Path | None = None,
                 progress: bool = True, asf: str | os.PathLike | None = None,
                 mirror: bool = False,
-                parts: Mapping[str, Sequence[int]] | None = None) -> TrainedPrior:
+                parts: Mapping[str, Sequence[int]] | None = None,
+                back_constraint: float | None = None) -> TrainedPrior:
     """Train (or load from ``cache`` when it was trained with the same settings) a GPLVM.
 
     Args:
@@ -106,6 +107,9 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
             (indices into ``SPM_LINKS``, e.g. :data:`~jaxtrack.priors.gplvm.UPPER_BODY_PARTS`):
             one GPLVM per part over the same poses, a :class:`~jaxtrack.priors.gplvm.PartsGPLVM`
             (why: docs/tracking.md, "A prior that generalises").
+        back_constraint: None (free latents, Tian et al.), or the width of a back-constrained
+            GPLVM (``fit_gplvm``'s ``back_constraint``: every latent a smooth function of its
+            pose; docs/tracking.md, "A prior that generalises").
 
     Raises:
         jaxtrack.priors.gplvm.GPLVMFormatError: ``cache`` exists but is damaged or not a GPLVM.
@@ -125,6 +129,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         settings["optimiser"] = optimiser
     if mirror:  # absent without, likewise
         settings["mirror"] = True
+    if back_constraint is not None:  # absent without, likewise
+        settings["back_constraint"] = float(back_constraint)
     if parts is not None:
         parts = {str(name): tuple(int(link) for link in links) for name, links in parts.items()}
         settings["parts"] = {name: list(links) for name, links in parts.items()}
@@ -142,7 +148,7 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
     fit_options = dict(active_size=active_size, iterations=iterations, active_steps=active_steps,
                        optimiser=optimiser, inactive_dtype=jnp.float64,
                        sequence_ids=poses.sequence_ids, fps=poses.fps, seed=seed,
-                       progress=progress)
+                       back_constraint=back_constraint, progress=progress)
     if parts is None:
         fit = fit_gplvm(features, **fit_options)
         model, trace, init, seconds = fit.model, fit.trace, fit.init, fit.seconds

@@ -439,3 +439,41 @@ def test_all_poses_model_is_the_projected_process_written_out_with_numpy(trained
         active_only = GPLVM.from_active_set(kernel, model.poses, model.pose_mean, model.latents,
                                             model.active_indices)
         assert not np.allclose(active_only.weights, projected.weights)
+
+
+def test_back_constrained_latents_are_a_smooth_function_of_the_poses():
+    # Lawrence & Quiñonero-Candela's back-constraint: every latent is g(y) = Σ_c a_c k(y, y_c),
+    # so the training latents are g of the training poses and ν comes from their steps
+    latents, poses = sample_gp_data(4, 120)
+    order = np.argsort(np.arctan2(latents[:, 1], latents[:, 0]))  # one trajectory round the ring
+    train, test = poses[order][::2], poses[order][1::2]
+    ids = np.zeros(len(train), int)
+    fit = fit_gplvm(train, active_size=30, iterations=2, active_steps=80, back_constraint=0.3,
+                    sequence_ids=ids, fps=30.0, progress=False)
+    model = fit.model
+    assert fit.back_constraint["centres"].shape == (30, train.shape[1])
+    np.testing.assert_allclose(fit.back_project(train), np.asarray(model.latents), atol=1e-9)
+    steps = np.diff(np.asarray(model.latents), axis=0)
+    np.testing.assert_allclose(np.asarray(model.dynamics_std), steps.std(axis=0), rtol=1e-9)
+    # g is smooth: a small change of the pose moves its latent little
+    rng = np.random.default_rng(0)
+    nudge = 1e-3 * np.std(train) * rng.normal(size=train.shape)
+    moved = np.linalg.norm(fit.back_project(train + nudge) - fit.back_project(train), axis=1)
+    assert moved.max() < 0.05 * np.asarray(model.latents).std(), moved.max()
+    # μ⁻¹ of a held-out pose (eq. 5, from the nearest active point) still decodes near it,
+    # better than 2-component PCA; g alone, from 30 centres, is only a starting point
+    reconstruction = np.asarray(model.reconstruct(jnp.asarray(test)))
+    mean = train.mean(0)
+    _, _, components = np.linalg.svd(train - mean, full_matrices=False)
+    pca = (test - mean) @ components[:2].T @ components[:2] + mean
+    gplvm_error, pca_error = (np.sqrt(np.mean((reconstruction - test) ** 2)),
+                              np.sqrt(np.mean((pca - test) ** 2)))
+    assert gplvm_error < 0.8 * pca_error, (gplvm_error, pca_error)
+    # bad widths and a free fit are refused in one line
+    with pytest.raises(ValueError, match="back_constraint must be a positive width"):
+        fit_gplvm(train, active_size=30, back_constraint=0.0, progress=False)
+    free = fit_gplvm(train, active_size=30, iterations=1, active_steps=5, progress=False)
+    with pytest.raises(ValueError, match="needs a back-constrained fit"):
+        free.back_project(test)
+    with pytest.raises(ValueError, match="poses must be"):
+        fit.back_project(test[:, :3])

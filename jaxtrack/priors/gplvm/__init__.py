@@ -9,7 +9,13 @@
     ...           optimiser="lbfgs", active_steps=100)
 """
 
-from jaxtrack.priors.gplvm._fit import OPTIMISERS, GPLVMFit, estimate_dynamics, fit_gplvm
+from jaxtrack.priors.gplvm._fit import (
+    OPTIMISERS,
+    GPLVMFit,
+    back_constraint_kernel,
+    estimate_dynamics,
+    fit_gplvm,
+)
 from jaxtrack.priors.gplvm._init import initial_latents, isomap, pca
 from jaxtrack.priors.gplvm._io import GPLVMFormatError, SavedGPLVM, load_gplvm, save_gplvm
 from jaxtrack.priors.gplvm._ivm import entropy_reductions, select_active_set
@@ -44,6 +50,7 @@ __all__ = [
     "InverseResult",
     "KernelParameters",
     "active_objective",
+    "back_constraint_kernel",
     "exact_objective",
     "entropy_reductions",
     "estimate_dynamics",

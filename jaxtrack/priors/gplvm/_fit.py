@@ -11,6 +11,11 @@ By default μ and σ² (in L′ and in the returned model) come from all poses t
 (the projected process, ``all_poses``) rather than from the active poses alone, and the last
 iteration repeats the non-active stage once with the model rebuilt (``final_rounds``).
 
+With ``back_constraint`` (Lawrence & Quiñonero-Candela 2006) the latents are not free: every
+latent is a smooth function of its pose, x = g(y) = Σ_c a_c k(y, y_c) over fixed centre poses,
+and eq. 1 is minimised over A and the kernel instead of X_I; the non-active points take
+x_j = g(y_j) (no eq. 2 stage), so poses that are alike get latents that are alike.
+
 Every stage is jitted for its shapes, so the outer loop compiles once. Training runs in float64
 (``jax.enable_x64`` inside): the objective holds ln|K| of a matrix whose noise is a small
 fraction of its signal.
@@ -36,7 +41,8 @@ from jaxtrack.priors.gplvm._ivm import select_active_set
 from jaxtrack.priors.gplvm._kernel import KernelParameters, active_objective
 from jaxtrack.priors.gplvm._model import GPLVM
 
-__all__ = ["GPLVMFit", "OPTIMISERS", "fit_gplvm", "estimate_dynamics"]
+__all__ = ["GPLVMFit", "OPTIMISERS", "back_constraint_kernel", "estimate_dynamics",
+           "fit_gplvm"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +59,8 @@ class GPLVMFit:
         init: how X was initialised (``"isomap (k = 10)"``, ``"pca (isomap failed: ...)"``).
         init_seconds: time spent on that.
         seconds: total wall time.
+        back_constraint: a back-constrained fit's width, ``centres`` (``(m, dims)`` centred
+            centre poses) and ``weights`` A (``(m, latent)``); None for free latents.
     """
 
     model: GPLVM
@@ -60,6 +68,21 @@ class GPLVMFit:
     init: str = ""
     init_seconds: float = 0.0
     seconds: float = 0.0
+    back_constraint: dict | None = None
+
+    def back_project(self, poses: Float[ArrayLike, "n dims"]) -> np.ndarray:
+        """``(n, latent)`` g(y) = Σ_c a_c k(y − ȳ, y_c) of a back-constrained fit: the latent of
+        a pose in one kernel product (every training pose's is ``model.latents``)."""
+        if self.back_constraint is None:
+            raise ValueError("back_project needs a back-constrained fit (fit_gplvm's "
+                             "back_constraint); this one has free latents")
+        poses = np.asarray(poses, np.float64)
+        if poses.ndim != 2 or poses.shape[1] != self.model.pose_dim:
+            raise ValueError(f"poses must be (n, {self.model.pose_dim}), got {poses.shape}")
+        cross = back_constraint_kernel(poses - np.asarray(self.model.pose_mean),
+                                       self.back_constraint["centres"],
+                                       self.back_constraint["width"])
+        return cross @ self.back_constraint["weights"]
 
 
 @contextlib.contextmanager
@@ -114,8 +137,15 @@ def _solver(optimiser: str, tolerance: float):
 
 @eqx.filter_jit
 def _optimise_active(kernel: KernelParameters, latents, poses, *, max_steps: int, tolerance,
-                     optimiser: str = "bfgs"):
+                     optimiser: str = "bfgs", cross=None):
+    """Eq. 1 on the active set over (kernel, X_I); with ``cross`` (the back-constraint kernel
+    K(Y_I, Y_C)), ``latents`` are the weights A and X_I = K(Y_I, Y_C) A."""
     solver = _solver(optimiser, tolerance)
+
+    def objective(parameters, data):
+        kernel, free = parameters
+        return active_objective(kernel, free if cross is None else cross @ free, data)
+
     scale = 1.0
     if optimiser == "lbfgs":
         # L-BFGS's first trial step is −∇L (its inverse Hessian starts at the identity), and
@@ -123,16 +153,37 @@ def _optimise_active(kernel: KernelParameters, latents, poses, *, max_steps: int
         # accepted step. L / max|∇L(start)| makes that trial move the steepest coordinate by
         # 1; later steps are scaled by the curvature pairs, whatever L's units. Exact model, 1 000
         # poses, three subsets: eq. 1 after 100 steps 300–450 lower, after 150 steps 170–270.
-        gradient = jax.grad(active_objective, argnums=(0, 1))(kernel, latents, poses)
+        gradient = jax.grad(objective)((kernel, latents), poses)
         steepest = jnp.max(jnp.stack([jnp.max(jnp.abs(leaf))
                                       for leaf in jax.tree.leaves(gradient)]))
         scale = jnp.where(jnp.isfinite(steepest) & (steepest > 1.0), steepest, 1.0)
     solution = optx.minimise(
-        lambda parameters, data: active_objective(parameters[0], parameters[1], data) / scale,
+        lambda parameters, data: objective(parameters, data) / scale,
         solver, (kernel, latents), args=poses, max_steps=max_steps, throw=False)
     kernel, latents = solution.value
-    return kernel, latents, active_objective(kernel, latents, poses), solution.result, \
+    return kernel, latents, objective((kernel, latents), poses), solution.result, \
         solution.stats["num_steps"]
+
+
+def back_constraint_kernel(poses: Float[ArrayLike, "n dims"], centres: Float[ArrayLike, "m dims"],
+                           width: float) -> np.ndarray:
+    """``(n, m)`` RBF kernel k(y, y_c) = exp(−|y − y_c|² / (2 w²)) of the back-constraint, with w
+    ``width`` times the median distance between two centres (unit-free)."""
+    poses, centres = np.asarray(poses, np.float64), np.asarray(centres, np.float64)
+
+    def squared(a, b):
+        return np.maximum((a**2).sum(1)[:, None] + (b**2).sum(1)[None, :] - 2 * a @ b.T, 0.0)
+
+    between = squared(centres, centres)[np.triu_indices(len(centres), 1)]
+    scale = float(np.median(np.sqrt(between))) if between.size else 1.0
+    return np.exp(-0.5 * squared(poses, centres) / (width * max(scale, 1e-12)) ** 2)
+
+
+def _back_constraint_weights(cross: np.ndarray, latents: np.ndarray) -> np.ndarray:
+    """A with K A ≈ X by ridge least squares (the ridge 1e-6 of Kᵀ K's mean diagonal)."""
+    gram = cross.T @ cross
+    ridge = 1e-6 * float(np.mean(np.diag(gram)))
+    return np.linalg.solve(gram + ridge * np.eye(len(gram)), cross.T @ latents)
 
 
 @eqx.filter_jit
@@ -190,6 +241,7 @@ def fit_gplvm(
     final_rounds: int = 1,
     sequence_ids: ArrayLike | None = None,
     fps: float | None = None,
+    back_constraint: float | None = None,
     seed: int = 0,
     progress: bool = True,
 ) -> GPLVMFit:
@@ -229,6 +281,12 @@ def fit_gplvm(
             are consecutive frames); with it the random-walk ν is estimated
             (:func:`estimate_dynamics`).
         fps: frame rate of those sequences, stored with ν.
+        back_constraint: None (Tian et al.: free latents), or the width w of a back-constrained
+            GPLVM (Lawrence & Quiñonero-Candela 2006; module docstring): x = g(y) over the
+            first active set's poses as centres, with an RBF kernel of width w × the median
+            distance between two centres. Smaller widths let the latents move more freely;
+            larger ones keep alike poses closer. ``inactive_steps``, ``inactive_dtype`` and
+            ``final_rounds`` are then unused (every latent is g(y)).
         progress: show a bar with the objective and active-set size per outer iteration.
 
     The measurements behind these defaults: see docs/gplvm.md, "Training".
@@ -242,6 +300,9 @@ def fit_gplvm(
         raise ValueError(f"final_rounds must be at least 0, got {final_rounds}")
     if optimiser not in OPTIMISERS:
         raise ValueError(f"optimiser must be one of {OPTIMISERS}, got {optimiser!r}")
+    if back_constraint is not None and not (np.isfinite(back_constraint) and back_constraint > 0):
+        raise ValueError(f"back_constraint must be a positive width or None, got "
+                         f"{back_constraint!r}")
     start = time.perf_counter()
     mean = poses.mean(axis=0)
     centred = poses - mean
@@ -258,14 +319,29 @@ def fit_gplvm(
         trace: list[dict] = []
         bar = tqdm(range(iterations), desc="GPLVM", unit="iter", disable=not progress,
                    dynamic_ncols=True)
+        cross = weights = None
         for iteration in bar:
             tick = time.perf_counter()
             active = _active_set(kernel, latents, active_size)
             timings = {"ivm": time.perf_counter() - tick}
-            kernel, active_latents, objective, _, steps = jax.block_until_ready(_optimise_active(
-                kernel, latents[active], centred_jax[active], max_steps=active_steps,
-                tolerance=1e-6, optimiser=optimiser))
-            latents = latents.at[active].set(active_latents)
+            if back_constraint is not None and cross is None:
+                # the centres are the first active set's poses, fixed from here on
+                centres = centred[np.asarray(active)]
+                cross = jnp.asarray(back_constraint_kernel(centred, centres, back_constraint))
+                weights = jnp.asarray(_back_constraint_weights(np.asarray(cross),
+                                                               np.asarray(latents)))
+                latents = cross @ weights
+            if cross is None:
+                kernel, active_latents, objective, _, steps = jax.block_until_ready(
+                    _optimise_active(kernel, latents[active], centred_jax[active],
+                                     max_steps=active_steps, tolerance=1e-6,
+                                     optimiser=optimiser))
+                latents = latents.at[active].set(active_latents)
+            else:
+                kernel, weights, objective, _, steps = jax.block_until_ready(_optimise_active(
+                    kernel, weights, centred_jax[active], max_steps=active_steps,
+                    tolerance=1e-6, optimiser=optimiser, cross=cross[active]))
+                latents = cross @ weights
             timings["active"] = time.perf_counter() - tick - sum(timings.values())
             active = _active_set(kernel, latents, active_size)
             inactive = np.setdiff1d(np.arange(poses.shape[0]), np.asarray(active))
@@ -273,7 +349,7 @@ def fit_gplvm(
             # the last iteration repeats the stage with the model rebuilt from the moved points
             # (the all-poses μ depends on them): a step towards their common fixed point
             rounds = 1 + (final_rounds if iteration == iterations - 1 else 0)
-            for _ in range(rounds if inactive.size else 0):
+            for _ in range(rounds if inactive.size and cross is None else 0):
                 model = GPLVM.from_active_set(kernel, centred_jax,
                                               jnp.zeros_like(centred_jax[0]), latents, active,
                                               all_poses=all_poses)
@@ -297,11 +373,17 @@ def fit_gplvm(
         model = GPLVM.from_active_set(kernel, centred_jax, jnp.asarray(mean), latents, active,
                                       all_poses=all_poses)
         if sequence_ids is not None:
-            std = estimate_dynamics(model, poses, sequence_ids)
+            # back-constrained, the training poses' latents are g(y) by construction; μ⁻¹
+            # would move each to its own posterior mode and add that scatter to ν
+            std = (estimate_dynamics(model, poses, sequence_ids) if cross is None
+                   else _step_std(np.asarray(latents), sequence_ids))
             model = eqx.tree_at(lambda m: (m.dynamics_std, m.dynamics_fps), model,
                                 (jnp.asarray(std), jnp.asarray(float(fps or np.nan))))
+        constraint = None if cross is None else {
+            "width": float(back_constraint), "centres": centres,
+            "weights": np.asarray(weights, np.float64)}
     return GPLVMFit(model=model, trace=trace, init=description, init_seconds=init_seconds,
-                    seconds=time.perf_counter() - start)
+                    seconds=time.perf_counter() - start, back_constraint=constraint)
 
 
 def estimate_dynamics(model: GPLVM, poses: Float[ArrayLike, "n dims"], sequence_ids: ArrayLike,
@@ -309,16 +391,21 @@ def estimate_dynamics(model: GPLVM, poses: Float[ArrayLike, "n dims"], sequence_
     """ν of the random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) (Tian et al. §4, eq. 6).
 
     The poses are projected with μ⁻¹ and ν² is the variance of the frame-to-frame latent steps
-    within each sequence (rows with the same id, in order).
+    within each sequence (rows with the same id, in order). A back-constrained fit takes ν from
+    its training latents instead (:func:`fit_gplvm`).
     """
     poses = np.asarray(poses, np.float64)
     ids = np.asarray(sequence_ids)
     if ids.shape != (poses.shape[0],):
         raise ValueError(f"sequence_ids must have shape ({poses.shape[0]},), got {ids.shape}")
-    same = ids[1:] == ids[:-1]
-    if not np.any(same):
+    if not np.any(ids[1:] == ids[:-1]):
         raise ValueError("sequence_ids has no two consecutive frames of one sequence")
     with jax.enable_x64(True):
         latents = np.asarray(model.inverse(jnp.asarray(poses), max_steps=max_steps).latents)
-    steps = np.diff(latents, axis=0)[same]
-    return np.std(steps, axis=0)
+    return _step_std(latents, ids)
+
+
+def _step_std(latents: np.ndarray, sequence_ids: ArrayLike) -> np.ndarray:
+    """Std of the frame-to-frame latent steps within each sequence (rows with the same id)."""
+    ids = np.asarray(sequence_ids)
+    return np.std(np.diff(latents, axis=0)[ids[1:] == ids[:-1]], axis=0)
