@@ -64,6 +64,7 @@ from jaxtrack.experiments import (
     build_tracker,
     render_test_sequences,
 )
+from jaxtrack.priors.dynamics import fit_latent_velocity
 from jaxtrack.priors.gplvm import UPPER_BODY_PARTS
 from jaxtrack.priors.train import train_prior
 from jaxtrack.trackers import Likelihood, Refinement, track
@@ -105,22 +106,23 @@ COLUMNS = (("method", "method", "s"), ("estimate", "estimate", "s"),
 
 
 def prior_tag(name: str, mirror: bool, parts: bool,
-              back_constraint: float | None = None) -> str:
+              back_constraint: float | None = None, latent_dim: int = 2) -> str:
     """The name of a candidate prior (its results folder and cache): ``gestures_mirrored_parts``,
-    ``waves_bc0.5`` (back-constrained, width 0.5)."""
+    ``waves_bc0.5`` (back-constrained, width 0.5), ``waves_q3`` (3-D latent spaces)."""
     return (name + ("_mirrored" if mirror else "") + ("_parts" if parts else "")
-            + ("" if back_constraint is None else f"_bc{back_constraint:g}"))
+            + ("" if back_constraint is None else f"_bc{back_constraint:g}")
+            + ("" if latent_dim == 2 else f"_q{latent_dim}"))
 
 
 def candidate_prior(name: str, mirror: bool = False, parts: bool = False,
-                    back_constraint: float | None = None, **training):
+                    back_constraint: float | None = None, latent_dim: int = 2, **training):
     """The candidate prior ``name`` of :data:`PRIOR_CLIPS` (``training``: ``train_prior``'s
     settings), trained once and cached in ``RESULTS`` under its :func:`prior_tag`."""
     suffix = "_quick" if training else ""
-    tag = prior_tag(name, mirror, parts, back_constraint)
+    tag = prior_tag(name, mirror, parts, back_constraint, latent_dim)
     return train_prior(PRIOR_CLIPS[name], progress=False, mirror=mirror,
                        parts=UPPER_BODY_PARTS if parts else None,
-                       back_constraint=back_constraint, **training,
+                       back_constraint=back_constraint, latent_dim=latent_dim, **training,
                        cache=RESULTS / f"prior_training_{tag}{suffix}.npz")
 
 
@@ -163,10 +165,12 @@ SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges'
             "velocity_weight": "MHT's velocity weight", "prior_scale": "MHT's prior scale",
             "prune_below": "MHT's pruning threshold",
             "partitioned": "the latent tracker's partitioned sampling over the prior's parts "
-                           "(1: on; with --parts)"}
+                           "(1: on; with --parts)",
+            "latent_velocity": "the latent tracker's second-order walk learned from the "
+                               "prior's training latents (1: on)"}
 """Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
 _EDGES = ("edge_weight", "edge_tolerance", "foreground_weight")
-_LATENT = ("jump_probability", "partitioned")
+_LATENT = ("jump_probability", "partitioned", "latent_velocity")
 _MHT = ("velocity_weight", "prior_scale", "prune_below")
 
 
@@ -188,6 +192,10 @@ def run_one(prior, sequence, config: dict, seed: int, particles: int,
                             **(edges if config["likelihood"] == "limbs+edges" else {}))
     latent_options = {name: settings[name] for name in _LATENT if name in settings
                       and config["method"] == "latent"} or None
+    if latent_options and latent_options.pop("latent_velocity", 0.0):
+        latent_options["velocity"] = fit_latent_velocity(
+            np.asarray(prior.model.latents), prior.training_sequence_ids,
+            fps=float(prior.model.dynamics_fps))
     mht_options = {name: settings[name] for name in _MHT if name in settings
                    and config["method"] == "mht"} or None
     # "own": the filter's estimate (weighted mean / best mode); "refined": the same Gauss–Newton
@@ -323,6 +331,8 @@ def main(argv=None) -> int:
     parser.add_argument("--back-constraint", type=float, default=None, metavar="WIDTH",
                         help="a back-constrained GPLVM of this kernel width (x = g(y); "
                              "fit_gplvm's back_constraint) instead of free latents")
+    parser.add_argument("--latent-dim", type=int, default=2,
+                        help="latent dimension of the prior (of each part's with --parts; 2)")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--estimates", nargs="+", choices=ESTIMATES, default=list(ESTIMATES))
     parser.add_argument("--likelihoods", nargs="+", choices=LIKELIHOODS,
@@ -351,6 +361,8 @@ def main(argv=None) -> int:
         parser.error(f"--max-frames must be at least 2, got {args.max_frames}")
     if args.back_constraint is not None and not args.back_constraint > 0:
         parser.error(f"--back-constraint must be a positive width, got {args.back_constraint:g}")
+    if not 1 <= args.latent_dim <= 6:
+        parser.error(f"--latent-dim must be 1 to 6, got {args.latent_dim}")
     if args.init == "auto" and args.parts:
         parser.error("--init auto searches one GPLVM's poses; it does not take --parts")
     partitioned = dict(args.set).get("partitioned")
@@ -358,6 +370,8 @@ def main(argv=None) -> int:
                                     or (partitioned == 1.0 and not args.parts)):
         parser.error(f"--set partitioned=1 needs --parts (one GPLVM per body part to partition) "
                      f"and partitioned is 0 or 1, got {partitioned:g}")
+    if dict(args.set).get("latent_velocity", 0.0) not in (0.0, 1.0):
+        parser.error(f"--set latent_velocity is 0 or 1, got {dict(args.set)['latent_velocity']:g}")
     clips = GESTURE_CLIPS[args.split]
     seeds, views, max_frames = args.seeds, args.views, args.max_frames
     if args.quick:
@@ -365,7 +379,8 @@ def main(argv=None) -> int:
     training_clips = PRIOR_CLIPS[args.prior]
     check_disjoint(training_clips, clips)
     assert all(split_of(clip) == args.split for clip in clips)
-    tag = prior_tag(args.prior, args.mirror, args.parts, args.back_constraint)
+    tag = prior_tag(args.prior, args.mirror, args.parts, args.back_constraint,
+                    args.latent_dim)
     settings = dict(args.set)
     out = args.out or RESULTS / (args.split + ("" if tag == "waves" else "-" + tag)
                                  + ("-auto" if args.init == "auto" else "")
@@ -379,7 +394,7 @@ def main(argv=None) -> int:
     # --quick: a small prior (2 views, 10 fps, 60 active points, one outer iteration)
     training = QUICK_TRAINING if args.quick else {}
     prior = candidate_prior(args.prior, args.mirror, args.parts, args.back_constraint,
-                            **training)
+                            args.latent_dim, **training)
     # --init auto takes its median background over the whole clip, as from a user's whole video,
     # then tracks the first --max-frames frames like every other run
     sequences = [sequence for index, clip in enumerate(clips)
@@ -447,6 +462,7 @@ def main(argv=None) -> int:
             f"{', one GPLVM per body part' if args.parts else ''}"
             + ("" if args.back_constraint is None else
                f", back-constrained (width {args.back_constraint:g})")
+            + ("" if args.latent_dim == 2 else f", {args.latent_dim}-D latent spaces")
             + f"{'; MediaPipe keypoints scored by the keypoint term' if detections else ''}"
             + "".join(f"; {SETTINGS[name]} {value:g}" for name, value in settings.items())
             + "; baselines' dynamics from "
@@ -465,6 +481,7 @@ def main(argv=None) -> int:
         **run_header("benchmarks.tracking", argv, started),
         "split": args.split, "clips": list(clips), "prior": args.prior, "mirror": args.mirror,
         "parts": args.parts, "back_constraint": args.back_constraint,
+        "latent_dim": args.latent_dim,
         "training_clips": list(training_clips),
         "seeds": seeds, "views": views, "max_frames": max_frames,
         "baseline_dynamics": args.baseline_dynamics, "init": args.init, "auto_init": inits,

@@ -7,6 +7,10 @@
   ``x_{t+1} = x_t + ω``, ``ω ~ N(0, diag ν²)``) with jumps to training latents (the mixture
   ``(1 − ε) N(x, ν²) + ε p̂(x)``, like Ong & Gong's jumps between clusters), and a random walk
   of the SPM placement.
+* :class:`LatentVelocity` — a second-order alternative to the random walk in the latent space,
+  ``x_{t+1} = x_t + a (x_t − x_{t−1}) + ω``, learned from the training latents'
+  trajectories by :func:`fit_latent_velocity` (the linear-kernel case of Wang, Fleet &
+  Hertzmann's GPDM dynamics, learned after the GPLVM rather than with it).
 * :func:`constant_velocity` — the MHT baseline's prediction ``x + v (x − x_prev)``.
 
 Reasoning and measurements: ``docs/trackers.md``.
@@ -24,8 +28,9 @@ from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 from jaxtrack import smc
 from jaxtrack.body import SPM_STATE_SIZE
 
-__all__ = ["AR2Dynamics", "DEFAULT_RIDGE", "LatentWalk", "constant_velocity",
-           "default_noise_floor", "fit_ar2", "random_walk_dynamics", "step_std_within"]
+__all__ = ["AR2Dynamics", "DEFAULT_RIDGE", "LatentVelocity", "LatentWalk", "constant_velocity",
+           "default_noise_floor", "fit_ar2", "fit_latent_velocity", "random_walk_dynamics",
+           "step_std_within"]
 
 DEFAULT_RIDGE = 1e-4
 """Relative ridge of :func:`fit_ar2`: the penalty is this fraction of the lag Gram matrix's mean
@@ -228,6 +233,48 @@ def default_noise_floor(torso_pixels: float, relative: float = 0.002) -> np.ndar
     return floor
 
 
+class LatentVelocity(eqx.Module):
+    """Damped constant velocity of a latent point, ``x_{t+1} = x_t + a (x_t − x_{t−1}) + ω``,
+    ``ω ~ N(0, diag σ²)`` (:func:`fit_latent_velocity`).
+
+    Attributes:
+        coefficient: ``(latent,)`` a, the share of the last step carried on (0: a random walk).
+        noise_std: ``(latent,)`` σ, the std of what the carried step leaves unexplained.
+        fps: the frame rate of the trajectories it was learned from.
+    """
+
+    coefficient: Float[Array, " latent"]
+    noise_std: Float[Array, " latent"]
+    fps: float = eqx.field(static=True, default=float("nan"))
+
+
+def fit_latent_velocity(latents: Float[ArrayLike, "n latent"], sequence_ids: ArrayLike, *,
+                        fps: float = float("nan")) -> LatentVelocity:
+    """Learn :class:`LatentVelocity` from training latents in frame order.
+
+    Per latent dimension, a = Σ Δ_t Δ_{t−1} / Σ Δ_{t−1}² over the steps Δ_t = x_t − x_{t−1} of
+    each sequence (rows with the same id, in order), clipped to [0, 1); σ is the RMS of the
+    residuals Δ_t − a Δ_{t−1}. A latent space whose trajectories are smooth (a back-constrained
+    GPLVM's) gives a near 1; one whose training poses sit in islands, a near 0.
+    """
+    latents = np.asarray(latents, np.float64)
+    ids = np.asarray(sequence_ids)
+    if latents.ndim != 2 or ids.shape != (latents.shape[0],):
+        raise ValueError(f"latents must be (n, latent) with one sequence id per row, got "
+                         f"{latents.shape} and {ids.shape}")
+    steps = np.diff(latents, axis=0)
+    same = ids[1:] == ids[:-1]
+    pairs = same[1:] & same[:-1]  # Δ_{t−1}, Δ_t both inside one sequence
+    if not pairs.any():
+        raise ValueError("sequence_ids has no three consecutive frames of one sequence")
+    previous, current = steps[:-1][pairs], steps[1:][pairs]
+    coefficient = np.clip(np.sum(previous * current, 0)
+                          / np.maximum(np.sum(previous**2, 0), 1e-30), 0.0, 0.999)
+    noise = np.sqrt(np.mean((current - coefficient * previous) ** 2, axis=0))
+    return LatentVelocity(jnp.asarray(coefficient), jnp.asarray(np.maximum(noise, 1e-9)),
+                          float(fps))
+
+
 class LatentWalk(eqx.Module):
     """Random walk of a latent point (Tian et al. eq. 6) with jumps to training latents, and of
     the SPM placement.
@@ -238,36 +285,67 @@ class LatentWalk(eqx.Module):
             below it (−inf: never, the paper's random walk).
         pool: ``(points, latent)`` the training latents a jump lands on.
         placement_std: ``(3,)`` step of (log scale, x, y) per frame.
+        velocity: ``(latent,)`` a of :class:`LatentVelocity`: the walk starts from
+            ``x + a (x − x_prev)`` (``latent_std`` then being its σ); None: from x.
     """
 
     latent_std: Float[Array, " latent"]
     jump_threshold: Float[Array, ""]
     pool: Float[Array, "points latent"]
     placement_std: Float[Array, " 3"]
+    velocity: Float[Array, " latent"] | None = None
 
     def sample(self, key: PRNGKeyArray, latent: Float[Array, " latent"],
                placement: Float[Array, " 3"], dims: tuple[int, ...] | None = None,
-               move_placement: bool = True) -> tuple[Array, Array]:
+               move_placement: bool = True, previous: Float[Array, " latent"] | None = None
+               ) -> tuple[Array, ...]:
         """One step of ``(latent, placement)``; with ``dims`` (static indices), of those latent
         dimensions alone (a jump lands them on a training latent's), the placement moving only
-        with ``move_placement`` (partitioned sampling, ``jaxtrack.trackers._partitioned``)."""
-        part = latent if dims is None else latent[jnp.asarray(dims)]
-        pool = self.pool if dims is None else self.pool[:, jnp.asarray(dims)]
-        latent_std = self.latent_std if dims is None else self.latent_std[jnp.asarray(dims)]
+        with ``move_placement`` (partitioned sampling, ``jaxtrack.trackers._partitioned``).
+
+        With :attr:`velocity`, ``previous`` is x_{t−1} and a third value comes back: the
+        new x_{t−1} (the old latent; the landing point where a particle jumped, so that a jump
+        carries no velocity)."""
+        index = None if dims is None else jnp.asarray(dims)
+        part = latent if dims is None else latent[index]
+        pool = self.pool if dims is None else self.pool[:, index]
+        latent_std = self.latent_std if dims is None else self.latent_std[index]
         part_dim, placement_dim = part.shape[0], placement.shape[0]
         noise = smc.fast_normal(key, (part_dim + placement_dim + 2,), latent.dtype)
         step, jump_draw, pick_draw = (noise[:part_dim + placement_dim], noise[-2], noise[-1])
+        centre = part
+        if self.velocity is not None:
+            before = previous if dims is None else previous[index]
+            carried = self.velocity if dims is None else self.velocity[index]
+            centre = part + carried * (part - before)
         # Tian et al. eq. 6: random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) ... or, with
         # probability ε, from a random training latent
         pick = jnp.minimum((jsp.ndtr(pick_draw) * pool.shape[0]).astype(jnp.int32),
                            pool.shape[0] - 1)
-        start = jnp.where(jump_draw < self.jump_threshold, pool[pick], part)
+        jumped = jump_draw < self.jump_threshold
+        start = jnp.where(jumped, pool[pick], centre)
         moved = start + latent_std * step[:part_dim]
         if move_placement:
             placement = placement + self.placement_std * step[part_dim:]
-        if dims is None:
-            return moved, placement
-        return latent.at[jnp.asarray(dims)].set(moved), placement
+        new_latent = moved if dims is None else latent.at[index].set(moved)
+        if self.velocity is None:
+            return new_latent, placement
+        origin = jnp.where(jumped, start, part)
+        new_previous = origin if dims is None else previous.at[index].set(origin)
+        return new_latent, placement, new_previous
+
+    def move(self, key: PRNGKeyArray, particle: dict, dims: tuple[int, ...] | None = None,
+             move_placement: bool = True) -> dict:
+        """:meth:`sample` on a latent tracker's particle ``{"latent", "placement"}`` (and
+        ``"previous"``, x_{t−1}, with :attr:`velocity`)."""
+        if self.velocity is None:
+            latent, placement = self.sample(key, particle["latent"], particle["placement"],
+                                            dims, move_placement)
+            return {"latent": latent, "placement": placement}
+        latent, placement, previous = self.sample(key, particle["latent"],
+                                                  particle["placement"], dims, move_placement,
+                                                  particle["previous"])
+        return {"latent": latent, "placement": placement, "previous": previous}
 
 
 def constant_velocity(current: Float[Array, "... state"], previous: Float[Array, "... state"],

@@ -85,7 +85,7 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
                 progress: bool = True, asf: str | os.PathLike | None = None,
                 mirror: bool = False,
                 parts: Mapping[str, Sequence[int]] | None = None,
-                back_constraint: float | None = None) -> TrainedPrior:
+                back_constraint: float | None = None, latent_dim: int = 2) -> TrainedPrior:
     """Train (or load from ``cache`` when it was trained with the same settings) a GPLVM.
 
     Args:
@@ -110,6 +110,7 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         back_constraint: None (free latents, Tian et al.), or the width of a back-constrained
             GPLVM (``fit_gplvm``'s ``back_constraint``: every latent a smooth function of its
             pose; docs/tracking.md, "A prior that generalises").
+        latent_dim: the latent dimension of each GPLVM (2, Tian et al.'s).
 
     Raises:
         jaxtrack.priors.gplvm.GPLVMFormatError: ``cache`` exists but is damaged or not a GPLVM.
@@ -131,6 +132,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         settings["mirror"] = True
     if back_constraint is not None:  # absent without, likewise
         settings["back_constraint"] = float(back_constraint)
+    if latent_dim != 2:  # absent for the paper's 2, likewise
+        settings["latent_dim"] = int(latent_dim)
     if parts is not None:
         parts = {str(name): tuple(int(link) for link in links) for name, links in parts.items()}
         settings["parts"] = {name: list(links) for name, links in parts.items()}
@@ -148,7 +151,8 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
     fit_options = dict(active_size=active_size, iterations=iterations, active_steps=active_steps,
                        optimiser=optimiser, inactive_dtype=jnp.float64,
                        sequence_ids=poses.sequence_ids, fps=poses.fps, seed=seed,
-                       back_constraint=back_constraint, progress=progress)
+                       back_constraint=back_constraint, latent_dim=latent_dim,
+                       progress=progress)
     if parts is None:
         fit = fit_gplvm(features, **fit_options)
         model, trace, init, seconds = fit.model, fit.trace, fit.init, fit.seconds

@@ -67,10 +67,8 @@ def stages_of(prior) -> tuple[Stage, ...]:
 
 def _move(walk, key: PRNGKeyArray, particle: dict, stage: Stage) -> dict:
     """The latent walk (eq. 6, with jumps to training latents) on the stage's dimensions only,
-    and the placement's walk in the stage that carries it (``LatentWalk.sample``)."""
-    latent, placement = walk.sample(key, particle["latent"], particle["placement"],
-                                    stage.dims, stage.placement)
-    return {"latent": latent, "placement": placement}
+    and the placement's walk in the stage that carries it (``LatentWalk.move``)."""
+    return walk.move(key, particle, stage.dims, stage.placement)
 
 
 def partitioned_step(key: PRNGKeyArray, state: smc.FilterState, frame: Array | FrameInChunk,

@@ -42,7 +42,7 @@ from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 from jaxtrack import smc
 from jaxtrack.body import SPM_LINKS, SPMTemplate, spm_forward
 from jaxtrack.likelihoods import PartTemplates
-from jaxtrack.priors.dynamics import LatentWalk
+from jaxtrack.priors.dynamics import LatentVelocity, LatentWalk
 from jaxtrack.priors.gplvm import GPLVM
 from jaxtrack.priors.poses import (
     PLACEMENT_SIZE,
@@ -113,11 +113,12 @@ class LatentModel(smc.StateSpaceModel):
             key_latent, self.initial_latent.shape, self.initial_latent.dtype)
         placement = self.initial_placement + self.walk.placement_std * jr.normal(
             key_placement, (PLACEMENT_SIZE,), self.initial_placement.dtype)
-        return {"latent": latent, "placement": placement}
+        if self.walk.velocity is None:
+            return {"latent": latent, "placement": placement}
+        return {"latent": latent, "placement": placement, "previous": latent}  # at rest
 
     def propagate(self, key: PRNGKeyArray, particle: dict, time) -> dict:
-        latent, placement = self.walk.sample(key, particle["latent"], particle["placement"])
-        return {"latent": latent, "placement": placement}
+        return self.walk.move(key, particle)
 
     def features_of(self, latent: Float[Array, " latent"]) -> Float[Array, " 22"]:
         """μ(x) with every link stretched to the tracked subject's proportions."""
@@ -213,6 +214,9 @@ class LatentTracker(Tracker):
         partitioned: partitioned sampling over the prior's parts (module docstring; needs a
             ``PartsGPLVM`` of ``UPPER_BODY_PARTS`` and a strip likelihood); False: one
             CONDENSATION step on the whole latent point, as the paper.
+        velocity: ``(latent,)`` the carried share a of the last latent step
+            (:class:`~jaxtrack.priors.dynamics.LatentVelocity`, ``latent_std`` then its σ);
+            None: the paper's random walk.
     """
 
     prior: GPLVM
@@ -229,6 +233,7 @@ class LatentTracker(Tracker):
     mode_radius: float = eqx.field(static=True, default=3.0)
     subject_lengths: bool = eqx.field(static=True, default=False)
     partitioned: bool = eqx.field(static=True, default=False)
+    velocity: Float[Array, " latent"] | None = None
 
     def __check_init__(self):
         if not 0 <= self.jump_probability < 1:
@@ -251,7 +256,8 @@ class LatentTracker(Tracker):
                 "foreground": self.background is not None,
                 "placement_std": self.placement_std, "initial_spread": self.initial_spread,
                 "jump_probability": self.jump_probability, "mode_radius": self.mode_radius,
-                "subject_lengths": self.subject_lengths, "partitioned": self.partitioned}
+                "subject_lengths": self.subject_lengths, "partitioned": self.partitioned,
+                "latent_velocity": self.velocity is not None}
 
     def start(self, key: PRNGKeyArray, first_frame, initial_pose) -> LatentState:
         markers = check_initial_pose(initial_pose)
@@ -281,7 +287,8 @@ class LatentTracker(Tracker):
             templates=frame0_templates(self.likelihood, first_frame, markers, self.background,
                                        dtype),
             walk=LatentWalk(latent_std=self.latent_std, jump_threshold=cast(threshold),
-                            pool=self.prior.latents, placement_std=cast(placement_std)),
+                            pool=self.prior.latents, placement_std=cast(placement_std),
+                            velocity=self.velocity),
             initial_latent=cast(latent), initial_placement=cast(state[:PLACEMENT_SIZE]),
             initial_spread=cast(self.initial_spread), sharpness=cast(self.likelihood.lam),
             link_scale=cast(link_scale), nearest=self.likelihood.nearest)
@@ -355,6 +362,7 @@ def latent_tracker(
     mode_radius: float = 3.0,
     subject_lengths: bool = False,
     partitioned: bool = False,
+    velocity: LatentVelocity | None = None,
     dtype=jnp.float32,
 ) -> LatentTracker:
     """The latent tracker with a trained prior.
@@ -378,6 +386,10 @@ def latent_tracker(
         mode_radius: see :class:`LatentTracker`.
         subject_lengths: see :class:`LatentTracker`.
         partitioned: see :class:`LatentTracker`.
+        velocity: a second-order latent walk learned from the prior's training latents
+            (:func:`~jaxtrack.priors.dynamics.fit_latent_velocity` of ``prior.latents`` and the
+            training sequence ids), in place of the random walk ν; its frame rate must be the
+            video's. None: the paper's random walk.
         dtype: the filter's float type (μ⁻¹ at the start always runs in float64).
     """
     std = np.asarray(prior.dynamics_std, np.float64)
@@ -389,6 +401,17 @@ def latent_tracker(
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         if np.isfinite(float(prior.dynamics_fps)):
             std = std * np.sqrt(float(prior.dynamics_fps) / fps)
+    carried = None
+    if velocity is not None:
+        carried = np.asarray(velocity.coefficient, np.float64)
+        if carried.shape != std.shape or np.asarray(velocity.noise_std).shape != std.shape:
+            raise ValueError(f"velocity is for a {carried.shape[-1]}-D latent space, the prior's "
+                             f"is {std.shape[0]}-D")
+        if (fps is not None and np.isfinite(velocity.fps)
+                and abs(velocity.fps - fps) > 1e-6 * fps):
+            raise ValueError(f"velocity was learned at {velocity.fps:g} fps and the video is "
+                             f"{fps:g} fps; learn it at the video's frame rate")
+        std = np.asarray(velocity.noise_std, np.float64)
     if isinstance(refinement, str):
         if refinement != "default":
             raise ValueError(f"refinement must be a Refinement, None or 'default', got "
@@ -417,4 +440,4 @@ def latent_tracker(
         refinement=refinement, background=background, placement_std=placement_std,
         initial_spread=float(initial_spread), jump_probability=float(jump_probability),
         mode_radius=float(mode_radius), subject_lengths=bool(subject_lengths),
-        partitioned=bool(partitioned))
+        partitioned=bool(partitioned), velocity=None if carried is None else cast(carried))
