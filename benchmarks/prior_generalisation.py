@@ -18,8 +18,10 @@ each pose's features are reconstructed by
 * the nearest training pose (a lookup: the best any model of these poses could do without
   generalising), and the mean training pose,
 
-and scored as markers (the held-out pose's own placement) in % of its torso. Writes a table and
-``benchmarks/results/prior_generalisation_<split>.json``.
+and scored as markers (the held-out pose's own placement) in % of its torso. A second table
+says how smooth each prior's training trajectories are in its latent space
+(:func:`latent_smoothness`: free latents sit in islands joined by jumps; a back-constrained
+GPLVM's move smoothly). Writes both and ``benchmarks/results/prior_generalisation_<split>.json``.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from benchmarks._common import device_description, print_table, run_header, writ
 from benchmarks.gplvm import marker_errors, pca_reconstruction
 from benchmarks.tracking import PRIOR_CLIPS, candidate_prior, prior_tag
 from jaxtrack.data.splits import check_disjoint, clips_in
+from jaxtrack.priors.dynamics import fit_latent_velocity
 from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, feature_columns, part_features
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
 
@@ -62,6 +65,22 @@ def nearest_per_part(train: np.ndarray, test: np.ndarray) -> np.ndarray:
         out[:, feature_columns(links)] = nearest_reconstruction(part_features(train, links),
                                                                 part_features(test, links))
     return out
+
+
+def latent_smoothness(latents: np.ndarray, sequence_ids: np.ndarray) -> dict:
+    """How a prior's training trajectories move in its latent space: the median and 99th
+    percentile of the frame-to-frame step length within a sequence over the latents' spread
+    (the root of their total variance), and the carried share a of the last step
+    (:func:`~jaxtrack.priors.dynamics.fit_latent_velocity`) per latent dimension."""
+    latents = np.asarray(latents, np.float64)
+    ids = np.asarray(sequence_ids)
+    steps = np.linalg.norm(np.diff(latents, axis=0)[ids[1:] == ids[:-1]], axis=1)
+    spread = float(np.sqrt(latents.var(axis=0).sum()))
+    carried = np.asarray(fit_latent_velocity(latents, ids).coefficient)
+    return {"median_step": float(np.median(steps)) / spread,
+            "p99_step": float(np.percentile(steps, 99)) / spread,
+            "carried": carried.round(2).tolist(),
+            "carried_range": f"{carried.min():.2f}–{carried.max():.2f}"}
 
 
 def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
@@ -92,6 +111,7 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
     reconstructions["nearest training pose per part"] = (nearest_per_part(train, test), 0.0)
     reconstructions["mean training pose"] = (np.broadcast_to(train.mean(0), test.shape), 0.0)
     rows = []
+    smoothness = latent_smoothness(np.asarray(prior.model.latents), prior.training_sequence_ids)
     for method, (features, seconds) in reconstructions.items():
         for own_lengths in (False, True):
             if own_lengths:
@@ -100,7 +120,7 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
             rows.append({"prior": tag, "training_poses": len(train),
                          "held_out_poses": len(test), "method": method,
                          "lengths": "true (oracle)" if own_lengths else "reconstructed",
-                         "seconds": seconds, **errors})
+                         "seconds": seconds, "latent_smoothness": smoothness, **errors})
     return rows
 
 
@@ -169,6 +189,13 @@ def main(argv=None) -> int:
                        ("lengths", "link lengths", "s"), ("error_torso", "error/torso", ".1%"),
                        ("error_px", "error px", ".1f"),
                        ("error_p95_px", "p95 px", ".1f"), ("seconds", "s", ".1f")])
+    seen = {}
+    for row in rows:
+        seen.setdefault(row["prior"], {"prior": row["prior"], **row["latent_smoothness"]})
+    print_table(list(seen.values()), [("prior", "prior", "s"),
+                                      ("median_step", "median step / spread", ".3f"),
+                                      ("p99_step", "p99 step / spread", ".2f"),
+                                      ("carried_range", "carried share a", "s")])
     path = args.json or f"benchmarks/results/prior_generalisation_{args.split}.json"
     write_json(path, {"benchmark": "prior_generalisation",
                       **run_header("benchmarks.prior_generalisation", argv, started),

@@ -5,6 +5,7 @@ import pytest
 
 from benchmarks.prior_generalisation import (
     held_out_clips,
+    latent_smoothness,
     nearest_per_part,
     nearest_reconstruction,
     with_lengths_of,
@@ -60,3 +61,19 @@ def test_the_diagnosis_variants_each_change_one_setting():
     for name, options, sharpness, step in rows[1:]:
         changed = bool(options) + (sharpness != 1.0) + (step != 1.0)
         assert changed == 1, name
+
+
+def test_latent_smoothness_tells_islands_from_smooth_trajectories():
+    # two sequences: one moving smoothly along a line, one sitting on two islands, jumping
+    # between them three times; steps between the sequences are not counted
+    smooth = np.stack([np.linspace(0, 1, 50), np.zeros(50)], axis=1)
+    islands = np.repeat([[0.0, 0.0], [0.0, 1.0], [0.0, 0.0], [0.0, 1.0]], [13, 12, 13, 12],
+                        axis=0)
+    ids = np.repeat([0, 1], 50)
+    both = latent_smoothness(np.concatenate([smooth, islands]), ids)
+    alone = latent_smoothness(smooth, np.zeros(50, int))
+    spread = np.sqrt(np.linspace(0, 1, 50).var())
+    np.testing.assert_allclose(alone["median_step"], (1 / 49) / spread)
+    assert alone["carried"][0] > 0.99  # a constant step is carried on whole
+    assert both["median_step"] < alone["median_step"]  # islands: most steps are zero
+    assert both["p99_step"] > 1.0  # ... and a few are jumps across the space

@@ -71,10 +71,9 @@ def test_a_step_carries_the_last_one_and_a_jump_carries_none():
 
 
 def test_the_tracker_refuses_a_velocity_of_another_space_or_frame_rate():
-    from tests.trackers.test_partitioned import _parts_prior
-
     from jaxtrack.body import SPM_MARKERS, build_template
     from jaxtrack.trackers import latent_tracker
+    from tests.trackers.test_partitioned import _parts_prior
 
     rng = np.random.default_rng(3)
     template = build_template(rng.normal(size=(4, len(SPM_MARKERS), 2)) * 20 + 100)
