@@ -635,10 +635,10 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
         ambiguity.append(view_ambiguity)
         found.append(seen)
     truth_world = sequences[0].skeleton @ sequences[0].rotation  # the same from every view
-    estimates = {name: {"errors_m": np.stack(errors, 1).tolist(),
+    errors = np.stack(by_estimate[estimate][0], 1)  # (frames, views) of the reported estimate
+    estimates = {name: {"errors_m": np.stack(each, 1).tolist(),
                         "skeletons_world": np.round(np.stack(world, 1), 5).tolist()}
-                 for name, (errors, world) in by_estimate.items()}
-    errors = np.asarray(estimates[estimate]["errors_m"])
+                 for name, (each, world) in by_estimate.items()}
     log_fitness = np.stack(log_fitness, 1)
     ambiguity, found = np.stack(ambiguity, 1), np.stack(found, 1)
     chosen = select_views(log_fitness, np.where(np.isfinite(ambiguity), ambiguity, 0.0), found,
