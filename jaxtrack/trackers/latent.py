@@ -206,7 +206,8 @@ class LatentTracker(Tracker):
             torso, 1 % of the torso).
         initial_spread: std of the initial cloud about μ⁻¹ of frame 0's pose, in units of ν.
         jump_probability: chance per particle and frame of a jump to a training latent.
-        mode_radius: the estimate averages the particles within this many ν of the best one.
+        mode_radius: the estimate averages the particles within this many ν of the best one
+            (of σ, the walk's own step, with a ``velocity``).
         subject_lengths: decode every particle with the tracked subject's link lengths: each
             link of μ(x) is stretched by (its length in frame 0's pose) / (its length in μ of
             μ⁻¹(frame 0's pose)), clipped to [1/2, 2], so a person whose proportions differ
