@@ -21,13 +21,16 @@ each pose's features are reconstructed by
 and scored as markers (the held-out pose's own placement) in % of its torso. A second table
 says how smooth each prior's training trajectories are in its latent space
 (:func:`latent_smoothness`: free latents sit in islands joined by jumps; a back-constrained
-GPLVM's move smoothly). Writes both and ``benchmarks/results/prior_generalisation_<split>.json``.
+GPLVM's move smoothly), and ``benchmarks/results/prior_latent_trajectories.png`` draws them (each
+prior's first two latent dimensions, one line per training sequence). Writes both tables and
+``benchmarks/results/prior_generalisation_<split>.json``.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -37,6 +40,7 @@ from tqdm import tqdm
 from benchmarks._common import device_description, print_table, run_header, write_json
 from benchmarks.gplvm import marker_errors, pca_reconstruction
 from benchmarks.tracking import PRIOR_CLIPS, candidate_prior, prior_tag
+from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.data.splits import check_disjoint, clips_in
 from jaxtrack.priors.dynamics import fit_latent_velocity
 from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, feature_columns, part_features
@@ -83,9 +87,32 @@ def latent_smoothness(latents: np.ndarray, sequence_ids: np.ndarray) -> dict:
             "carried_range": f"{carried.min():.2f}–{carried.max():.2f}"}
 
 
+def plot_trajectories(priors: dict, path) -> None:
+    """One panel per prior: its training latents' first two dimensions, one line per training
+    sequence (clip × view), each scaled to the latents' spread."""
+    columns = min(len(priors), 4)
+    rows = -(-len(priors) // columns)
+    figure, axes = new_figure(3.2 * columns, 3.2 * rows, columns=columns, rows=rows)
+    axes = np.atleast_1d(axes).ravel()
+    for axis, (tag, (latents, ids)) in zip(axes, priors.items(), strict=False):
+        latents = np.asarray(latents, np.float64)[:, :2]
+        latents = (latents - latents.mean(0)) / np.sqrt(latents.var(0).sum())
+        for k, sequence in enumerate(np.unique(ids)):
+            rows_of = np.flatnonzero(np.asarray(ids) == sequence)
+            axis.plot(*latents[rows_of].T, lw=0.6, color=f"C{k % 10}", alpha=0.7)
+        axis.set_title(tag, fontsize=9)
+        axis.set_aspect("equal")
+        axis.tick_params(labelsize=6)
+    for axis in axes[len(priors):]:
+        axis.set_visible(False)
+    save_figure(figure, path, dpi=110)
+
+
 def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
-                   stride: int, back_constraint: float | None = None) -> list[dict]:
-    """Rows (one per reconstruction method) for one candidate prior."""
+                   stride: int, back_constraint: float | None = None,
+                   trajectories: dict | None = None) -> list[dict]:
+    """Rows (one per reconstruction method) for one candidate prior; its training latents and
+    sequence ids go into ``trajectories`` under its tag, when given."""
     tag = prior_tag(name, mirror, parts, back_constraint)
     check_disjoint(PRIOR_CLIPS[name], clips)
     prior = candidate_prior(name, mirror, parts, back_constraint)
@@ -112,6 +139,8 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
     reconstructions["mean training pose"] = (np.broadcast_to(train.mean(0), test.shape), 0.0)
     rows = []
     smoothness = latent_smoothness(np.asarray(prior.model.latents), prior.training_sequence_ids)
+    if trajectories is not None:
+        trajectories[tag] = (np.asarray(prior.model.latents), prior.training_sequence_ids)
     for method, (features, seconds) in reconstructions.items():
         for own_lengths in (False, True):
             if own_lengths:
@@ -177,13 +206,13 @@ def main(argv=None) -> int:
     mirrors, parted = choices[args.mirror], choices[args.parts]
     print(f"{args.split} subjects' clips: {len(clips)} x {args.views} views; "
           f"{device_description()}")
-    rows = []
+    rows, trajectories = [], {}
     for name in tqdm(args.priors, desc="priors"):
         for mirror in mirrors:
             for parts in parted:
                 for width in widths:
                     rows += evaluate_prior(name, mirror, parts, clips, args.views, args.stride,
-                                           width)
+                                           width, trajectories)
     print_table(rows, [("prior", "prior", "s"), ("training_poses", "training poses", "d"),
                        ("held_out_poses", "held-out poses", "d"), ("method", "method", "s"),
                        ("lengths", "link lengths", "s"), ("error_torso", "error/torso", ".1%"),
@@ -201,7 +230,9 @@ def main(argv=None) -> int:
                       **run_header("benchmarks.prior_generalisation", argv, started),
                       "split": args.split,
                       "clips": list(clips), "arguments": vars(args), "rows": rows})
-    print(f"wrote {path}")
+    figure = Path(path).with_name("prior_latent_trajectories.png")
+    plot_trajectories(trajectories, figure)
+    print(f"wrote {path} and {figure}")
     return 0
 
 

@@ -16,13 +16,13 @@ from jaxtrack._files import write_atomically
 __all__ = ["new_figure", "save_figure"]
 
 
-def new_figure(width: float, height: float, columns: int = 1):
+def new_figure(width: float, height: float, columns: int = 1, rows: int = 1):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(figure)
-    axes = figure.subplots(1, columns)
+    axes = figure.subplots(rows, columns)
     return figure, axes
 
 

@@ -77,3 +77,14 @@ def test_latent_smoothness_tells_islands_from_smooth_trajectories():
     assert alone["carried"][0] > 0.99  # a constant step is carried on whole
     assert both["median_step"] < alone["median_step"]  # islands: most steps are zero
     assert both["p99_step"] > 1.0  # ... and a few are jumps across the space
+
+
+def test_the_trajectory_plot_has_one_panel_per_prior(tmp_path):
+    from benchmarks.prior_generalisation import plot_trajectories
+
+    rng = np.random.default_rng(0)
+    priors = {f"prior {k}": (rng.normal(size=(30, 2 + k)), np.repeat([0, 1, 2], 10))
+              for k in range(5)}
+    path = tmp_path / "trajectories.png"
+    plot_trajectories(priors, path)
+    assert path.stat().st_size > 10_000
