@@ -41,6 +41,25 @@ def test_latent_tracker_follows_a_held_out_clip(prior, sequence):
         np.linalg.norm(sequence.truth[0, 3] - sequence.truth[0, 1]))
 
 
+def test_the_second_order_walk_tracks_the_held_out_clip_too(prior, sequence):
+    # the velocity option end to end: particles carry their last latent through init, the
+    # engine's steps and the estimate, and the tracker stays on the body as the default does
+    from jaxtrack.priors.dynamics import fit_latent_velocity
+
+    velocity = fit_latent_velocity(np.asarray(prior.model.latents), prior.training_sequence_ids)
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(100), fps=sequence.fps,
+                             velocity=velocity, refinement=None)
+    state = tracker.start(jr.PRNGKey(0), edge_observations(sequence.frames[:1])[0],
+                          sequence.truth[0])
+    assert set(state.filter.particles) == {"latent", "placement", "previous"}
+    result = track(tracker, jr.PRNGKey(0), sequence.frames, sequence.truth[0], chunk_size=8,
+                   progress=False)
+    assert np.all(np.isfinite(result.markers))
+    metrics = evaluate_track(result.markers, sequence.truth, UPPER_BODY_12)
+    assert metrics["mean_error_torso"] < 0.3, metrics["mean_error_torso"]
+    assert result.options["latent_velocity"] is True
+
+
 def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior, sequence):
     """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
     frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before, or
