@@ -167,7 +167,9 @@ SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges'
             "partitioned": "the latent tracker's partitioned sampling over the prior's parts "
                            "(1: on; with --parts)",
             "latent_velocity": "the latent tracker's second-order walk learned from the "
-                               "prior's training latents (1: on)"}
+                               "prior's training latents (1: on)",
+            "iterations": "the latent tracker's and CONDENSATION's select/predict/measure "
+                          "cycles per frame"}
 """Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
 _EDGES = ("edge_weight", "edge_tolerance", "foreground_weight")
 _LATENT = ("jump_probability", "partitioned", "latent_velocity")
@@ -202,9 +204,12 @@ def run_one(prior, sequence, config: dict, seed: int, particles: int,
     # refinement stage for every method
     steps = {"steps": int(settings["refine_steps"])} if "refine_steps" in settings else {}
     refinement = Refinement(**steps) if config["estimate"] == "refined" else None
+    engine_options = ({"iterations_per_frame": int(settings["iterations"])}
+                      if "iterations" in settings else None)
     tracker = build_tracker(config["method"], prior, sequence, particles, likelihood,
                             refinement=refinement, baseline_dynamics=baseline_dynamics,
-                            latent_options=latent_options, mht_options=mht_options)
+                            latent_options=latent_options, mht_options=mht_options,
+                            engine_options=engine_options)
     initial = sequence.truth[0] if initial is None else initial
     result = track(tracker, jr.PRNGKey(seed), sequence.frames, initial, progress=False,
                    keypoints=keypoints if keyed else None)
@@ -370,6 +375,9 @@ def main(argv=None) -> int:
                                     or (partitioned == 1.0 and not args.parts)):
         parser.error(f"--set partitioned=1 needs --parts (one GPLVM per body part to partition) "
                      f"and partitioned is 0 or 1, got {partitioned:g}")
+    iterations = dict(args.set).get("iterations")
+    if iterations is not None and not (iterations >= 1 and float(iterations).is_integer()):
+        parser.error(f"--set iterations must be a whole number of cycles >= 1, got {iterations:g}")
     if dict(args.set).get("latent_velocity", 0.0) not in (0.0, 1.0):
         parser.error(f"--set latent_velocity is 0 or 1, got {dict(args.set)['latent_velocity']:g}")
     clips = GESTURE_CLIPS[args.split]

@@ -114,7 +114,7 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
                   likelihood: Likelihood = Likelihood(),
                   refinement: Refinement | None | str = "default", background: bool = True,
                   baseline_dynamics: str = "training", latent_options: dict | None = None,
-                  mht_options: dict | None = None):
+                  mht_options: dict | None = None, engine_options: dict | None = None):
     """The tracker ``method`` for a test sequence (start it at frame 0's ground truth).
 
     Every method is scored by the same ``likelihood``; ``refinement`` is the full-state
@@ -126,7 +126,9 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
     and MHT's step are learned as ``baseline_dynamics`` says (:data:`BASELINE_DYNAMICS`).
     ``latent_options``: further keyword arguments of :func:`~jaxtrack.trackers.latent_tracker`
     (e.g. ``{"subject_lengths": True}``); ``mht_options`` those of
-    :func:`~jaxtrack.trackers.mht_tracker` (e.g. ``{"prior_scale": 2.0}``)."""
+    :func:`~jaxtrack.trackers.mht_tracker` (e.g. ``{"prior_scale": 2.0}``);
+    ``engine_options`` further settings of the latent tracker's and CONDENSATION's
+    :class:`~jaxtrack.trackers.Engine` (e.g. ``{"iterations_per_frame": 3}``)."""
     from jaxtrack import trackers
     from jaxtrack.vision import median_grey_background
 
@@ -134,7 +136,9 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
              if background and likelihood.needs_edges else None)
     if method == "latent":
         return trackers.latent_tracker(prior.model, prior.template,
-                                       engine=trackers.Engine(particles), fps=sequence.fps,
+                                       engine=trackers.Engine(particles,
+                                                              **(engine_options or {})),
+                                       fps=sequence.fps,
                                        likelihood=likelihood, refinement=refinement,
                                        background=scene, **(latent_options or {}))
     if method not in METHODS:
@@ -144,7 +148,8 @@ def build_tracker(method: str, prior: TrainedPrior, sequence: TestSequence, part
     states, ids = baseline_training_states(prior, sequence, baseline_dynamics)
     if method == "condensation":
         return trackers.condensation_tracker(prior.template, states,
-                                             engine=trackers.Engine(particles),
+                                             engine=trackers.Engine(
+                                                 particles, **(engine_options or {})),
                                              likelihood=likelihood, refinement=refinement,
                                              background=scene, sequence_ids=ids)
     return trackers.mht_tracker(prior.template, states, num_modes=particles,

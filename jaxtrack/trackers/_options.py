@@ -156,11 +156,15 @@ class Engine(eqx.Module):
         num_particles: N.
         resampler: one of :data:`RESAMPLERS` (default systematic).
         ess_threshold: resample when ESS < ess_threshold × N (1: every frame, as CONDENSATION).
+        iterations_per_frame: select/predict/measure cycles on each frame (1: CONDENSATION's;
+            Ong & Gong ran 5), each with the model's full dynamics noise; the frame's log
+            evidence is the first cycle's (``jaxtrack.smc.step``).
     """
 
     num_particles: int = eqx.field(static=True)
     resampler: str = eqx.field(static=True, default="systematic")
     ess_threshold: float = eqx.field(static=True, default=1.0)
+    iterations_per_frame: int = eqx.field(static=True, default=1)
 
     def __check_init__(self):
         if (not isinstance(self.num_particles, int) or isinstance(self.num_particles, bool)
@@ -171,11 +175,16 @@ class Engine(eqx.Module):
             raise ValueError(f"resampler must be one of {tuple(RESAMPLERS)}, got "
                              f"{self.resampler!r}")
         _number(self.ess_threshold, "ess_threshold", 0, 1)
+        if (not isinstance(self.iterations_per_frame, int)
+                or isinstance(self.iterations_per_frame, bool) or self.iterations_per_frame < 1):
+            raise ValueError(f"iterations_per_frame must be a positive integer, got "
+                             f"{self.iterations_per_frame!r}")
 
     def step(self, key, state: smc.FilterState, observation, model: smc.StateSpaceModel):
         """``jaxtrack.smc.step`` with these settings."""
         return smc.step(key, state, observation, model, resampler=RESAMPLERS[self.resampler](),
-                        ess_threshold=self.ess_threshold)
+                        ess_threshold=self.ess_threshold,
+                        iterations_per_frame=self.iterations_per_frame)
 
 
 class ArmSearch(eqx.Module):

@@ -426,6 +426,9 @@ def latent_tracker(
                              f"x px, y px), got {placement_std}")
     if partitioned:
         stages_of(prior)  # a PartsGPLVM of the three upper-body parts, or a clear error
+        if engine.iterations_per_frame != 1:
+            raise ValueError(f"partitioned sampling runs one cycle per frame; got an engine "
+                             f"with iterations_per_frame={engine.iterations_per_frame}")
         if likelihood.kind not in ("limbs+edges", "limbs"):
             raise ValueError(f"partitioned sampling weighs each part by its limb strips; the "
                              f"{likelihood.kind!r} likelihood has none (use 'limbs+edges')")

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
@@ -168,6 +169,32 @@ def test_options_are_validated_once_where_they_are_built():
         Engine(8, resampler="bogus")
     with pytest.raises(ValueError, match="ess_threshold"):
         Engine(8, ess_threshold=1.5)
+    for iterations in (0, 1.5, True):
+        with pytest.raises(ValueError, match="iterations_per_frame must be a positive integer"):
+            Engine(8, iterations_per_frame=iterations)
+
+
+def test_the_engine_runs_several_cycles_per_frame_when_asked(prior, sequence):
+    # Ong & Gong's cycles on one frame, for any tracker on the engine: the filter's particles
+    # after a frame differ from one cycle's, and the setting is recorded with the run
+    observations = edge_observations(sequence.frames[:2])
+    states = _states(prior, sequence)
+    moved = {}
+    for iterations in (1, 3):
+        tracker = condensation_tracker(prior.template, states,
+                                       engine=Engine(32, iterations_per_frame=iterations))
+        state = tracker.start(jr.PRNGKey(0), observations[0], sequence.truth[0])
+        state, estimate = tracker.update(jr.PRNGKey(1), state, observations[1])
+        assert np.all(np.isfinite(np.asarray(estimate.markers)))
+        moved[iterations] = np.concatenate([np.asarray(leaf).ravel() for leaf in
+                                            jax.tree.leaves(state.filter.particles)])
+        assert tracker.options()["engine"]["iterations_per_frame"] == iterations
+    assert not np.allclose(moved[1], moved[3])
+    with pytest.raises(ValueError, match="partitioned sampling runs one cycle per frame"):
+        from tests.trackers.test_partitioned import _parts_prior
+
+        latent_tracker(_parts_prior(), prior.template, partitioned=True,
+                       engine=Engine(16, iterations_per_frame=2))
 
 
 TRACKER_MODULES = ("latent", "condensation", "mht")
