@@ -3,6 +3,7 @@ invariance, clear errors for a bad frame or a bad initial pose, options recorded
 refinement stage taken by every tracker."""
 
 import ast
+import itertools
 import json
 from pathlib import Path
 
@@ -180,16 +181,19 @@ def test_the_engine_runs_several_cycles_per_frame_when_asked(prior, sequence):
     observations = edge_observations(sequence.frames[:2])
     states = _states(prior, sequence)
     moved = {}
-    for iterations in (1, 3):
-        tracker = condensation_tracker(prior.template, states,
-                                       engine=Engine(32, iterations_per_frame=iterations))
+    for name, iterations in itertools.product(("latent", "condensation"), (1, 3)):
+        engine = Engine(32, iterations_per_frame=iterations)
+        tracker = (latent_tracker(prior.model, prior.template, engine=engine, refinement=None,
+                                  fps=sequence.fps) if name == "latent" else
+                   condensation_tracker(prior.template, states, engine=engine))
         state = tracker.start(jr.PRNGKey(0), observations[0], sequence.truth[0])
         state, estimate = tracker.update(jr.PRNGKey(1), state, observations[1])
         assert np.all(np.isfinite(np.asarray(estimate.markers)))
-        moved[iterations] = np.concatenate([np.asarray(leaf).ravel() for leaf in
-                                            jax.tree.leaves(state.filter.particles)])
+        moved[name, iterations] = np.concatenate([np.asarray(leaf).ravel() for leaf in
+                                                  jax.tree.leaves(state.filter.particles)])
         assert tracker.options()["engine"]["iterations_per_frame"] == iterations
-    assert not np.allclose(moved[1], moved[3])
+    for name in ("latent", "condensation"):
+        assert not np.allclose(moved[name, 1], moved[name, 3]), name
     with pytest.raises(ValueError, match="partitioned sampling runs one cycle per frame"):
         from tests.trackers.test_partitioned import _parts_prior
 
