@@ -167,18 +167,14 @@ class Engine(eqx.Module):
     iterations_per_frame: int = eqx.field(static=True, default=1)
 
     def __check_init__(self):
-        if (not isinstance(self.num_particles, int) or isinstance(self.num_particles, bool)
-                or self.num_particles < 1):
-            raise ValueError(f"num_particles must be a positive integer, got "
-                             f"{self.num_particles!r}")
+        for name in ("num_particles", "iterations_per_frame"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if self.resampler not in RESAMPLERS:
             raise ValueError(f"resampler must be one of {tuple(RESAMPLERS)}, got "
                              f"{self.resampler!r}")
         _number(self.ess_threshold, "ess_threshold", 0, 1)
-        if (not isinstance(self.iterations_per_frame, int)
-                or isinstance(self.iterations_per_frame, bool) or self.iterations_per_frame < 1):
-            raise ValueError(f"iterations_per_frame must be a positive integer, got "
-                             f"{self.iterations_per_frame!r}")
 
     def step(self, key, state: smc.FilterState, observation, model: smc.StateSpaceModel):
         """``jaxtrack.smc.step`` with these settings."""
