@@ -63,6 +63,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from jaxtrack._files import write_npz_atomically
+from jaxtrack.priors.clustering import kmeans
 
 __all__ = ["COVARIANCES", "CRAWLING", "LYING_LEFT", "LYING_RIGHT", "NUM_POSTURES", "POSTURE_NAMES",
            "SITTING", "STANDING", "LabelRule", "PostureFormatError", "PostureModel",
@@ -277,8 +278,6 @@ def fit_posture_model(features: Sequence[np.ndarray], labels: Sequence[np.ndarra
                          f"{covariance!r}")
     if not (isinstance(components, int | np.integer) and components >= 1):
         raise ValueError(f"components must be a whole number >= 1, got {components!r}")
-    from jaxtrack.priors.clustering import kmeans
-
     ridge = regularisation * np.trace(np.cov(values.T)) / dimension
     groups = []  # per posture: (frames, mean, sample covariance) of each component
     for posture, name in enumerate(POSTURE_NAMES):
