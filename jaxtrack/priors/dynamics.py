@@ -306,18 +306,14 @@ class LatentWalk(eqx.Module):
         With :attr:`velocity`, ``previous`` is x_{t−1} and a third value comes back: the
         new x_{t−1} (the old latent; the landing point where a particle jumped, so that a jump
         carries no velocity)."""
-        index = None if dims is None else jnp.asarray(dims)
-        part = latent if dims is None else latent[index]
-        pool = self.pool if dims is None else self.pool[:, index]
-        latent_std = self.latent_std if dims is None else self.latent_std[index]
+        index = slice(None) if dims is None else jnp.asarray(dims)
+        part, pool, latent_std = latent[index], self.pool[:, index], self.latent_std[index]
         part_dim, placement_dim = part.shape[0], placement.shape[0]
         noise = smc.fast_normal(key, (part_dim + placement_dim + 2,), latent.dtype)
         step, jump_draw, pick_draw = (noise[:part_dim + placement_dim], noise[-2], noise[-1])
         centre = part
         if self.velocity is not None:
-            before = previous if dims is None else previous[index]
-            carried = self.velocity if dims is None else self.velocity[index]
-            centre = part + carried * (part - before)
+            centre = part + self.velocity[index] * (part - previous[index])
         # Tian et al. eq. 6: random walk x_{t+1} = x_t + ω, ω ~ N(0, diag ν²) ... or, with
         # probability ε, from a random training latent
         pick = jnp.minimum((jsp.ndtr(pick_draw) * pool.shape[0]).astype(jnp.int32),
@@ -327,12 +323,10 @@ class LatentWalk(eqx.Module):
         moved = start + latent_std * step[:part_dim]
         if move_placement:
             placement = placement + self.placement_std * step[part_dim:]
-        new_latent = moved if dims is None else latent.at[index].set(moved)
         if self.velocity is None:
-            return new_latent, placement
-        origin = jnp.where(jumped, start, part)
-        new_previous = origin if dims is None else previous.at[index].set(origin)
-        return new_latent, placement, new_previous
+            return latent.at[index].set(moved), placement
+        return (latent.at[index].set(moved), placement,
+                previous.at[index].set(jnp.where(jumped, start, part)))
 
     def move(self, key: PRNGKeyArray, particle: dict, dims: tuple[int, ...] | None = None,
              move_placement: bool = True) -> dict:
