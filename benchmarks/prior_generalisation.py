@@ -112,7 +112,8 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
                    stride: int, back_constraint: float | None = None,
                    trajectories: dict | None = None) -> list[dict]:
     """Rows (one per reconstruction method) for one candidate prior; its training latents and
-    sequence ids go into ``trajectories`` under its tag, when given."""
+    sequence ids go into ``trajectories`` under its tag, when given (for
+    :func:`latent_smoothness` and :func:`plot_trajectories`)."""
     tag = prior_tag(name, mirror, parts, back_constraint)
     check_disjoint(PRIOR_CLIPS[name], clips)
     prior = candidate_prior(name, mirror, parts, back_constraint)
@@ -138,7 +139,6 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
     reconstructions["nearest training pose per part"] = (nearest_per_part(train, test), 0.0)
     reconstructions["mean training pose"] = (np.broadcast_to(train.mean(0), test.shape), 0.0)
     rows = []
-    smoothness = latent_smoothness(np.asarray(prior.model.latents), prior.training_sequence_ids)
     if trajectories is not None:
         trajectories[tag] = (np.asarray(prior.model.latents), prior.training_sequence_ids)
     for method, (features, seconds) in reconstructions.items():
@@ -149,7 +149,7 @@ def evaluate_prior(name: str, mirror: bool, parts: bool, clips, views: int,
             rows.append({"prior": tag, "training_poses": len(train),
                          "held_out_poses": len(test), "method": method,
                          "lengths": "true (oracle)" if own_lengths else "reconstructed",
-                         "seconds": seconds, "latent_smoothness": smoothness, **errors})
+                         "seconds": seconds, **errors})
     return rows
 
 
@@ -218,18 +218,18 @@ def main(argv=None) -> int:
                        ("lengths", "link lengths", "s"), ("error_torso", "error/torso", ".1%"),
                        ("error_px", "error px", ".1f"),
                        ("error_p95_px", "p95 px", ".1f"), ("seconds", "s", ".1f")])
-    seen = {}
-    for row in rows:
-        seen.setdefault(row["prior"], {"prior": row["prior"], **row["latent_smoothness"]})
-    print_table(list(seen.values()), [("prior", "prior", "s"),
-                                      ("median_step", "median step / spread", ".3f"),
-                                      ("p99_step", "p99 step / spread", ".2f"),
-                                      ("carried_range", "carried share a", "s")])
+    smoothness = {tag: latent_smoothness(latents, ids)
+                  for tag, (latents, ids) in trajectories.items()}
+    print_table([{"prior": tag, **values} for tag, values in smoothness.items()],
+                [("prior", "prior", "s"), ("median_step", "median step / spread", ".3f"),
+                 ("p99_step", "p99 step / spread", ".2f"),
+                 ("carried_range", "carried share a", "s")])
     path = args.json or f"benchmarks/results/prior_generalisation_{args.split}.json"
     write_json(path, {"benchmark": "prior_generalisation",
                       **run_header("benchmarks.prior_generalisation", argv, started),
                       "split": args.split,
-                      "clips": list(clips), "arguments": vars(args), "rows": rows})
+                      "clips": list(clips), "arguments": vars(args), "rows": rows,
+                      "latent_smoothness": smoothness})
     figure = Path(path).with_name("prior_latent_trajectories.png")
     plot_trajectories(trajectories, figure)
     print(f"wrote {path} and {figure}")
