@@ -194,9 +194,9 @@ def test_the_engine_runs_several_cycles_per_frame_when_asked(prior, sequence):
         assert tracker.options()["engine"]["iterations_per_frame"] == iterations
     for name in ("latent", "condensation"):
         assert not np.allclose(moved[name, 1], moved[name, 3]), name
-    with pytest.raises(ValueError, match="partitioned sampling runs one cycle per frame"):
-        from tests.trackers.test_partitioned import _parts_prior
+    from tests.trackers.test_partitioned import _parts_prior
 
+    with pytest.raises(ValueError, match="partitioned sampling runs one cycle per frame"):
         latent_tracker(_parts_prior(), prior.template, partitioned=True,
                        engine=Engine(16, iterations_per_frame=2))
 
