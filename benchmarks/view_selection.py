@@ -17,6 +17,11 @@ frame (an oracle) and the worst. The rules:
 - ``consensus``: the view whose 3-D skeleton, turned into the world's axes through the
   calibration, lies closest to the other views' (the median distance to theirs): a view that
   agrees with the others is more likely right, where a wrong one is wrong in its own way;
+- ``spread``: the least spread of the view's particles' 3-D skeletons about their weighted
+  mean (``LinearCombinationEstimate.skeleton_spread``): the filter's own ambiguity of the frame,
+  read off its particles where eq. 14 reads it off the nearest training vector;
+- ``fitness/spread``: the greatest fitness × 1/spread, the paper's product with the spread in
+  place of eq. 14's ambiguity;
 - each of these averaged over ±5 frames (``... ±5``), which ignores one-frame flukes;
 - for reference, not rules: the one view best over the whole clip, known in hindsight; and,
   not a selection at all, the views' skeletons averaged in the world's axes (``fused``).
@@ -30,8 +35,8 @@ mean was scored, it chose ``fitness ±5``,
 ``jaxtrack.experiments.linear_combination.DEFAULT_VIEW_SELECTION``); the test clips (the test
 subject's two waves) are scored once with every rule, for the tables. Also reported per clip:
 the mean over frames of the Spearman rank correlation, across the four views, between each
-view's 3-D error and its fitness (a good predictor: strongly negative) and its ambiguity
-(strongly positive).
+view's 3-D error and its fitness (a good predictor: strongly negative), its ambiguity and its
+spread (each: strongly positive).
 
 The paper's targets: the selected view ≥ 30 % below the worst and within 10 % of the oracle.
 Writes ``benchmarks/results/view_selection.json`` and prints the markdown tables.
@@ -54,8 +59,11 @@ VALIDATION = ("bandai/dataset-2_wave-right-hand_normal_001",
               "bandai/dataset-2_wave-left-hand_normal_001",
               "bandai/dataset-2_raise-up-right-hand_normal_001")
 """The validation subject's gestures (the first is ``linear_combination.VALIDATION_CLIPS``)."""
-RULES = {"paper": (1.0, 1.0), "fitness": (1.0, 0.0), "ambiguity": (0.0, 1.0)}
-"""Rule → (weight of log fitness, weight of −log ambiguity)."""
+RULES = {"paper": (1.0, 1.0, "ambiguity"), "fitness": (1.0, 0.0, "ambiguity"),
+         "ambiguity": (0.0, 1.0, "ambiguity"), "spread": (0.0, 1.0, "spread"),
+         "fitness/spread": (1.0, 1.0, "spread")}
+"""Rule → (weight of log fitness, weight of −log uncertainty, which uncertainty: eq. 14's
+``"ambiguity"`` or the particles' skeleton ``"spread"``)."""
 ESTIMATE_NAMES = {"best": "best particle's skeleton (the paper's estimate)",
                   "mean": "weighted mean skeleton"}
 WINDOW = 5
@@ -64,16 +72,17 @@ RULE_NAMES = tuple(rule + suffix for rule in (*RULES, "consensus")
 """The rules a choice is made among (not the hindsight oracle reported beside them)."""
 
 
-def rule_scores(log_fitness: np.ndarray, ambiguity: np.ndarray, found: np.ndarray,
+def rule_scores(log_fitness: np.ndarray, uncertainty: dict[str, np.ndarray], found: np.ndarray,
                 rule: str, window: int = 0) -> np.ndarray:
     """``(time, views)`` the score each view gets from ``rule`` (:data:`RULES`) averaged over
     ±``window`` frames (``jaxtrack.priors.linear_combinations.view_scores``); −inf where the
-    view did not observe the frame."""
+    view did not observe the frame. ``uncertainty`` maps ``"ambiguity"`` and ``"spread"`` to
+    their ``(time, views)`` values."""
     from jaxtrack.priors.linear_combinations import view_scores
 
-    fitness_weight, ambiguity_weight = RULES[rule]
-    return view_scores(log_fitness, ambiguity, found, fitness_weight=fitness_weight,
-                       ambiguity_weight=ambiguity_weight, window=window)
+    fitness_weight, uncertainty_weight, measure = RULES[rule]
+    return view_scores(log_fitness, uncertainty[measure], found, fitness_weight=fitness_weight,
+                       ambiguity_weight=uncertainty_weight, window=window)
 
 
 def consensus(skeletons_world: np.ndarray, found: np.ndarray) -> np.ndarray:
@@ -112,6 +121,40 @@ def fused_error(skeletons_world: np.ndarray, truth_world: np.ndarray,
     return float(np.linalg.norm(fused - np.asarray(truth_world), axis=-1).mean())
 
 
+def torso_normal(skeletons: np.ndarray) -> np.ndarray:
+    """``(..., 3)`` unit normals of the torso's front, from ``(..., 12, 3)`` skeletons
+    (``UPPER_BODY_12`` order) in the world's axes (y up): (right − left shoulder) points to
+    the person's right, (neck − pelvis) up, and up × right forward."""
+    skeletons = np.asarray(skeletons, np.float64)
+    across = skeletons[..., 4, :] - skeletons[..., 8, :]
+    up = skeletons[..., 1, :] - skeletons[..., 3, :]
+    normal = np.cross(up, across)
+    return normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
+
+
+def facing(skeletons_world: np.ndarray, truth_world: np.ndarray) -> dict:
+    """How often each view's 3-D skeleton faces the wrong way, and what that costs.
+
+    A frame's skeleton faces the wrong way when its torso's front (:func:`torso_normal`) lies
+    more than 90° from the true one's: the front-or-back question a silhouette leaves open.
+    Returns per view the share of such frames (``flipped``), the mean 3-D error (metres) of
+    those frames and of the others, and, a diagnostic not a method (it reads the truth), the
+    mean error per view and of the per-frame best view had every flipped skeleton been turned
+    by 180° about the vertical through the neck (the skeletons are neck-relative)."""
+    skeletons = np.asarray(skeletons_world, np.float64)
+    truth = np.asarray(truth_world, np.float64)
+    flipped = np.einsum("tvk,tk->tv", torso_normal(skeletons), torso_normal(truth)) < 0
+    errors = np.linalg.norm(skeletons - truth[:, None], axis=-1).mean(-1)
+    turned = np.where(flipped[..., None, None], skeletons * np.array([-1.0, 1.0, -1.0]),
+                      skeletons)
+    turned_errors = np.linalg.norm(turned - truth[:, None], axis=-1).mean(-1)
+    mean = lambda values: float(values.mean()) if values.size else None  # noqa: E731
+    return {"flipped": flipped.mean(axis=0).tolist(),
+            "flipped_error_m": mean(errors[flipped]), "other_error_m": mean(errors[~flipped]),
+            "turned_single_view_m": turned_errors.mean(axis=0).tolist(),
+            "turned_oracle_m": float(turned_errors.min(axis=1).mean())}
+
+
 def selection_errors(errors: np.ndarray, scores: np.ndarray) -> dict:
     """The mean 3-D error of the view of greatest score per frame, of the best and of the worst
     view, in metres."""
@@ -121,22 +164,22 @@ def selection_errors(errors: np.ndarray, scores: np.ndarray) -> dict:
             "worst_m": float(errors.max(axis=1).mean())}
 
 
-def predictor_correlations(errors: np.ndarray, log_fitness: np.ndarray,
-                           ambiguity: np.ndarray, found: np.ndarray) -> dict:
+def predictor_correlations(errors: np.ndarray, found: np.ndarray, **predictors: np.ndarray
+                           ) -> dict:
     """Mean over the frames every view observed of the Spearman correlation, across views,
-    of the 3-D error with the log fitness and with the ambiguity."""
+    of the 3-D error with each ``(time, views)`` predictor: ``{"error_vs_NAME": mean}`` (None
+    where no frame's predictor differed between views)."""
     from scipy.stats import spearmanr
 
-    with_fitness, with_ambiguity = [], []
+    correlations = {name: [] for name in predictors}
     for t in np.flatnonzero(np.all(found, axis=1)):
         if np.ptp(errors[t]) == 0:
             continue
-        if np.ptp(log_fitness[t]) > 0:
-            with_fitness.append(spearmanr(errors[t], log_fitness[t])[0])
-        if np.ptp(ambiguity[t]) > 0:
-            with_ambiguity.append(spearmanr(errors[t], ambiguity[t])[0])
-    mean = lambda values: float(np.mean(values)) if values else None  # noqa: E731
-    return {"error_vs_fitness": mean(with_fitness), "error_vs_ambiguity": mean(with_ambiguity)}
+        for name, values in predictors.items():
+            if np.ptp(values[t]) > 0:
+                correlations[name].append(spearmanr(errors[t], values[t])[0])
+    return {f"error_vs_{name}": float(np.mean(values)) if values else None
+            for name, values in correlations.items()}
 
 
 def evaluate_clip(result: dict, estimate: str = "best") -> dict:
@@ -148,13 +191,15 @@ def evaluate_clip(result: dict, estimate: str = "best") -> dict:
     log_fitness = np.asarray(result["log_fitness"], np.float64)
     ambiguity = np.asarray(result["ambiguity"], np.float64)
     found = np.asarray(result["found"], bool)
+    spread = np.asarray(result["skeleton_spread_m"], np.float64)
+    uncertainty = {"ambiguity": ambiguity, "spread": spread}
     rules = {}
     world = np.asarray(chosen["skeletons_world"], np.float64)
     for rule in (*RULES, "consensus"):
         for window in (0, WINDOW):
             name = rule + (f" ±{window}" if window else "")
             scores = (consensus_scores(world, found, window) if rule == "consensus" else
-                      rule_scores(log_fitness, ambiguity, found, rule, window))
+                      rule_scores(log_fitness, uncertainty, found, rule, window))
             rules[name] = selection_errors(errors, scores)
     # a second oracle: the one view that is best over the whole clip, known in hindsight
     best_view = np.argmin(errors.mean(axis=0))
@@ -165,7 +210,9 @@ def evaluate_clip(result: dict, estimate: str = "best") -> dict:
         "selected_m": fused_error(world, result["truth_world"], found)}
     return {"clip": result["clip"], "estimate": estimate, "frames": len(errors),
             "rules": rules, "single_view_m": errors.mean(axis=0).tolist(),
-            **predictor_correlations(errors, log_fitness, ambiguity, found)}
+            "facing": facing(world, result["truth_world"]),
+            **predictor_correlations(errors, found, fitness=log_fitness, ambiguity=ambiguity,
+                                     spread=spread)}
 
 
 def summarise(clips: list[dict]) -> dict:
@@ -178,6 +225,17 @@ def summarise(clips: list[dict]) -> dict:
         rows[rule] = {"selected_m": selected, "oracle_m": oracle, "worst_m": worst,
                       "below_worst": 1 - selected / worst, "above_oracle": selected / oracle - 1}
     return rows
+
+
+def facing_means(clips: list[dict]) -> dict:
+    """Means over clips (and views) of :func:`facing`'s figures beside the untouched ones."""
+    mean = lambda values: float(np.mean(values))  # noqa: E731
+    return {"flipped": mean([clip["facing"]["flipped"] for clip in clips]),
+            "single_view_m": mean([clip["single_view_m"] for clip in clips]),
+            "turned_single_view_m": mean([clip["facing"]["turned_single_view_m"]
+                                          for clip in clips]),
+            "oracle_m": mean([clip["rules"]["paper"]["oracle_m"] for clip in clips]),
+            "turned_oracle_m": mean([clip["facing"]["turned_oracle_m"] for clip in clips])}
 
 
 def table(validation: dict, test: dict, chosen: str | None) -> str:
@@ -194,6 +252,14 @@ def table(validation: dict, test: dict, chosen: str | None) -> str:
         name = f"**{rule}** (chosen)" if rule == chosen else rule
         lines.append("| " + " | ".join([name, *cells]) + " |")
     return "\n".join(lines)
+
+
+def _percentages(shares) -> str:
+    return "/".join(f"{100 * share:.0f}" for share in shares) + " %"
+
+
+def _millimetres(metres) -> str:
+    return "—" if metres is None else f"{1e3 * metres:.0f} mm"
 
 
 def main(argv=None) -> int:
@@ -233,9 +299,20 @@ def main(argv=None) -> int:
                       f"oracle {1e3 * paper['oracle_m']:.0f}, worst "
                       f"{1e3 * paper['worst_m']:.0f}; error vs fitness "
                       f"{row['error_vs_fitness']:+.2f}, vs ambiguity "
-                      f"{row['error_vs_ambiguity']:+.2f}", flush=True)
+                      f"{row['error_vs_ambiguity']:+.2f}, vs spread "
+                      f"{row['error_vs_spread']:+.2f}", flush=True)
+                turn = row["facing"]
+                print(f"    facing the wrong way in {_percentages(turn['flipped'])} of frames "
+                      f"(views {views}): {_millimetres(turn['flipped_error_m'])} there, "
+                      f"{_millimetres(turn['other_error_m'])} elsewhere; turned: each view "
+                      f"{_millimetres(np.mean(turn['turned_single_view_m']))} against "
+                      f"{_millimetres(np.mean(row['single_view_m']))}, the best view "
+                      f"{_millimetres(turn['turned_oracle_m'])} against "
+                      f"{_millimetres(paper['oracle_m'])}", flush=True)
     summaries = {estimate: {split: summarise(rows) for split, rows in by_split.items()}
                  for estimate, by_split in results.items()}
+    facing_summary = {estimate: {split: facing_means(rows) for split, rows in by_split.items()}
+                      for estimate, by_split in results.items()}
     # the estimate and the rule together, on validation
     chosen_estimate, chosen = min(
         ((estimate, rule) for estimate in summaries for rule in RULE_NAMES),
@@ -245,13 +322,21 @@ def main(argv=None) -> int:
             summary["validation"], summary["test"], chosen if estimate == chosen_estimate
             else None) for estimate, summary in summaries.items())
     print(text)
+    for estimate, by_split in facing_summary.items():
+        for split, means in by_split.items():
+            print(f"{split}, {ESTIMATE_NAMES[estimate]}: facing the wrong way in "
+                  f"{100 * means['flipped']:.0f} % of frames and views; each view "
+                  f"{_millimetres(means['single_view_m'])}, turned "
+                  f"{_millimetres(means['turned_single_view_m'])}; the best view "
+                  f"{_millimetres(means['oracle_m'])}, turned "
+                  f"{_millimetres(means['turned_oracle_m'])}")
     header = run_header("benchmarks.view_selection", argv, started)
     write_json_atomically(args.out, {
         **header, "frames": args.frames,
         "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": 20, "particles": 300,
                      "iterations": 5, "views": list(views)},
         "chosen_on_validation": {"estimate": chosen_estimate, "rule": chosen},
-        "summaries": summaries, "clips": results, "table": text})
+        "summaries": summaries, "facing": facing_summary, "clips": results, "table": text})
     print(f"chose {chosen!r} with the {ESTIMATE_NAMES[chosen_estimate]} on validation; wrote "
           f"{args.out} in {header['seconds']:.0f} s")
     return 0

@@ -14,14 +14,17 @@ def _result():
     errors = np.array([[0.3, 0.1], [0.3, 0.1], [0.3, 0.1], [0.3, 0.1]])
     log_fitness = np.array([[-2.0, -1.0], [-2.0, -1.0], [-0.5, -1.0], [-2.0, -1.0]])
     ambiguity = np.array([[0.1, 1.0]] * 4)
+    # the particles' skeleton spread says so except in frame 3
+    spread = np.array([[0.2, 0.05]] * 3 + [[0.05, 0.2]])
     found = np.ones((4, 2), bool)
-    # one-vertex skeletons in the world's axes: view 0 is 0.3 m off along x, view 1 0.1 m the
-    # other way, so the two agree with each other equally and their mean is 0.1 m off
-    truth = np.zeros((4, 1, 3))
+    # skeletons in the world's axes: view 0 is 0.3 m off along x, view 1 0.1 m the other
+    # way, so the two agree with each other equally and their mean is 0.1 m off
+    truth = np.stack([_skeleton()] * 4)
     skeletons = np.stack([truth + [0.3, 0, 0], truth - [0.1, 0, 0]], axis=1)
     best = {"errors_m": errors.tolist(), "skeletons_world": skeletons.tolist()}
     return {"clip": "c", **best, "log_fitness": log_fitness.tolist(),
             "ambiguity": ambiguity.tolist(), "found": found.tolist(),
+            "skeleton_spread_m": spread.tolist(),
             "single_view_m": errors.mean(axis=0).tolist(), "truth_world": truth.tolist(),
             "estimates": {"best": best, "mean": best}}
 
@@ -32,6 +35,11 @@ def test_each_rule_is_scored_against_the_oracle_and_the_worst_view():
     assert rules["fitness"]["selected_m"] == pytest.approx((3 * 0.1 + 0.3) / 4)
     assert rules["fitness ±5"]["selected_m"] == pytest.approx(0.1)  # the dip is outvoted
     assert rules["ambiguity"]["selected_m"] == pytest.approx(0.3)
+    assert rules["spread"]["selected_m"] == pytest.approx((3 * 0.1 + 0.3) / 4)
+    assert rules["spread ±5"]["selected_m"] == pytest.approx(0.1)
+    # frame 2: the spread outweighs the fitness's dip; frame 3: the fitness outweighs the
+    # spread's
+    assert rules["fitness/spread"]["selected_m"] == pytest.approx((3 * 0.1 + 0.3) / 4)
     assert rules["paper"]["oracle_m"] == pytest.approx(0.1)
     assert rules["paper"]["worst_m"] == pytest.approx(0.3)
     assert rules["best single view (hindsight)"]["selected_m"] == pytest.approx(0.1)
@@ -42,6 +50,7 @@ def test_each_rule_is_scored_against_the_oracle_and_the_worst_view():
     # rises as the ambiguity falls
     assert clip["error_vs_fitness"] == pytest.approx((3 * -1.0 + 1.0) / 4)
     assert clip["error_vs_ambiguity"] == pytest.approx(-1.0)
+    assert clip["error_vs_spread"] == pytest.approx((3 * 1.0 - 1.0) / 4)
     summary = vs.summarise([clip, clip])
     assert summary["fitness ±5"]["below_worst"] == pytest.approx(1 - 0.1 / 0.3)
     assert summary["fitness ±5"]["above_oracle"] == pytest.approx(0.0)
@@ -83,3 +92,32 @@ def test_consensus_prefers_the_views_that_agree_and_skips_those_that_did_not_obs
     # the fused skeleton averages the views that observed: frame 0 (0 + 0.1 + 1) / 3 off,
     # frame 1 (0 + 1) / 2 off
     assert vs.fused_error(skeletons, truth, found) == pytest.approx((1.1 / 3 + 0.5) / 2)
+
+
+def _skeleton(turn: float = 0.0) -> np.ndarray:
+    """A 12-vertex upper body (``UPPER_BODY_12``) facing +z, turned by ``turn`` radians about
+    the vertical (y) through the neck, neck-relative."""
+    skeleton = np.zeros((12, 3))
+    skeleton[0] = [0, 0.2, 0]  # head
+    skeleton[2:4] = [[0, -0.2, 0], [0, -0.5, 0]]  # thorax, pelvis
+    skeleton[4:8] = [[-0.2, 0, 0], [-0.3, -0.25, 0.1], [-0.3, -0.5, 0.2], [-0.1, -0.5, 0]]
+    skeleton[8:12] = skeleton[4:8] * [-1, 1, 1]  # the left side mirrors the right
+    c, s = np.cos(turn), np.sin(turn)
+    return skeleton @ np.array([[c, 0, -s], [0, 1, 0], [s, 0, c]]).T
+
+
+def test_facing_counts_skeletons_turned_away_and_what_turning_them_back_would_give():
+    truth = np.stack([_skeleton()] * 4)
+    # view 0 right every frame; view 1 turned half round in frames 0-2, a little in frame 3
+    views = np.stack([truth, np.stack([_skeleton(np.pi)] * 3 + [_skeleton(0.3)])], axis=1)
+    assert vs.torso_normal(truth)[0] == pytest.approx([0, 0, 1])
+    result = vs.facing(views, truth)
+    assert result["flipped"] == pytest.approx([0.0, 0.75])
+    assert result["other_error_m"] == pytest.approx(
+        np.linalg.norm(_skeleton(0.3) - truth[0], axis=-1).mean() / 5)  # 4 right + 1 off
+    assert result["flipped_error_m"] > 0.1
+    # turned back, the flipped frames are exact: only frame 3's small turn is left
+    assert result["turned_single_view_m"][0] == pytest.approx(0.0)
+    assert result["turned_single_view_m"][1] == pytest.approx(
+        np.linalg.norm(_skeleton(0.3) - truth[0], axis=-1).mean() / 4)
+    assert result["turned_oracle_m"] == pytest.approx(0.0)

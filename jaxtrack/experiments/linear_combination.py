@@ -614,7 +614,7 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
                                         fps=float(trained.description.get("fps", 30.0)),
                                         max_frames=max_frames, background=background,
                                         seed=seed + 7, keep_observations=True)
-    log_fitness, ambiguity, found = [], [], []
+    log_fitness, ambiguity, found, spread = [], [], [], []
     by_estimate = {name: ([], []) for name in SKELETON_ESTIMATES}  # errors, world skeletons
     for sequence in sequences:
         run = _track_run(trained, sequence.observations, particles=particles,
@@ -625,6 +625,7 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
             estimate_errors.append(skeleton_error(skeleton, sequence.skeleton))
             world.append(np.asarray(skeleton, np.float64) @ sequence.rotation)
         log_fitness.append(run["log_fitness"])
+        spread.append(run["skeleton_spread"])
         vectors = np.asarray(make_hybrid(run["contour"], run["head_hands"][:, 1:],
                                          run["head_hands"][:, 0], run["skeleton"]))
         seen = run["found"] & np.all(np.isfinite(vectors), axis=1)
@@ -655,6 +656,7 @@ def multi_view(trained: TrainedLinearCombinations, clip: str, *,
             "ambiguity": np.where(np.isfinite(ambiguity), ambiguity, -1.0).tolist(),
             "log_fitness": np.where(np.isfinite(log_fitness), log_fitness, -1e30).tolist(),
             "found": found.tolist(),
+            "skeleton_spread_m": np.round(np.stack(spread, 1).astype(np.float64), 6).tolist(),
             "skeletons_world": estimates[estimate]["skeletons_world"],
             "truth_world": np.round(truth_world, 5).tolist(), "estimates": estimates}
 
@@ -726,6 +728,7 @@ def _track_run(trained, observations, *, particles, iterations, seed, fitness, s
             "head_hands": np.asarray(estimates.best_markers),
             "contour": np.asarray(estimates.contour), "found": np.asarray(estimates.found),
             "log_fitness": np.asarray(estimates.log_fitness),
+            "skeleton_spread": np.asarray(estimates.skeleton_spread),
             "seconds_per_frame": result.seconds_per_frame,
             "compile_seconds": result.compile_seconds, "options": result.options}
 

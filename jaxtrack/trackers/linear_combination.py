@@ -127,6 +127,10 @@ class LinearCombinationEstimate(FrameEstimate):
         contour: ``(contour, 2)`` the best particle's contour in the image.
         cluster: the best particle's cluster.
         log_fitness: log f (eq. 9) of the best particle (view selection weighs views by it).
+        skeleton_spread: how far the particles' 3-D skeletons lie from their weighted mean:
+            √(Σ_i w_i mean_k |s_ik − s̄_k|²) over particles i and skeleton vertices k, in the
+            skeleton's units (metres). Small where the view leaves one skeleton; large where
+            its silhouette keeps several apart (the filter's own ambiguity of the frame).
         found: the frame had a silhouette and three skin blobs (else it was scored flat and the
             filter only predicted).
     """
@@ -136,6 +140,7 @@ class LinearCombinationEstimate(FrameEstimate):
     contour: Float[Array, "contour 2"]
     cluster: Int[Array, ""]
     log_fitness: Float[Array, ""]
+    skeleton_spread: Float[Array, ""]
     found: Bool[Array, ""]
 
 
@@ -148,6 +153,15 @@ class LinearCombinationState(eqx.Module):
     head: Float[Array, " 2"]
     found: Bool[Array, ""]
     log_fitness: Float[Array, ""]
+
+
+def _skeleton_spread(model: LinearCombinationModel, coefficients, log_weights, mean_skeleton):
+    """:attr:`LinearCombinationEstimate.skeleton_spread` of the particles' ``coefficients``."""
+    layout = model.layout
+    skeletons = jax.vmap(model.reconstruct)(coefficients)[:, layout.skeleton_slice]
+    skeletons = skeletons.reshape(len(coefficients), layout.num_skeleton, 3)
+    squared = jnp.sum((skeletons - mean_skeleton) ** 2, axis=-1).mean(axis=-1)
+    return jnp.sqrt(jnp.maximum(jax.nn.softmax(log_weights) @ squared, 0.0))
 
 
 def _observation_at(frame) -> ContourObservation:
@@ -225,7 +239,10 @@ class LinearCombinationTracker(Tracker):
             ess=info.ess, log_likelihood=info.log_evidence_increment,
             degenerate=info.degenerate, skeleton_3d=mean_parts.skeleton_3d,
             best_skeleton_3d=best_parts.skeleton_3d, contour=best_parts.contour,
-            cluster=best["cluster"], log_fitness=state.log_fitness, found=state.found)
+            cluster=best["cluster"], log_fitness=state.log_fitness,
+            skeleton_spread=_skeleton_spread(model, particles["coefficients"], log_weights,
+                                             mean_parts.skeleton_3d),
+            found=state.found)
 
     def first_estimate(self, state: LinearCombinationState) -> LinearCombinationEstimate:
         return self._estimate(state)

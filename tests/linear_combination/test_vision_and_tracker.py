@@ -81,6 +81,31 @@ def test_tracker_beats_the_mean_skeleton_and_survives_a_blank_frame(rendered, tr
     assert error < 0.8 * baseline, (error, baseline)
     clusters = np.asarray(estimates.cluster)
     assert clusters.min() >= 0 and clusters.max() < 3
+    spread = np.asarray(estimates.skeleton_spread)
+    assert spread.shape == (len(found),) and np.all(np.isfinite(spread)) and np.all(spread >= 0)
+
+
+def test_skeleton_spread_is_the_weighted_rms_distance_of_the_particles_skeletons(trained):
+    """``skeleton_spread``: √(Σ_i w_i mean_k |s_ik − s̄_k|²) over the particles'
+    reconstructed skeletons; 0 when every particle is the same."""
+    import jax.numpy as jnp
+
+    from jaxtrack.trackers.linear_combination import _skeleton_spread
+
+    model, layout = trained.model, trained.model.layout
+    coefficients = np.random.default_rng(0).normal(size=(5, model.num_components))
+    log_weights = np.log(np.array([0.1, 0.2, 0.3, 0.15, 0.25]))
+    skeletons = np.stack([np.asarray(model.reconstruct(jnp.asarray(c)))[layout.skeleton_slice]
+                          for c in coefficients]).reshape(5, layout.num_skeleton, 3)
+    weights = np.exp(log_weights)
+    mean = np.einsum("i,ikd->kd", weights, skeletons)
+    expected = np.sqrt(weights @ np.mean(np.sum((skeletons - mean) ** 2, axis=-1), axis=-1))
+    spread = _skeleton_spread(model, jnp.asarray(coefficients), jnp.asarray(log_weights),
+                              jnp.asarray(mean))
+    assert float(spread) == pytest.approx(expected, rel=1e-5) and expected > 0
+    same = jnp.asarray(np.repeat(coefficients[:1], 5, axis=0))
+    assert float(_skeleton_spread(model, same, jnp.asarray(log_weights),
+                                  jnp.asarray(skeletons[0]))) == pytest.approx(0.0, abs=1e-6)
 
 
 def test_nearest_neighbour_baseline_finds_the_frame_itself(rendered, trained):
