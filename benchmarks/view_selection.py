@@ -3,6 +3,7 @@ skeleton is best, and whether fitness and ambiguity can tell at all.
 
     python -m benchmarks.view_selection                 # 3 validation clips, then the test clips
     python -m benchmarks.view_selection --frames 30     # a shorter run
+    python -m benchmarks.view_selection --train-clips CLIP ... --clusters 40 --out other.json
 
 Each clip is rendered through the four Pose2Sim cameras over the real-photo background and
 tracked in each view on its own (``jaxtrack.experiments.linear_combination.multi_view``: the
@@ -267,19 +268,31 @@ def main(argv=None) -> int:
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=90, help="frames per clip (30 fps)")
     parser.add_argument("--out", type=Path, default=RESULTS / "view_selection.json")
+    parser.add_argument("--train-clips", nargs="+", metavar="CLIP", default=None,
+                        help="training subjects' clips to train the model on (default: "
+                             "jaxtrack.experiments.linear_combination.TRAIN_CLIPS)")
+    parser.add_argument("--clusters", type=int, default=20, help="k-means clusters (20)")
     args = parser.parse_args(argv)
     if args.frames < 2 * WINDOW + 1:
         parser.error(f"--frames must be at least {2 * WINDOW + 1}, got {args.frames}")
 
     import jax.numpy as jnp
 
+    from jaxtrack.data.splits import check_disjoint
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.likelihoods.contour_normals import FitnessSettings
     from jaxtrack.priors.linear_combinations import training_ambiguity
 
     started = time.perf_counter()
     views = (0, 1, 2, 3)
-    trained = lc.train(list(lc.TRAIN_CLIPS), views=views, num_clusters=20)
+    train_clips = list(args.train_clips or lc.TRAIN_CLIPS)
+    try:
+        check_disjoint(train_clips, [*VALIDATION, *lc.TEST_CLIPS])
+        if args.clusters < 1:
+            raise ValueError(f"--clusters must be a positive integer, got {args.clusters}")
+    except ValueError as error:
+        parser.error(str(error))
+    trained = lc.train(train_clips, views=views, num_clusters=args.clusters)
     ambiguities = training_ambiguity(trained.vectors, trained.model.layout)
     fitness = FitnessSettings(contour_tolerance=jnp.asarray(64.0),
                               hands_tolerance=jnp.asarray(16.0))
@@ -333,8 +346,9 @@ def main(argv=None) -> int:
     header = run_header("benchmarks.view_selection", argv, started)
     write_json_atomically(args.out, {
         **header, "frames": args.frames,
-        "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": 20, "particles": 300,
-                     "iterations": 5, "views": list(views)},
+        "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": args.clusters,
+                     "particles": 300, "iterations": 5, "views": list(views),
+                     "train_clips": train_clips},
         "chosen_on_validation": {"estimate": chosen_estimate, "rule": chosen},
         "summaries": summaries, "facing": facing_summary, "clips": results, "table": text})
     print(f"chose {chosen!r} with the {ESTIMATE_NAMES[chosen_estimate]} on validation; wrote "

@@ -121,3 +121,9 @@ def test_facing_counts_skeletons_turned_away_and_what_turning_them_back_would_gi
     assert result["turned_single_view_m"][1] == pytest.approx(
         np.linalg.norm(_skeleton(0.3) - truth[0], axis=-1).mean() / 4)
     assert result["turned_oracle_m"] == pytest.approx(0.0)
+
+
+def test_training_clips_of_an_evaluated_subject_are_refused(capsys):
+    with pytest.raises(SystemExit):
+        vs.main(["--train-clips", "bandai/dataset-2_walk_normal_001"])
+    assert "subject bandai:dataset-2 is in both" in capsys.readouterr().err
