@@ -26,6 +26,10 @@ frame (an oracle) and the worst. The rules:
 - each of these averaged over ±5 frames (``... ±5``), which ignores one-frame flukes;
 - for reference, not rules: the one view best over the whole clip, known in hindsight; and,
   not a selection at all, the views' skeletons averaged in the world's axes (``fused``).
+- a bound, not a rule: the best weighting of the four signals above (log fitness, −log
+  ambiguity, −log spread, −consensus distance, each over ±5 frames) found by a grid search on
+  the validation clips themselves (:func:`linear_bound`). No rule built from these signals by
+  a weighted sum does better on validation; the weights are then applied to the test clips.
 
 Every rule is scored with each of the tracker's two 3-D skeleton estimates: the best-fitness
 particle's (the paper's) and the particles' weighted mean
@@ -154,6 +158,64 @@ def facing(skeletons_world: np.ndarray, truth_world: np.ndarray) -> dict:
             "flipped_error_m": mean(errors[flipped]), "other_error_m": mean(errors[~flipped]),
             "turned_single_view_m": turned_errors.mean(axis=0).tolist(),
             "turned_oracle_m": float(turned_errors.min(axis=1).mean())}
+
+
+SIGNALS = ("log fitness", "−log ambiguity", "−log spread", "−consensus distance")
+BOUND_GRID = (-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0)
+
+
+def signals(result: dict, estimate: str, window: int = WINDOW) -> np.ndarray:
+    """``(time, views, 4)`` the :data:`SIGNALS` of a ``multi_view`` result for the skeleton
+    ``estimate``, each averaged over ±``window`` frames and centred on its mean over the views
+    of each frame (−inf where the view did not observe the frame)."""
+    from jaxtrack.priors.linear_combinations import view_scores
+
+    found = np.asarray(result["found"], bool)
+    ambiguity = np.maximum(np.asarray(result["ambiguity"], np.float64), 0.0)
+    spread = np.asarray(result["skeleton_spread_m"], np.float64)
+    closeness = -consensus(result["estimates"][estimate]["skeletons_world"], found)
+    raw = (np.asarray(result["log_fitness"], np.float64), -np.log(ambiguity + 1e-3),
+           -np.log(spread + 1e-3), np.where(np.isfinite(closeness), closeness, 0.0))
+    stacked = np.stack([view_scores(values, np.zeros_like(values), found, fitness_weight=1.0,
+                                    ambiguity_weight=0.0, window=window) for values in raw], -1)
+    finite = np.where(np.isfinite(stacked), stacked, np.nan)
+    with warnings.catch_warnings():  # frames no view observed: all-NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
+        centred = finite - np.nanmean(finite, axis=1, keepdims=True)
+    return np.where(np.isfinite(centred), centred, -np.inf)
+
+
+def _selected(features: np.ndarray, errors: np.ndarray, weights: np.ndarray) -> float:
+    unseen = np.any(np.isneginf(features), axis=-1)  # the view did not observe the frame
+    scores = np.where(unseen, -np.inf, np.nan_to_num(features, neginf=0.0) @ weights)
+    return selection_errors(errors, scores)["selected_m"]
+
+
+def linear_bound(clips: list[tuple[np.ndarray, np.ndarray]], grid=BOUND_GRID) -> dict:
+    """The weights (one per :data:`SIGNALS`, each from ``grid``, not all 0) whose weighted sum
+    of the signals selects views of the least mean error over ``clips`` (pairs of
+    :func:`signals` and the ``(time, views)`` errors): the best any such rule does on these
+    clips, found on them. Returns ``{"weights", "selected_m", "oracle_m", "worst_m"}``, means
+    over clips."""
+    from itertools import product
+
+    best_error, best_weights = np.inf, None
+    for weights in product(grid, repeat=len(SIGNALS)):
+        if not any(weights):
+            continue
+        weights = np.asarray(weights, np.float64)
+        error = np.mean([_selected(features, errors, weights) for features, errors in clips])
+        if error < best_error - 1e-12:
+            best_error, best_weights = error, weights
+    return {"weights": best_weights.tolist(), **scored_with(clips, best_weights)}
+
+
+def scored_with(clips: list[tuple[np.ndarray, np.ndarray]], weights) -> dict:
+    """Mean over ``clips`` of the selected, oracle and worst errors of the rule ``weights``."""
+    weights = np.asarray(weights, np.float64)
+    return {"selected_m": float(np.mean([_selected(f, e, weights) for f, e in clips])),
+            "oracle_m": float(np.mean([e.min(axis=1).mean() for _, e in clips])),
+            "worst_m": float(np.mean([e.max(axis=1).mean() for _, e in clips]))}
 
 
 def selection_errors(errors: np.ndarray, scores: np.ndarray) -> dict:
@@ -299,11 +361,16 @@ def main(argv=None) -> int:
     print(f"trained on {len(trained.vectors)} vectors ({time.perf_counter() - started:.0f} s); "
           f"{device_description()}", flush=True)
     results = {estimate: {} for estimate in lc.SKELETON_ESTIMATES}
+    features = {estimate: {} for estimate in lc.SKELETON_ESTIMATES}  # (signals, errors) per clip
     for split, clips in (("validation", VALIDATION), ("test", lc.TEST_CLIPS)):
         for clip in clips:
             result = lc.multi_view(trained, clip, views=views, max_frames=args.frames,
                                    fitness=fitness, step=jnp.asarray(0.03),
                                    ambiguities=ambiguities)
+            for estimate, by_split in features.items():
+                by_split.setdefault(split, []).append(
+                    (signals(result, estimate), np.asarray(
+                        result["estimates"][estimate]["errors_m"], np.float64)))
             for estimate, by_split in results.items():
                 row = evaluate_clip(result, estimate)
                 by_split.setdefault(split, []).append(row)
@@ -343,6 +410,20 @@ def main(argv=None) -> int:
                   f"{_millimetres(means['turned_single_view_m'])}; the best view "
                   f"{_millimetres(means['oracle_m'])}, turned "
                   f"{_millimetres(means['turned_oracle_m'])}")
+    bounds = {}
+    for estimate, by_split in features.items():
+        bound = linear_bound(by_split["validation"])
+        weights = bound.pop("weights")
+        bounds[estimate] = {"signals": list(SIGNALS), "weights": weights, "validation": bound,
+                            "test": scored_with(by_split["test"], weights)}
+        for split in ("validation", "test"):
+            row = bounds[estimate][split]
+            print(f"{split}, {ESTIMATE_NAMES[estimate]}: the best weighted sum of the signals, "
+                  f"fitted on validation (a bound, not a rule; weights {weights}): "
+                  f"{_millimetres(row['selected_m'])} (oracle {_millimetres(row['oracle_m'])}, "
+                  f"worst {_millimetres(row['worst_m'])}), "
+                  f"{100 * (1 - row['selected_m'] / row['worst_m']):.0f} % below the worst, "
+                  f"{100 * (row['selected_m'] / row['oracle_m'] - 1):.0f} % above the oracle")
     header = run_header("benchmarks.view_selection", argv, started)
     write_json_atomically(args.out, {
         **header, "frames": args.frames,
@@ -350,7 +431,8 @@ def main(argv=None) -> int:
                      "particles": 300, "iterations": 5, "views": list(views),
                      "train_clips": train_clips},
         "chosen_on_validation": {"estimate": chosen_estimate, "rule": chosen},
-        "summaries": summaries, "facing": facing_summary, "clips": results, "table": text})
+        "summaries": summaries, "facing": facing_summary, "linear_bound": bounds,
+        "clips": results, "table": text})
     print(f"chose {chosen!r} with the {ESTIMATE_NAMES[chosen_estimate]} on validation; wrote "
           f"{args.out} in {header['seconds']:.0f} s")
     return 0

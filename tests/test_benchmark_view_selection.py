@@ -127,3 +127,23 @@ def test_training_clips_of_an_evaluated_subject_are_refused(capsys):
     with pytest.raises(SystemExit):
         vs.main(["--train-clips", "bandai/dataset-2_walk_normal_001"])
     assert "subject bandai:dataset-2 is in both" in capsys.readouterr().err
+
+
+def test_the_linear_bound_finds_the_signal_that_tells_the_views_apart():
+    """Two views; only the spread (the third signal) says which is better, and a frame that
+    view 1 did not observe is never given to it."""
+    errors = np.array([[0.3, 0.1], [0.1, 0.3], [0.3, 0.1], [0.2, 0.4]])
+    spread = np.array([[0.2, 0.05], [0.05, 0.2], [0.2, 0.05], [0.1, 0.01]])
+    found = np.array([[True, True], [True, True], [True, True], [True, False]])
+    result = {"found": found.tolist(), "ambiguity": [[0.5, 0.5]] * 4,
+              "log_fitness": [[-1.0, -1.0]] * 4, "skeleton_spread_m": spread.tolist(),
+              "estimates": {"best": {"skeletons_world": np.zeros((4, 2, 12, 3)).tolist()}}}
+    features = vs.signals(result, "best", window=0)
+    assert features.shape == (4, 2, 4) and features[3, 1, 0] == -np.inf
+    assert features[0, :, 0] == pytest.approx([0.0, 0.0])  # equal fitness: centred to 0
+    bound = vs.linear_bound([(features, errors)])
+    assert bound["weights"][2] > 0  # the spread, counted as −log spread, selects
+    assert bound["selected_m"] == pytest.approx(bound["oracle_m"]) == pytest.approx(0.125)
+    assert bound["worst_m"] == pytest.approx((0.3 + 0.3 + 0.3 + 0.4) / 4)
+    flipped = vs.scored_with([(features, errors)], [0.0, 0.0, -1.0, 0.0])
+    assert flipped["selected_m"] == pytest.approx((0.3 + 0.3 + 0.3 + 0.2) / 4)
