@@ -340,6 +340,7 @@ def main(argv=None) -> int:
 
     import jax.numpy as jnp
 
+    from jaxtrack.data import resolve_clip
     from jaxtrack.data.splits import check_disjoint
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.likelihoods.contour_normals import FitnessSettings
@@ -349,11 +350,13 @@ def main(argv=None) -> int:
     views = (0, 1, 2, 3)
     train_clips = list(args.train_clips or lc.TRAIN_CLIPS)
     try:
+        for clip in train_clips:
+            resolve_clip(clip)
         check_disjoint(train_clips, [*VALIDATION, *lc.TEST_CLIPS])
         if args.clusters < 1:
             raise ValueError(f"--clusters must be a positive integer, got {args.clusters}")
-    except ValueError as error:
-        parser.error(str(error))
+    except (ValueError, OSError) as error:
+        parser.error(" ".join(str(error).split()))
     trained = lc.train(train_clips, views=views, num_clusters=args.clusters)
     ambiguities = training_ambiguity(trained.vectors, trained.model.layout)
     fitness = FitnessSettings(contour_tolerance=jnp.asarray(64.0),

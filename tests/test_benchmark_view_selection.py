@@ -147,3 +147,10 @@ def test_the_linear_bound_finds_the_signal_that_tells_the_views_apart():
     assert bound["worst_m"] == pytest.approx((0.3 + 0.3 + 0.3 + 0.4) / 4)
     flipped = vs.scored_with([(features, errors)], [0.0, 0.0, -1.0, 0.0])
     assert flipped["selected_m"] == pytest.approx((0.3 + 0.3 + 0.3 + 0.2) / 4)
+
+
+def test_an_unknown_training_clip_is_refused_in_one_line(capsys):
+    with pytest.raises(SystemExit):
+        vs.main(["--train-clips", "animateddrawings/no_such_clip"])
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "no data file for 'animateddrawings/no_such_clip'" in error
