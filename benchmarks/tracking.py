@@ -314,6 +314,15 @@ def _setting(text: str) -> tuple[str, float]:
     return name, number
 
 
+def _particles(text: str) -> tuple[str, int]:
+    method, _, value = text.partition("=")
+    if method not in METHODS or not value.isdigit() or int(value) < 1:
+        raise argparse.ArgumentTypeError(f"--particles takes METHOD=N with METHOD one of "
+                                         f"{', '.join(METHODS)} and N a positive whole number, "
+                                         f"got {text!r}")
+    return method, int(value)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.tracking",
                                      description=__doc__.split("\n\n")[0])
@@ -348,6 +357,10 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         type=_setting, help="override a default to compare it on validation "
                         "subjects: " + ", ".join(SETTINGS) + " (repeatable)")
+    parser.add_argument("--particles", action="append", default=[], metavar="METHOD=N",
+                        type=_particles, help="particles (MHT: modes) of one method instead of "
+                        "its default (" + ", ".join(f"{method} {count}" for method, count in
+                                                    DEFAULT_PARTICLES.items()) + "; repeatable)")
     parser.add_argument("--quick", action="store_true",
                         help="a small prior; one clip, one view, one seed, 20 frames; latent and "
                              "CONDENSATION with the default likelihood (a smoke run for CI)")
@@ -390,11 +403,14 @@ def main(argv=None) -> int:
     tag = prior_tag(args.prior, args.mirror, args.parts, args.back_constraint,
                     args.latent_dim)
     settings = dict(args.set)
+    particles = dict(args.particles)
     out = args.out or RESULTS / (args.split + ("" if tag == "waves" else "-" + tag)
                                  + ("-auto" if args.init == "auto" else "")
                                  + ("-keypoints" if args.keypoints != "none" else "")
                                  + "".join(f"-{name}={value:g}"
                                            for name, value in sorted(settings.items()))
+                                 + "".join(f"-{method}{count}"
+                                           for method, count in sorted(particles.items()))
                                  + ("-quick" if args.quick else ""))
     out.mkdir(parents=True, exist_ok=True)
 
@@ -448,7 +464,8 @@ def main(argv=None) -> int:
     runs = []
     with open(out / "runs.jsonl", "w") as handle:
         for sequence, config, seed in tqdm(jobs, desc="tracking", unit="run"):
-            run = run_one(prior, sequence, config, seed, DEFAULT_PARTICLES[config["method"]],
+            run = run_one(prior, sequence, config, seed,
+                          particles.get(config["method"], DEFAULT_PARTICLES[config["method"]]),
                           args.baseline_dynamics, initial.get(sequence.name), settings,
                           detections.get(sequence.name))
             runs.append(run)

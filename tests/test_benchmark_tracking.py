@@ -40,9 +40,12 @@ def test_quick_comparison_writes_every_output(tmp_path, monkeypatch):
     # automatically initialised, as a user without ground truth would run it
     monkeypatch.setattr(tracking, "RESULTS", tmp_path / "results")
     out = tmp_path / "quick"
-    assert tracking.main(["--quick", "--init", "auto", "--out", str(out)]) == 0
+    assert tracking.main(["--quick", "--init", "auto", "--particles", "latent=50",
+                          "--out", str(out)]) == 0
     runs = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
     assert len(runs) == 4 and {run["estimate"] for run in runs} == {"own", "refined"}
+    assert {(run["method"], run["particles"]) for run in runs} == {("latent", 50),
+                                                                   ("condensation", 1000)}
     summary = json.loads((out / "summary.json").read_text())
     assert summary["split"] == "test" and summary["baseline_dynamics"] == "training"
     (found,) = summary["auto_init"]
@@ -65,6 +68,14 @@ def test_a_setting_is_parsed_and_a_bad_one_refused_in_one_line(capsys):
         with pytest.raises(SystemExit):
             tracking.main(["--set", bad])
         assert "--set takes NAME=VALUE" in capsys.readouterr().err
+
+
+def test_a_particle_count_is_parsed_and_a_bad_one_refused_in_one_line(capsys):
+    assert tracking._particles("latent=1000") == ("latent", 1000)
+    for bad in ("latent", "latent=0", "latent=2.5", "kalman=10"):
+        with pytest.raises(SystemExit):
+            tracking.main(["--particles", bad])
+        assert "--particles takes METHOD=N" in capsys.readouterr().err
 
 
 def test_partitioned_sampling_needs_the_part_priors(capsys):
