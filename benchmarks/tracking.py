@@ -168,11 +168,13 @@ SETTINGS = {"edge_weight": "limbs+edges' kappa", "edge_tolerance": "limbs+edges'
                            "(1: on; with --parts)",
             "latent_velocity": "the latent tracker's second-order walk learned from the "
                                "prior's training latents (1: on)",
+            "subject_lengths": "the latent tracker decodes with the subject's link lengths "
+                               "from frame 0 (1: on)",
             "iterations": "the latent tracker's and CONDENSATION's select/predict/measure "
                           "cycles per frame"}
 """Defaults a run may override (``--set NAME=VALUE``), to choose them on validation subjects."""
 _EDGES = ("edge_weight", "edge_tolerance", "foreground_weight")
-_LATENT = ("jump_probability", "partitioned", "latent_velocity")
+_LATENT = ("jump_probability", "partitioned", "latent_velocity", "subject_lengths")
 _MHT = ("velocity_weight", "prior_scale", "prune_below")
 
 
@@ -391,8 +393,9 @@ def main(argv=None) -> int:
     iterations = dict(args.set).get("iterations")
     if iterations is not None and not (iterations >= 1 and float(iterations).is_integer()):
         parser.error(f"--set iterations must be a whole number of cycles >= 1, got {iterations:g}")
-    if dict(args.set).get("latent_velocity", 0.0) not in (0.0, 1.0):
-        parser.error(f"--set latent_velocity is 0 or 1, got {dict(args.set)['latent_velocity']:g}")
+    for switch in ("latent_velocity", "subject_lengths"):
+        if dict(args.set).get(switch, 0.0) not in (0.0, 1.0):
+            parser.error(f"--set {switch} is 0 or 1, got {dict(args.set)[switch]:g}")
     clips = GESTURE_CLIPS[args.split]
     seeds, views, max_frames = args.seeds, args.views, args.max_frames
     if args.quick:

@@ -60,6 +60,39 @@ def test_the_second_order_walk_tracks_the_held_out_clip_too(prior, sequence):
     assert result.options["latent_velocity"] is True
 
 
+def test_subject_lengths_draw_the_first_pose_with_the_subjects_own_links(prior, sequence):
+    """``subject_lengths``: every link of μ(x) is stretched by frame 0's length over the
+    prior's, so μ⁻¹ of frame 0's pose decodes to frame 0's link lengths (within the [1/2, 2]
+    clip), where the paper's decoder draws the training subjects' proportions."""
+    from jaxtrack.body.spm import SPM_LINKS
+
+    first = edge_observations(sequence.frames[:1])[0]
+    truth = np.asarray(sequence.truth[0], np.float64)
+    index = {name: k for k, name in enumerate(UPPER_BODY_12)}
+
+    def lengths(markers):
+        markers = np.asarray(markers, np.float64)
+        return np.array([np.linalg.norm(markers[index[a]] - markers[index[b]])
+                         for a, b in SPM_LINKS])
+
+    errors = {}
+    for own in (False, True):
+        tracker = latent_tracker(prior.model, prior.template, engine=Engine(20),
+                                 fps=sequence.fps, refinement=None, subject_lengths=own)
+        model = tracker.start(jr.PRNGKey(0), first, sequence.truth[0]).model
+        scale = np.asarray(model.link_scale)
+        decoded = model.markers_of({"latent": model.initial_latent,
+                                    "placement": model.initial_placement})
+        errors[own] = np.abs(lengths(decoded) - lengths(truth)) / lengths(truth)
+        if own:
+            assert np.all((scale >= 0.5) & (scale <= 2.0)) and np.ptp(scale) > 0.01
+            unclipped = (scale > 0.5) & (scale < 2.0)
+            assert np.all(errors[own][unclipped] < 1e-3), errors[own]
+        else:
+            np.testing.assert_array_equal(scale, 1.0)
+    assert errors[False].max() > 0.05  # the prior's proportions are not this subject's
+
+
 def test_edge_likelihood_adds_edge_maps_to_grey_frames_or_takes_them_given(prior, sequence):
     """``limbs+edges`` (the default) needs each frame's edge map: ``track`` builds it from grey
     frames, chunk by chunk, or takes ``(time, 3, height, width)`` observations made before, or
