@@ -56,7 +56,7 @@ from benchmarks._common import auto_initial_pose, device_description, run_header
 from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
-from jaxtrack.data.splits import check_disjoint, clips_in, split_of
+from jaxtrack.data.splits import UnknownSubjectError, check_disjoint, clips_in, split_of
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import (
     BASELINE_DYNAMICS,
@@ -359,6 +359,9 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         type=_setting, help="override a default to compare it on validation "
                         "subjects: " + ", ".join(SETTINGS) + " (repeatable)")
+    parser.add_argument("--clips", nargs="+", metavar="CLIP", default=None,
+                        help="clips of the --split's subjects to track instead of its "
+                             "GESTURE_CLIPS (e.g. more of the validation subject's gestures)")
     parser.add_argument("--particles", action="append", default=[], metavar="METHOD=N",
                         type=_particles, help="particles (MHT: modes) of one method instead of "
                         "its default (" + ", ".join(f"{method} {count}" for method, count in
@@ -396,7 +399,15 @@ def main(argv=None) -> int:
     for switch in ("latent_velocity", "subject_lengths"):
         if dict(args.set).get(switch, 0.0) not in (0.0, 1.0):
             parser.error(f"--set {switch} is 0 or 1, got {dict(args.set)[switch]:g}")
-    clips = GESTURE_CLIPS[args.split]
+    for clip in args.clips or ():
+        try:
+            where = split_of(clip)
+        except UnknownSubjectError as error:
+            parser.error(f"--clips: {error}")
+        if where != args.split:
+            parser.error(f"--clips: {clip} is a {where} subject's clip, and --split is "
+                         f"{args.split}")
+    clips = tuple(args.clips) if args.clips else GESTURE_CLIPS[args.split]
     seeds, views, max_frames = args.seeds, args.views, args.max_frames
     if args.quick:
         clips, seeds, views, max_frames = clips[:1], 1, 1, 20
@@ -414,6 +425,7 @@ def main(argv=None) -> int:
                                            for name, value in sorted(settings.items()))
                                  + "".join(f"-{method}{count}"
                                            for method, count in sorted(particles.items()))
+                                 + (f"-{len(clips)}clips" if args.clips else "")
                                  + ("-quick" if args.quick else ""))
     out.mkdir(parents=True, exist_ok=True)
 

@@ -78,6 +78,14 @@ def test_a_particle_count_is_parsed_and_a_bad_one_refused_in_one_line(capsys):
         assert "--particles takes METHOD=N" in capsys.readouterr().err
 
 
+def test_clips_of_another_split_or_of_no_subject_are_refused_in_one_line(capsys):
+    for clip, message in (("animateddrawings/fair1_wave_hello", "is a training subject's clip"),
+                          ("my/own_take", "belongs to no subject")):
+        with pytest.raises(SystemExit):
+            tracking.main(["--split", "validation", "--clips", clip])
+        assert message in capsys.readouterr().err
+
+
 def test_partitioned_sampling_needs_the_part_priors(capsys):
     for argv in (["--set", "partitioned=1"], ["--parts", "--set", "partitioned=2"]):
         with pytest.raises(SystemExit):
