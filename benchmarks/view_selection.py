@@ -104,16 +104,22 @@ def consensus(skeletons_world: np.ndarray, found: np.ndarray) -> np.ndarray:
     return np.where(found, np.where(others.any(axis=2), median, 0.0), np.nan)
 
 
+def _windowed(values: np.ndarray, found: np.ndarray, window: int) -> np.ndarray:
+    """``(time, views)`` values averaged over ±``window`` frames as the rules' scores are
+    (``view_scores`` with the values as the log fitness and no ambiguity); −inf where the view
+    did not observe the frame or the value is not finite."""
+    from jaxtrack.priors.linear_combinations import view_scores
+
+    return view_scores(values, np.zeros_like(values), found, fitness_weight=1.0,
+                       ambiguity_weight=0.0, window=window)
+
+
 def consensus_scores(skeletons_world: np.ndarray, found: np.ndarray,
                      window: int = 0) -> np.ndarray:
     """``(time, views)`` scores of the ``consensus`` rule: minus :func:`consensus`, averaged
     over ±``window`` frames as the other rules are; −inf where the view did not observe."""
-    from jaxtrack.priors.linear_combinations import view_scores
-
     closeness = -consensus(skeletons_world, found)
-    return view_scores(np.where(np.isfinite(closeness), closeness, -np.inf),
-                       np.zeros_like(closeness), found, fitness_weight=1.0,
-                       ambiguity_weight=0.0, window=window)
+    return _windowed(np.where(np.isfinite(closeness), closeness, -np.inf), found, window)
 
 
 def fused_error(skeletons_world: np.ndarray, truth_world: np.ndarray,
@@ -168,16 +174,14 @@ def signals(result: dict, estimate: str, window: int = WINDOW) -> np.ndarray:
     """``(time, views, 4)`` the :data:`SIGNALS` of a ``multi_view`` result for the skeleton
     ``estimate``, each averaged over ±``window`` frames and centred on its mean over the views
     of each frame (−inf where the view did not observe the frame)."""
-    from jaxtrack.priors.linear_combinations import view_scores
-
     found = np.asarray(result["found"], bool)
     ambiguity = np.maximum(np.asarray(result["ambiguity"], np.float64), 0.0)
     spread = np.asarray(result["skeleton_spread_m"], np.float64)
-    closeness = -consensus(result["estimates"][estimate]["skeletons_world"], found)
     raw = (np.asarray(result["log_fitness"], np.float64), -np.log(ambiguity + 1e-3),
-           -np.log(spread + 1e-3), np.where(np.isfinite(closeness), closeness, 0.0))
-    stacked = np.stack([view_scores(values, np.zeros_like(values), found, fitness_weight=1.0,
-                                    ambiguity_weight=0.0, window=window) for values in raw], -1)
+           -np.log(spread + 1e-3))
+    stacked = np.stack([*(_windowed(values, found, window) for values in raw),
+                        consensus_scores(result["estimates"][estimate]["skeletons_world"],
+                                         found, window)], -1)
     finite = np.where(np.isfinite(stacked), stacked, np.nan)
     with warnings.catch_warnings():  # frames no view observed: all-NaN
         warnings.simplefilter("ignore", RuntimeWarning)
