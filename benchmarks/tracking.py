@@ -91,6 +91,16 @@ GESTURE_CLIPS = {
 """Upper-body gesture clips of each split's subjects (the Bandai validation clips are the three
 kept in ``tests/data``, so validation runs from a source checkout without ``../shared``)."""
 
+_BANDAI = "bandai/dataset-2_"
+WIDE_VALIDATION_CLIPS = GESTURE_CLIPS["validation"] + tuple(_BANDAI + name for name in (
+    "wave-right-hand_active_001", "wave-right-hand_elderly_001", "wave-right-hand_youthful_001",
+    "wave-both-hands_normal_001", "raise-up-both-hands_normal_001", "wave-left-hand_normal_002"))
+"""``--clips wide``: the three validation clips and six more of the validation subject's
+upper-body gestures from ``../shared/data`` (the right-hand wave in three more styles, both
+hands waving and raised, the left-hand wave's second take): one clip of every gesture and style
+the Bandai source holds beside the three. The three alone favour the latent tracker
+(docs/tracking.md, "Six more of the validation subject's clips")."""
+
 QUICK_TRAINING = {"views": 2, "fps": 10.0, "active_size": 60, "iterations": 1}
 METHODS = ("latent", "condensation", "mht")
 ESTIMATES = ("own", "refined")
@@ -361,7 +371,8 @@ def main(argv=None) -> int:
                         "subjects: " + ", ".join(SETTINGS) + " (repeatable)")
     parser.add_argument("--clips", nargs="+", metavar="CLIP", default=None,
                         help="clips of the --split's subjects to track instead of its "
-                             "GESTURE_CLIPS (e.g. more of the validation subject's gestures)")
+                             "GESTURE_CLIPS, or 'wide': the nine validation clips of "
+                             "WIDE_VALIDATION_CLIPS (with --split validation)")
     parser.add_argument("--particles", action="append", default=[], metavar="METHOD=N",
                         type=_particles, help="particles (MHT: modes) of one method instead of "
                         "its default (" + ", ".join(f"{method} {count}" for method, count in
@@ -399,6 +410,10 @@ def main(argv=None) -> int:
     for switch in ("latent_velocity", "subject_lengths"):
         if dict(args.set).get(switch, 0.0) not in (0.0, 1.0):
             parser.error(f"--set {switch} is 0 or 1, got {dict(args.set)[switch]:g}")
+    if args.clips == ["wide"]:
+        if args.split != "validation":
+            parser.error(f"--clips wide names validation clips, and --split is {args.split}")
+        args.clips = list(WIDE_VALIDATION_CLIPS)
     for clip in args.clips or ():
         try:
             where = split_of(clip)

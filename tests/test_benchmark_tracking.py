@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from benchmarks import tracking
+from jaxtrack.data.splits import check_disjoint, split_of
 
 
 def test_t_interval_is_the_students_t_half_width():
@@ -84,6 +85,16 @@ def test_clips_of_another_split_or_of_no_subject_are_refused_in_one_line(capsys)
         with pytest.raises(SystemExit):
             tracking.main(["--split", "validation", "--clips", clip])
         assert message in capsys.readouterr().err
+
+
+def test_the_wide_validation_set_is_the_validation_subjects_gestures(capsys):
+    clips = tracking.WIDE_VALIDATION_CLIPS
+    assert clips[:3] == tracking.GESTURE_CLIPS["validation"] and len(set(clips)) == 9
+    assert {split_of(clip) for clip in clips} == {"validation"}
+    check_disjoint(tracking.PRIOR_CLIPS["gestures"], clips)
+    with pytest.raises(SystemExit):
+        tracking.main(["--split", "test", "--clips", "wide"])
+    assert "--clips wide names validation clips, and --split is test" in capsys.readouterr().err
 
 
 def test_partitioned_sampling_needs_the_part_priors(capsys):
