@@ -21,9 +21,11 @@ each pose's features are reconstructed by
 and scored as markers (the held-out pose's own placement) in % of its torso. A second table
 says how smooth each prior's training trajectories are in its latent space
 (:func:`latent_smoothness`: free latents sit in islands joined by jumps; a back-constrained
-GPLVM's move smoothly), and ``benchmarks/results/prior_latent_trajectories.png`` draws them (each
-prior's first two latent dimensions, one line per training sequence). Writes both tables and
-``benchmarks/results/prior_generalisation_<split>.json``.
+GPLVM's move smoothly); with ``--steps`` a third says how far each held-out clip's own μ⁻¹
+trajectory steps, in units of the latent walk's ν (:func:`walk_steps`), and how fast its
+markers move (:func:`marker_speed`). ``benchmarks/results/prior_latent_trajectories.png``
+draws the training trajectories (each prior's first two latent dimensions, one line per
+training sequence). Writes the tables and ``benchmarks/results/prior_generalisation_<split>.json``.
 """
 
 from __future__ import annotations
@@ -85,6 +87,53 @@ def latent_smoothness(latents: np.ndarray, sequence_ids: np.ndarray) -> dict:
             "p99_step": float(np.percentile(steps, 99)) / spread,
             "carried": carried.round(2).tolist(),
             "carried_range": f"{carried.min():.2f}–{carried.max():.2f}"}
+
+
+def walk_steps(latents: np.ndarray, sequence_ids: np.ndarray, step_std: np.ndarray) -> dict:
+    """How far a held-out motion moves in a prior's latent space: the frame-to-frame steps of
+    its μ⁻¹ latents within a sequence, each in units of the random walk's ν (the RMS over the
+    latent dimensions of step / ν), as the median, 90th and 99th percentile and the share of
+    steps over 3 ν (a random walk of ν rarely goes that far in one frame)."""
+    latents = np.asarray(latents, np.float64)
+    ids = np.asarray(sequence_ids)
+    steps = (np.diff(latents, axis=0) / np.asarray(step_std, np.float64))[ids[1:] == ids[:-1]]
+    size = np.sqrt(np.mean(steps**2, axis=1))
+    return {"median_nu": float(np.median(size)), "p90_nu": float(np.percentile(size, 90)),
+            "p99_nu": float(np.percentile(size, 99)), "over_3nu": float(np.mean(size > 3.0))}
+
+
+def marker_speed(markers: np.ndarray, sequence_ids: np.ndarray) -> float:
+    """The median over frames of the fastest marker's frame-to-frame move, in torso lengths
+    (neck to pelvis): how fast the motion is in the image."""
+    from jaxtrack.body import UPPER_BODY_12
+
+    markers = np.asarray(markers, np.float64)
+    ids = np.asarray(sequence_ids)
+    torso = np.linalg.norm(markers[:, UPPER_BODY_12.index("pelvis")]
+                           - markers[:, UPPER_BODY_12.index("neck")], axis=-1)
+    moves = np.linalg.norm(np.diff(markers, axis=0), axis=-1).max(axis=1) / torso[1:]
+    return float(np.median(moves[ids[1:] == ids[:-1]]))
+
+
+def held_out_steps(name: str, mirror: bool, parts: bool, clips, back_constraint=None
+                   ) -> list[dict]:
+    """One row per held-out clip (frontal view, every frame at 30 fps): :func:`walk_steps` of
+    its μ⁻¹ trajectory under the candidate prior, ν at 30 fps as the tracker rescales it, and
+    :func:`marker_speed` of the clip."""
+    prior = candidate_prior(name, mirror, parts, back_constraint)
+    model = prior.model
+    nu = np.asarray(model.dynamics_std, np.float64) * np.sqrt(float(model.dynamics_fps) / 30.0)
+    rows = []
+    for clip in clips:
+        held_out = pose_set(clip_motions([clip]), views=1, fps=30.0, template=prior.template)
+        with jax.enable_x64(True):
+            features = pose_features(held_out.states, prior.template)
+            latents = np.asarray(model.astype(jnp.float64).inverse(features).latents)
+        rows.append({"prior": prior_tag(name, mirror, parts, back_constraint), "clip": clip,
+                     "frames": len(latents),
+                     **walk_steps(latents, held_out.sequence_ids, nu),
+                     "marker_speed": marker_speed(held_out.markers_2d, held_out.sequence_ids)})
+    return rows
 
 
 def plot_trajectories(priors: dict, path) -> None:
@@ -182,6 +231,9 @@ def main(argv=None) -> int:
     parser.add_argument("--views", type=int, default=3, help="viewpoints per held-out clip (3)")
     parser.add_argument("--stride", type=int, default=3,
                         help="score every stride-th held-out pose (3)")
+    parser.add_argument("--steps", action="store_true",
+                        help="also each held-out clip's latent steps in units of ν (frontal "
+                             "view, every frame) and its marker speed")
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
     if args.views < 1 or args.stride < 1:
@@ -224,12 +276,24 @@ def main(argv=None) -> int:
                 [("prior", "prior", "s"), ("median_step", "median step / spread", ".3f"),
                  ("p99_step", "p99 step / spread", ".2f"),
                  ("carried_range", "carried share a", "s")])
+    steps = []
+    if args.steps:
+        for name in args.priors:
+            for mirror in mirrors:
+                for parts in parted:
+                    for width in widths:
+                        steps += held_out_steps(name, mirror, parts, clips, width)
+        print_table(steps, [("prior", "prior", "s"), ("clip", "clip", "s"),
+                            ("frames", "frames", "d"), ("median_nu", "median step / ν", ".2f"),
+                            ("p90_nu", "p90 / ν", ".2f"), ("p99_nu", "p99 / ν", ".2f"),
+                            ("over_3nu", "steps > 3 ν", ".0%"),
+                            ("marker_speed", "fastest marker / torso per frame", ".3f")])
     path = args.json or f"benchmarks/results/prior_generalisation_{args.split}.json"
     write_json(path, {"benchmark": "prior_generalisation",
                       **run_header("benchmarks.prior_generalisation", argv, started),
                       "split": args.split,
                       "clips": list(clips), "arguments": vars(args), "rows": rows,
-                      "latent_smoothness": smoothness})
+                      "latent_smoothness": smoothness, "held_out_steps": steps})
     figure = Path(path).with_name("prior_latent_trajectories.png")
     plot_trajectories(trajectories, figure)
     print(f"wrote {path} and {figure}")

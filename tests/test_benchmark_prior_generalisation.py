@@ -6,8 +6,10 @@ import pytest
 from benchmarks.prior_generalisation import (
     held_out_clips,
     latent_smoothness,
+    marker_speed,
     nearest_per_part,
     nearest_reconstruction,
+    walk_steps,
     with_lengths_of,
 )
 from jaxtrack.data.splits import split_of
@@ -77,6 +79,29 @@ def test_latent_smoothness_tells_islands_from_smooth_trajectories():
     assert alone["carried"][0] > 0.99  # a constant step is carried on whole
     assert both["median_step"] < alone["median_step"]  # islands: most steps are zero
     assert both["p99_step"] > 1.0  # ... and a few are jumps across the space
+
+
+def test_walk_steps_are_in_units_of_the_walk_and_stay_within_a_sequence():
+    nu = np.array([0.1, 0.2])
+    # sequence 0 steps (0.1, 0.2) = 1 ν per frame; sequence 1 jumps by 10 ν once
+    walking = np.cumsum(np.tile(nu, (11, 1)), axis=0)
+    jumping = np.repeat([[5.0, 5.0], [6.0, 7.0]], [5, 5], axis=0)
+    steps = walk_steps(np.concatenate([walking, jumping]), np.repeat([0, 1], [11, 10]), nu)
+    # 10 steps of 1 ν, 8 of 0 and one of 10 ν: the step between the sequences is not counted
+    assert steps["median_nu"] == pytest.approx(1.0)
+    assert steps["over_3nu"] == pytest.approx(1 / 19)
+    assert steps["p99_nu"] > 3.0
+
+
+def test_marker_speed_is_the_fastest_markers_move_over_the_torso():
+    from jaxtrack.body import UPPER_BODY_12
+
+    markers = np.zeros((4, 12, 2))
+    markers[:, UPPER_BODY_12.index("pelvis"), 1] = 100.0  # a torso of 100 px
+    markers[:, UPPER_BODY_12.index("right_wrist"), 0] = [0.0, 30.0, 60.0, 90.0]
+    assert marker_speed(markers, np.zeros(4, int)) == pytest.approx(0.3)
+    # a new sequence's first frame is no move
+    assert marker_speed(markers, np.array([0, 0, 1, 1])) == pytest.approx(0.3)
 
 
 def test_the_trajectory_plot_has_one_panel_per_prior(tmp_path):

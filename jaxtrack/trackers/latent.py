@@ -19,6 +19,9 @@ Departures from the paper, each switchable back (reasons and measurements: ``doc
   followed (0: the paper's random walk).
 * **Local mode.** The estimate averages the particles within ``mode_radius`` ν of the best one
   (``inf``: all, as the paper).
+* **The subject's proportions** (``subject_lengths=True``, the default): μ(x) is drawn with
+  the tracked person's link lengths, read off frame 0's pose, rather than the training
+  subjects' (False: the paper's decoder).
 * **Partitioned sampling** (``partitioned=True``, with a ``PartsGPLVM`` prior; off by
   default): each frame moves the torso, then each arm, resampling by that part's strips before
   the next part moves (:mod:`jaxtrack.trackers._partitioned`), so that one arm's sharp evidence
@@ -212,6 +215,8 @@ class LatentTracker(Tracker):
             link of μ(x) is stretched by (its length in frame 0's pose) / (its length in μ of
             μ⁻¹(frame 0's pose)), clipped to [1/2, 2], so a person whose proportions differ
             from the training subjects' is not drawn with theirs. False: the paper's decoder.
+            On by default, chosen on the validation subject's nine gesture clips
+            (``docs/trackers.md``, "Why the defaults are what they are").
         partitioned: partitioned sampling over the prior's parts (module docstring; needs a
             ``PartsGPLVM`` of ``UPPER_BODY_PARTS`` and a strip likelihood); False: one
             CONDENSATION step on the whole latent point, as the paper.
@@ -232,7 +237,7 @@ class LatentTracker(Tracker):
     initial_spread: float = eqx.field(static=True, default=1.0)
     jump_probability: float = eqx.field(static=True, default=DEFAULT_JUMP_PROBABILITY)
     mode_radius: float = eqx.field(static=True, default=3.0)
-    subject_lengths: bool = eqx.field(static=True, default=False)
+    subject_lengths: bool = eqx.field(static=True, default=True)
     partitioned: bool = eqx.field(static=True, default=False)
     velocity: Float[Array, " latent"] | None = None
 
@@ -361,7 +366,7 @@ def latent_tracker(
     initial_spread: float = 1.0,
     jump_probability: float = DEFAULT_JUMP_PROBABILITY,
     mode_radius: float = 3.0,
-    subject_lengths: bool = False,
+    subject_lengths: bool = True,
     partitioned: bool = False,
     velocity: LatentVelocity | None = None,
     dtype=jnp.float32,

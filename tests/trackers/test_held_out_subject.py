@@ -5,7 +5,8 @@ The prior learns from two *training* subjects' waves (small settings); the track
 320 × 240 in which the arms come down from a T pose. The shipped latent tracker (200 particles,
 the default refinement) must stay on the body; the filter's own estimates of the latent tracker
 and of CONDENSATION (1 000 particles, AR(2) learned from the same training poses) must not get
-worse than measured. The bounds are the values measured on 2026-11-26 (commented beside each)
+worse than measured. The bounds are the values measured on 2026-11-26 and, with the subject's
+link lengths that the latent tracker decodes with since, on 2026-11-28 (commented beside each)
 with a margin for another CPU's rounding (XLA compiles for the CPU it runs on), so a regression
 of the prior, the dynamics or the likelihood fails here.
 """
@@ -40,7 +41,7 @@ def _error(prior, sequence, method, particles, refinement):
 
 def test_the_shipped_latent_tracker_stays_on_a_held_out_subject(subject_prior, sequence):
     metrics = _error(subject_prior, sequence, "latent", 200, "default")
-    assert metrics["mean_error_torso"] < 0.08  # measured 0.047 of the torso
+    assert metrics["mean_error_torso"] < 0.08  # measured 0.054 of the torso
     assert metrics["fraction_within_15"] >= 0.85  # measured 15 of 16 frames
     assert not metrics["failed"]
 
@@ -49,8 +50,8 @@ def test_the_filters_own_estimates_on_a_held_out_subject(subject_prior, sequence
     latent = _error(subject_prior, sequence, "latent", 200, None)
     condensation = _error(subject_prior, sequence, "condensation", 1000, None)
     # the prior alone does not carry this subject (docs/tracking.md): guarded, not celebrated
-    assert latent["mean_error_torso"] < 0.45  # measured 0.32 of the torso
-    assert condensation["mean_error_torso"] < 0.12  # measured 0.077
+    assert latent["mean_error_torso"] < 0.35  # measured 0.19 (0.32 with the paper's decoder)
+    assert condensation["mean_error_torso"] < 0.12  # measured 0.077; 0.087 on 2026-11-28
 
 
 def test_a_prior_of_parts_trains_reloads_and_tracks(tmp_path, sequence):
