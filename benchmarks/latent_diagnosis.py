@@ -23,6 +23,7 @@ import numpy as np
 from benchmarks._common import print_table
 from benchmarks.tracking import PRIOR_CLIPS, candidate_prior
 from jaxtrack.body import UPPER_BODY_12
+from jaxtrack.evaluation import torso_lengths
 from jaxtrack.experiments import render_test_sequences
 from jaxtrack.likelihoods import default_sharpness
 from jaxtrack.trackers import Engine, Likelihood, latent_tracker, track
@@ -50,8 +51,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     prior = candidate_prior(args.prior, args.mirror, args.parts)
     sequence = render_test_sequences(CLIP, views=1, seed=0)[0]
-    torso = np.linalg.norm(sequence.truth[:, UPPER_BODY_12.index("pelvis")]
-                           - sequence.truth[:, UPPER_BODY_12.index("neck")], axis=-1)
+    torso = torso_lengths(sequence.truth, UPPER_BODY_12)
     rows = []
     for name, options, sharpness, step in variants()[:1 if args.only_default else None]:
         likelihood = Likelihood("limbs+edges", sharpness=sharpness * default_sharpness(

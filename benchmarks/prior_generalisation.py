@@ -43,7 +43,9 @@ from benchmarks._common import device_description, print_table, run_header, writ
 from benchmarks.gplvm import marker_errors, pca_reconstruction
 from benchmarks.tracking import PRIOR_CLIPS, candidate_prior, prior_tag
 from jaxtrack._plotting import new_figure, save_figure
+from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.data.splits import check_disjoint, clips_in
+from jaxtrack.evaluation import torso_lengths
 from jaxtrack.priors.dynamics import fit_latent_velocity
 from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, feature_columns, part_features
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
@@ -105,12 +107,9 @@ def walk_steps(latents: np.ndarray, sequence_ids: np.ndarray, step_std: np.ndarr
 def marker_speed(markers: np.ndarray, sequence_ids: np.ndarray) -> float:
     """The median over frames of the fastest marker's frame-to-frame move, in torso lengths
     (neck to pelvis): how fast the motion is in the image."""
-    from jaxtrack.body import UPPER_BODY_12
-
     markers = np.asarray(markers, np.float64)
     ids = np.asarray(sequence_ids)
-    torso = np.linalg.norm(markers[:, UPPER_BODY_12.index("pelvis")]
-                           - markers[:, UPPER_BODY_12.index("neck")], axis=-1)
+    torso = torso_lengths(markers, UPPER_BODY_12)
     moves = np.linalg.norm(np.diff(markers, axis=0), axis=-1).max(axis=1) / torso[1:]
     return float(np.median(moves[ids[1:] == ids[:-1]]))
 
@@ -123,12 +122,14 @@ def held_out_steps(name: str, mirror: bool, parts: bool, clips, back_constraint=
     prior = candidate_prior(name, mirror, parts, back_constraint)
     model = prior.model
     nu = np.asarray(model.dynamics_std, np.float64) * np.sqrt(float(model.dynamics_fps) / 30.0)
+    with jax.enable_x64(True):
+        model = model.astype(jnp.float64)  # μ⁻¹ in float64, as the tracker solves it
     rows = []
     for clip in clips:
         held_out = pose_set(clip_motions([clip]), views=1, fps=30.0, template=prior.template)
         with jax.enable_x64(True):
             features = pose_features(held_out.states, prior.template)
-            latents = np.asarray(model.astype(jnp.float64).inverse(features).latents)
+            latents = np.asarray(model.inverse(features).latents)
         rows.append({"prior": prior_tag(name, mirror, parts, back_constraint), "clip": clip,
                      "frames": len(latents),
                      **walk_steps(latents, held_out.sequence_ids, nu),
