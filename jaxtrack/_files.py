@@ -1,6 +1,11 @@
 """Atomic file writing shared by every layer that saves results (sequences, priors, metrics), and
 the checks the commands make before they allocate or write something large: the memory the
-machine has available, and a warning before an output of more than about 1 GB."""
+machine has available, and the size of an output (``jaxtrack render`` refuses one above
+:data:`LARGE_OUTPUT_BYTES` unless asked).
+
+A file written here is never seen half-written: it is written to a temporary file beside it and
+renamed onto its name; a failure or an interrupt (Ctrl-C) while writing removes the temporary
+file."""
 
 from __future__ import annotations
 
@@ -15,7 +20,9 @@ __all__ = ["LARGE_OUTPUT_BYTES", "NotEnoughMemoryError", "available_memory", "ch
            "format_bytes", "warn_large_output", "write_atomically", "write_json_atomically",
            "write_npz_atomically"]
 
-LARGE_OUTPUT_BYTES = 1_000_000_000  # warn before writing a file larger than this
+LARGE_OUTPUT_BYTES = 300_000_000
+"""The largest output a command writes without being asked (``jaxtrack render --allow-large``):
+300 frames of 640x480, uncompressed."""
 
 
 class NotEnoughMemoryError(RuntimeError):

@@ -1,6 +1,6 @@
 """Bad input to `jaxtrack render` and `jaxtrack track` is refused in one line, before anything is
 allocated, tracked or written: memory estimates against what the machine has, frame rates, manual
-initialisations, model files; and a warning before a large output."""
+initialisations, model files, outputs larger than the limit."""
 
 import numpy as np
 import pytest
@@ -8,6 +8,7 @@ import pytest
 import jaxtrack._files as files
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.cli import main
+from jaxtrack.data import path as data_path
 
 WAVE = "animateddrawings/fair1_wave_hello"
 
@@ -53,24 +54,37 @@ def test_render_refuses_what_does_not_fit_in_memory(tmp_path, capsys, eight_giga
     assert list(tmp_path.iterdir()) == []
 
 
-def test_render_warns_before_a_large_output_with_its_size(tmp_path, capsys, monkeypatch):
+def test_render_states_its_output_size_and_refuses_a_large_one_unless_asked(tmp_path, capsys,
+                                                                            monkeypatch):
     monkeypatch.setattr(files, "LARGE_OUTPUT_BYTES", 10_000)
     out = tmp_path / "r.npz"
-    code, error = run(capsys, "render", "--mocap", WAVE, "--frames", "0:2", "--size", "64x48",
-                      "--out", str(out))
-    assert code == 0
+    arguments = ("render", "--mocap", WAVE, "--frames", "0:2", "--size", "64x48", "--out",
+                 str(out))
     estimate = 2 * 48 * (3 * 64 + 8)
-    assert f"warning: {out} will be about {files.format_bytes(estimate)}" in error
+    code, error = run(capsys, *arguments)
+    assert code == 2 and error.count("\n") == 1
+    assert (f"--out {out} would be about {files.format_bytes(estimate)} (2 frames of 64x48, "
+            "uncompressed), more than 10 kB;") in error and "--allow-large" in error
+    assert list(tmp_path.iterdir()) == []
+    code, error = run(capsys, *arguments, "--allow-large")
+    assert code == 0
+    assert f"rendering 2 frames of 64x48 -> {out} (about {files.format_bytes(estimate)})" in error
     assert estimate <= out.stat().st_size < 1.5 * estimate
-    monkeypatch.setattr(files, "LARGE_OUTPUT_BYTES", 1_000_000_000)
-    code, error = run(capsys, "render", "--mocap", WAVE, "--frames", "0:2", "--size", "64x48",
-                      "--out", str(out))
-    assert code == 0 and "warning" not in error
 
 
-def _track(tmp_path, capsys, *arguments, model=None):
+def test_render_refuses_the_whole_wave_clip_at_640x480_before_rendering(tmp_path, capsys):
+    code, error = run(capsys, "render", "--mocap", WAVE, "--out", str(tmp_path / "r.npz"))
+    assert code == 2 and error.count("\n") == 1
+    assert "would be about 805 MB (839 frames of 640x480, uncompressed), more than 300 MB" in error
+    assert list(tmp_path.iterdir()) == []
+
+
+VIDEO = data_path("pose2sim/videos/cam03_half.mp4")  # 544x960
+
+
+def _track(tmp_path, capsys, *arguments, model=None, video=None):
     model = model or tmp_path / "missing.npz"
-    return run(capsys, "track", "--model", str(model), "--video", str(tmp_path / "v.mp4"),
+    return run(capsys, "track", "--model", str(model), "--video", str(video or tmp_path / "v.mp4"),
                "--out", str(tmp_path / "out"), *arguments)
 
 
@@ -101,19 +115,22 @@ def test_track_refuses_a_degenerate_manual_pose_before_anything_is_loaded(tmp_pa
     if case == "zero torso":
         markers += np.arange(12)[:, None] * [3.0, 5.0]
         markers[UPPER_BODY_12.index("pelvis")] = markers[UPPER_BODY_12.index("neck")]
+    model = tmp_path / "model.npz"
+    model.write_bytes(b"not read")
     code, error = _track(tmp_path, capsys, "--init",
-                         _numbers(f"{value:g}" for value in markers.ravel()))
-    # the model is missing too: the pose is refused first, in no time
+                         _numbers(f"{value:g}" for value in markers.ravel()), model=model,
+                         video=VIDEO)
+    # the model is damaged too: the pose is refused first, before the model is read
     assert code == 2 and error.count("\n") == 1
     assert "the torso (neck to pelvis) is 0.0 px long" in error
-    assert list(tmp_path.iterdir()) == []
+    assert sorted(tmp_path.iterdir()) == [model]
 
 
 @pytest.mark.parametrize("content", [b"hello\nworld\n", b"\x93NUMPY not really"])
 def test_track_names_a_model_that_is_not_a_gplvm_file(tmp_path, capsys, content):
     model = tmp_path / "model.txt"
     model.write_bytes(content)
-    code, error = _track(tmp_path, capsys, model=model)
+    code, error = _track(tmp_path, capsys, model=model, video=VIDEO)
     assert code == 2 and error.count("\n") == 1
     assert "--model" in error and "model.txt" in error and "not a .npz archive" in error
     assert "allow_pickle" not in error and "pickle" not in error

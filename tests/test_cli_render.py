@@ -63,7 +63,7 @@ def damaged_bvh(folder):
     (["--camera", "qca:{tmp}/none.qca.txt:0"], "no calibration file"),
     (["--frames", "50:10"], "cannot select frames"),
     (["--size", "big"], "--size must look like"),
-    (["--seed", "x"], "--seed must be an integer"),
+    (["--seed", "x"], "--seed must be a whole number, got 'x'"),
     (["--out", "{tmp}/no/folder/seq.npz"], "does not exist"),
     (["--out", "{tmp}"], "is a folder"),
 ])

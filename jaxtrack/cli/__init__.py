@@ -2,25 +2,36 @@
 
 One module per command, each with ``add_parser(subparsers)`` that registers its parser and
 handler; the handlers import their heavy dependencies lazily so ``jaxtrack --help`` stays fast
-and needs no OpenCV. A :class:`UserError` raised by a handler is printed as one line and exits
-with status 2.
+and needs no OpenCV. A bad argument (argparse's, or a :class:`UserError` raised by a handler) is
+printed as one line and exits with status 2.
+
+Ctrl-C prints ``jaxtrack COMMAND: interrupted`` and exits with status 130. What the command was
+writing is removed on the way out (its temporary files by ``jaxtrack._files.write_atomically``,
+its finished outputs by ``jaxtrack.cli._common.outputs_or_nothing``). Run as a program
+(``argv`` None), the process then ends with ``os._exit(130)`` after flushing its output:
+a KeyboardInterrupt raised while XLA's threads still run a computation can crash the
+interpreter's teardown (a segmentation fault, exit status 139), and nothing is left to tear
+down that matters.
 """
 
 from __future__ import annotations
 
-import argparse
+import os
 import sys
 
 from jaxtrack.cli import clips, demo, evaluate, render, track, train
-from jaxtrack.cli._common import UserError
+from jaxtrack.cli._common import ArgumentsError, OneLineParser, UserError
 
-__all__ = ["UserError", "build_parser", "main"]
+__all__ = ["INTERRUPTED", "UserError", "build_parser", "main"]
+
+INTERRUPTED = 130
+"""The exit status after Ctrl-C (128 + SIGINT, as shells report it)."""
 
 _COMMANDS = (demo, render, evaluate, train, track, clips)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+def build_parser() -> OneLineParser:
+    parser = OneLineParser(
         prog="jaxtrack",
         description="JAX particle filters for human body pose tracking.",
     )
@@ -30,11 +41,38 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.handler(args) or 0)
-    except UserError as error:
-        print(f"jaxtrack {args.command}: error: {error}", file=sys.stderr)
-        return 2
+def _exit_now(code: int) -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
 
+
+def main(argv: list[str] | None = None) -> int:
+    command = "jaxtrack"
+    try:
+        args = build_parser().parse_args(argv)
+        command = f"jaxtrack {args.command}"
+        return int(args.handler(args) or 0)
+    except ArgumentsError as error:
+        print(f"{error.prog}: error: {error}", file=sys.stderr)
+        return 2
+    except UserError as error:
+        print(f"{command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\n{command}: interrupted" if _on_terminal() else f"{command}: interrupted",
+              file=sys.stderr)
+        if argv is None:  # a program, not a caller that goes on
+            _exit_now(INTERRUPTED)
+        return INTERRUPTED
+
+
+def _on_terminal() -> bool:
+    """Whether stderr is a terminal (where ``^C`` was echoed on the current line)."""
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False

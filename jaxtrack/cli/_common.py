@@ -1,26 +1,111 @@
-"""What the commands share: the user-error exception and the checks of their common arguments
-(clips given by name or path, seeds, model files, output folders, memory), each raising a
-:class:`UserError` that names the argument and what is wrong, before any work is done."""
+"""What the commands share: the user-error exception, the parser that reports a bad argument in
+one line, the parse-time types of numeric arguments (seeds included), and the checks of their
+common arguments (clips given by name or path, model files, output paths, memory), each raising
+a :class:`UserError` that names the argument and what is wrong, before any work is done; and
+:func:`outputs_or_nothing`, which removes what a failed or interrupted command wrote."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
-from collections.abc import Iterable, Sequence
+import re
+import tempfile
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
-__all__ = ["MAX_SEED", "UserError", "add_asf_option", "available_memory", "check_clips",
-           "check_held_out", "check_json_and_plots",
-           "check_memory", "check_prior_file", "check_seed", "fit_mask_file", "format_bytes",
-           "load_clip_sources", "output_folder", "pose2sim_cameras", "read_mask_files"]
+__all__ = ["MAX_SEED", "OneLineParser", "UserError", "add_asf_option", "available_memory",
+           "check_clips", "check_held_out", "check_json_and_plots", "check_memory",
+           "check_prior_file", "check_seed", "fit_mask_file", "format_bytes", "integer",
+           "load_clip_sources", "output_directory", "output_folder", "outputs_or_nothing",
+           "pose2sim_cameras", "read_mask_files", "real", "seed"]
 
-MAX_SEED = 2**63 - 1
-"""The largest seed: JAX keys and NumPy generators take 0 to 2**63 - 1."""
+MAX_SEED = 2**32 - 1
+"""The largest seed. ``jax.random.key`` keeps only a seed's low 32 bits without 64-bit mode
+(``key(2**32 + 5) == key(5)``) and overflows above 2**63, so seeds are 0 to 2**32 - 1."""
 
 
 class UserError(Exception):
     """An error caused by the user's input: printed as one line, exit status 2."""
+
+
+class ArgumentsError(UserError):
+    """A command line argparse refused; ``prog`` names the command (``jaxtrack track``)."""
+
+    def __init__(self, prog: str, message: str):
+        super().__init__(message)
+        self.prog = prog
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage block): raised as
+    :class:`ArgumentsError` for ``jaxtrack.cli.main`` to print, exit status 2. A value refused
+    by a type of this module reads ``--seed must be ...``."""
+
+    def error(self, message: str):
+        found = re.match(r"argument (-[\w-]+)(?:/-[\w-]+)?: (must .*)$", message, re.DOTALL)
+        if found:
+            message = f"{found.group(1)} {found.group(2)}"
+        raise ArgumentsError(self.prog, f"{one_line(message)} (see {self.prog} --help)")
+
+
+def integer(minimum: int | None = None, maximum: int | None = None, *,
+            reason: str = "") -> Callable[[str], int]:
+    """An argparse ``type``: a whole number from ``minimum`` to ``maximum`` (either may be
+    None), refused at parse time; ``reason`` (e.g. ``"(frame 0 starts the tracker)"``) follows
+    the range in the message."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+        if (minimum is not None and value < minimum) or (maximum is not None
+                                                         and value > maximum):
+            if maximum is None:
+                bounds = f"at least {minimum}"
+            elif minimum is None:
+                bounds = f"at most {maximum}"
+            else:
+                bounds = f"from {minimum} to {maximum}"
+            raise argparse.ArgumentTypeError(
+                f"must be {bounds}{' ' + reason if reason else ''}, got {value}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def real(minimum: float | None = None, maximum: float | None = None, *,
+         positive: bool = False, unit: str = "") -> Callable[[str], float]:
+    """An argparse ``type``: a finite number from ``minimum`` to ``maximum`` (above 0 with
+    ``positive``), refused at parse time with the text as given."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        low = minimum is None or value >= minimum
+        high = maximum is None or value <= maximum
+        if not (math.isfinite(value) and low and high and (value > 0 or not positive)):
+            if minimum is not None and maximum is not None:
+                bounds = f"between {minimum:g} and {maximum:g}{unit}"
+            elif positive:
+                bounds = f"a positive number{unit}"
+            elif minimum is not None:
+                bounds = f"a number of at least {minimum:g}{unit}"
+            else:
+                bounds = f"a finite number{unit}"
+            raise argparse.ArgumentTypeError(f"must be {bounds}, got {text}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+seed = integer(0, MAX_SEED, reason="(a 32-bit seed: jax.random.key keeps only the low 32 "
+               "bits)")
+"""The argparse ``type`` of every ``--seed``: 0 to :data:`MAX_SEED`."""
 
 
 def one_line(error: BaseException | str) -> str:
@@ -102,10 +187,12 @@ def pose2sim_cameras(cameras: Sequence[int] | None, default: tuple[int, ...],
     return tuple(cameras)
 
 
-def check_seed(seed: int) -> None:
-    """``--seed`` must be a whole number from 0 to :data:`MAX_SEED`."""
-    if not 0 <= seed <= MAX_SEED:
-        raise UserError(f"--seed must be from 0 to {MAX_SEED}, got {seed}")
+def check_seed(value: int) -> None:
+    """``--seed`` must be a whole number from 0 to :data:`MAX_SEED` (:data:`seed` checks it at
+    parse time; this, for a value set otherwise)."""
+    if not 0 <= value <= MAX_SEED:
+        raise UserError(f"--seed must be from 0 to {MAX_SEED} (a 32-bit seed: jax.random.key "
+                        f"keeps only the low 32 bits), got {value}")
 
 
 def _looks_like_path(spec: str) -> bool:
@@ -172,6 +259,8 @@ def check_json_and_plots(args: argparse.Namespace) -> Path:
     folder = output_folder(args.json, "--json")
     if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
         raise UserError(f"--plots {args.plots} is a file, not a folder")
+    if args.plots is not None:
+        output_directory(args.plots, "--plots")
     return folder
 
 
@@ -218,20 +307,78 @@ def check_prior_file(path: Path, what: str, remedy: str) -> None:
                         f"{remedy}") from None
 
 
-def output_folder(path: Path, option: str) -> Path:
-    """The folder an output goes in: it may not exist yet (it is created after every check),
-    but what exists of it must be a writable folder. Returns the folder."""
-    folder = path.parent if str(path.parent) else Path(".")
+def _probe(folder: Path) -> str | None:
+    """Why no file can be created in ``folder`` (None when one can): a probe file is created
+    and removed, which sees what ``os.access`` does not (``/proc``, a read-only mount, a root
+    user's view of a folder without write permission)."""
+    try:
+        handle, name = tempfile.mkstemp(dir=folder, prefix=".jaxtrack-probe-")
+    except OSError as error:
+        return error.strerror or type(error).__name__
+    os.close(handle)
+    os.unlink(name)
+    return None
+
+
+def _writable(folder: Path, path: Path, option: str) -> None:
+    """``folder`` may not exist yet (it is created after every check), but what exists of it
+    must be a folder in which a file can be created."""
     existing = folder
-    while not existing.exists():
+    while not existing.exists() and existing != existing.parent:
         existing = existing.parent
     if not existing.is_dir():
         raise UserError(f"{option} {path}: cannot create folder {folder}, {existing} is a file")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise UserError(f"{option} {path}: folder {existing} is not writable")
+    reason = _probe(existing)
+    if reason is not None:
+        raise UserError(f"{option} {path}: cannot write into folder {existing} ({reason})")
+
+
+def output_folder(path: Path, option: str) -> Path:
+    """The folder an output file goes in: it may not exist yet (it is created after every
+    check), but what exists of it must be a folder a file can be created in (a probe file is
+    created and removed there). Returns the folder."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    _writable(folder, path, option)
     if path.is_dir():
         raise UserError(f"{option} {path} is a folder; give a file name")
     return folder
+
+
+def output_directory(folder: Path, option: str) -> Path:
+    """An output folder (``--out DIR``): a folder, or nothing yet below a folder that files can
+    be created in (probed). Returns the folder."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"{option} {folder} is a file; give a folder")
+    _writable(folder, folder, option)
+    return folder
+
+
+@contextlib.contextmanager
+def outputs_or_nothing(*folders: Path) -> Iterator[list]:
+    """Create ``folders``; yield a list to which the body adds each file it writes. If the body
+    fails or is interrupted (Ctrl-C), those files and the folders created here (when left
+    empty) are removed, so that a command leaves all its outputs or none. (A file being written
+    atomically, ``jaxtrack._files.write_atomically``, removes its own temporary file.)"""
+    created, written = [], []
+    for folder in folders:
+        missing, existing = [], Path(folder)
+        while not existing.exists():
+            missing.append(existing)
+            existing = existing.parent
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        created.extend(missing)
+    created.sort(key=lambda folder: len(folder.parts), reverse=True)  # deepest first
+    try:
+        yield written
+    except BaseException:
+        for path in written:
+            Path(path).unlink(missing_ok=True)
+        for folder in created:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
 
 
 def format_bytes(count: float) -> str:

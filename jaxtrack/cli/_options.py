@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
-from jaxtrack.cli._common import UserError
+from jaxtrack.cli._common import UserError, integer, real
 
 __all__ = ["TrackerOptions", "add_tracker_options", "tracker_options"]
 
@@ -22,16 +22,16 @@ def add_tracker_options(parser: argparse.ArgumentParser) -> None:
                         help="limbs+edges: also score the arm strips by whether their centre "
                         "lines differ from the video's median background, for a static camera "
                         "(default median; none: off)")
-    parser.add_argument("--refine-steps", type=int, default=None, metavar="N",
+    parser.add_argument("--refine-steps", type=integer(0), default=None, metavar="N",
                         help="Gauss-Newton steps of the full-state refinement stage of the "
                         "reported pose, for any method (0: none). Default: the latent "
                         "tracker refines with 10 steps (none with --likelihood markers), "
                         "CONDENSATION and MHT report their own estimate; giving this or an "
                         "arm option runs the same stage for any method")
-    parser.add_argument("--arm-grid", type=int, default=None, metavar="N",
+    parser.add_argument("--arm-grid", type=integer(0), default=None, metavar="N",
                         help="angle offsets per arm joint of the arm search that starts each "
                         "refinement (odd; default 7; 0: no search)")
-    parser.add_argument("--arm-momentum", type=float, default=None, metavar="M",
+    parser.add_argument("--arm-momentum", type=real(0.0, 1.0), default=None, metavar="M",
                         help="the arm search also searches about the arm angles moved on by M "
                         "times their change over the last frame (0 to 1; default 1; 0: about "
                         "the carried arm alone)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jaxtrack.cli._common import UserError
+from jaxtrack.cli._common import UserError, output_directory, seed
 
 __all__ = ["add_parser"]
 
@@ -28,7 +28,7 @@ def add_parser(subparsers) -> None:
             "latent_space.png (the prior's latent space) and metrics.json (every number "
             "printed). The prior can be given to jaxtrack track --model "
             f"{OUTPUT}/gplvm_waves.npz."))
-    parser.add_argument("--seed", type=int, default=0,
+    parser.add_argument("--seed", type=seed, default=0,
                         help="random seed of training, rendering and the first tracker run "
                         "(default 0)")
     parser.set_defaults(handler=run)
@@ -38,11 +38,10 @@ def run(args: argparse.Namespace) -> int:
     from jaxtrack.experiments.demo import run_demo
     from jaxtrack.priors.gplvm import GPLVMFormatError
 
-    if args.seed < 0:
-        raise UserError(f"--seed must be 0 or more, got {args.seed}")
     if OUTPUT.exists() and not OUTPUT.is_dir():
         raise UserError(f"./{OUTPUT} exists and is not a folder; the demo writes its outputs "
                         "into that folder: move or delete the file and run again")
+    output_directory(OUTPUT, "the demo's output folder")
     cache = OUTPUT / "gplvm_waves.npz"
     if cache.exists() and not cache.is_file():
         raise UserError(f"{cache} exists and is not a file; delete it and run again to retrain")

@@ -18,7 +18,10 @@ from jaxtrack.cli._common import (
     check_memory,
     check_prior_file,
     check_seed,
+    integer,
     load_clip_sources,
+    real,
+    seed,
 )
 from jaxtrack.cli._options import add_tracker_options, tracker_options
 from jaxtrack.priors.gplvm import OPTIMISERS
@@ -79,9 +82,9 @@ def add_parser(subparsers) -> None:
                              ".bvh/.amc files (required for latent, condensation and mht; "
                              "linear-combination and mixed-state default to their test clips)")
     add_asf_option(parser)
-    parser.add_argument("--particles", type=int, default=None,
+    parser.add_argument("--particles", type=integer(1), default=None,
                         help="particles (modes for mht); default 200 / 1000 / 10")
-    parser.add_argument("--seed", type=int, default=0,
+    parser.add_argument("--seed", type=seed, default=0,
                         help="random seed of training, viewpoints, rendering and tracking "
                              "(default 0)")
     parser.add_argument("--prior-optimiser", choices=OPTIMISERS, default="bfgs",
@@ -96,12 +99,14 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--allow-same-subject", action="store_true",
                         help="score --test clips whose subject (jaxtrack.data.splits) also "
                              "performed a --train clip; by default that is refused")
-    parser.add_argument("--views", type=int, default=2, help="views per test clip (default 2)")
+    parser.add_argument("--views", type=integer(1), default=2,
+                        help="views per test clip (default 2)")
     parser.add_argument("--backgrounds", nargs="+", default=["photo", "clutter"],
                         choices=("plain", "photo", "clutter"),
                         help="what each test clip is rendered over: a plain grey, a real photo, "
                         "or synthetic clutter (default photo clutter)")
-    parser.add_argument("--max-frames", type=int, default=None, metavar="N",
+    parser.add_argument("--max-frames", type=integer(2, reason="(frame 0 starts the tracker)"),
+                        default=None, metavar="N",
                         help="track at most the first N frames of each test clip (at 30 fps; "
                              "default: all)")
     parser.add_argument("--json", required=True, type=Path, metavar="OUT.json",
@@ -111,26 +116,27 @@ def add_parser(subparsers) -> None:
                         help="also write error plots and overlay videos into DIR")
     group = parser.add_argument_group("linear-combination and mixed-state")
     # linear-combination options
-    group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
+    group.add_argument("--cameras", type=integer(0), nargs="+", default=None, metavar="INDEX",
                        help="linear-combination: Pose2Sim cameras (0-3) to render through "
                        "(default all four); mixed-state: also render the test clips through "
                        "these (default none)")
-    group.add_argument("--iterations", type=int, default=None,
+    group.add_argument("--iterations", type=integer(1), default=None,
                        help="linear-combination: CONDENSATION iterations per frame (default 5)")
     # mixed-state options
-    group.add_argument("--bins", type=int, default=None, metavar="B",
+    group.add_argument("--bins", type=integer(1), default=None, metavar="B",
                        help="mixed-state: bins per axis of the silhouette projection histograms "
                        "(default 16)")
-    group.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
+    group.add_argument("--azimuths", type=real(-180.0, 180.0, unit=" degrees"), nargs="+",
+                       default=None, metavar="DEGREES",
                        help="mixed-state: camera azimuths each --train and --test clip is "
                        "rendered from, degrees from the subject's facing direction (default 90 "
                        "-90 45 -45 0)")
     group.add_argument("--size", default=None, metavar="WIDTHxHEIGHT",
                        help="mixed-state: size of the rendered images (default 640x480)")
-    group.add_argument("--lag", type=int, default=None, metavar="FRAMES",
+    group.add_argument("--lag", type=integer(0), default=None, metavar="FRAMES",
                        help="mixed-state: lag of the fixed-lag smoother scored beside the "
                        "whole-sequence one (default 10)")
-    group.add_argument("--train-max-frames", type=int, default=None, metavar="N",
+    group.add_argument("--train-max-frames", type=integer(2), default=None, metavar="N",
                        help="mixed-state: at most the first N frames of each --train clip "
                        "(default: all)")
     parser.set_defaults(handler=run)

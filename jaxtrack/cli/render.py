@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from jaxtrack.cli._common import UserError
+from jaxtrack.cli._common import UserError, integer, output_folder, real, seed
 
 __all__ = ["add_parser"]
 
 # the mp4 writer (OpenCV's FFmpeg mpeg4) refuses rates below about 0.01 and above 65535
 _MIN_FPS, _MAX_FPS = 0.1, 10000.0
+_LIMIT_TEXT = "300 MB"  # jaxtrack._files.LARGE_OUTPUT_BYTES, for the help text
 
 
 def add_parser(subparsers) -> None:
@@ -42,47 +43,72 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--frames", metavar="START:STOP",
                         help="frame range of the clip, at its own rate (default: all)")
     parser.add_argument("--fps", metavar="F",
+                        type=real(_MIN_FPS, _MAX_FPS, unit=" frames per second"),
                         help=f"resample to F frames per second ({_MIN_FPS:g} to {_MAX_FPS:g}; "
                         "default: the clip's own rate)")
-    parser.add_argument("--seed", default="0", metavar="S", help="random seed (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, metavar="S",
+                        help="random seed, 0 to 2**32 - 1 (default 0)")
     parser.add_argument("--size", metavar="WxH",
                         help="image size (default 640x480; qca: the camera's own size)")
     parser.add_argument("--markers", default="humaneva15", choices=("humaneva15", "upper12"),
                         help="ground-truth marker set (default humaneva15)")
-    parser.add_argument("--occluders", default="0", metavar="N",
+    parser.add_argument("--occluders", type=integer(0, 1000), default=0, metavar="N",
                         help="rectangles sweeping across the figure (default 0)")
-    parser.add_argument("--noise", default="0", metavar="STD",
+    parser.add_argument("--noise", type=real(0.0, 255.0, unit=" grey levels"), default=0.0,
+                        metavar="STD",
                         help="Gaussian pixel noise, grey levels (default 0)")
-    parser.add_argument("--blur", default="0", metavar="SIGMA",
+    parser.add_argument("--blur", type=real(0.0, 1000.0, unit=" pixels"), default=0.0,
+                        metavar="SIGMA",
                         help="Gaussian blur, pixels (default 0)")
+    parser.add_argument("--allow-large", action="store_true",
+                        help="write --out even when it will be larger than "
+                        f"{_LIMIT_TEXT} (the rendered frames are stored uncompressed: 640x480 "
+                        "takes about 1 MB a frame); without it such a render is refused before "
+                        "anything is rendered")
     parser.set_defaults(handler=run)
 
 
-def _render_number(text: str, name: str, kind=float, minimum: float | None = None):
-    try:
-        value = kind(text)
-    except ValueError:
-        raise UserError(f"{name} must be a{'n integer' if kind is int else ' number'}, "
-                        f"got {text!r}") from None
-    if minimum is not None and not value >= minimum:
-        raise UserError(f"{name} must be at least {minimum}, got {text!r}")
-    return value
-
-
 def _render_output(text: str, option: str):
+    """An output file of ``render``: its folder must exist and take a new file (probed)."""
     from pathlib import Path
 
     path = Path(text)
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise UserError(f"{option} {text} is a folder; give a file name")
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"cannot write {option} {text}: {folder} is a file, not a folder")
     if not folder.is_dir():
         raise UserError(f"cannot write {option} {text}: folder {folder} does not exist")
-    import os
-
-    if not os.access(folder, os.W_OK):
-        raise UserError(f"cannot write {option} {text}: folder {folder} is not writable")
+    output_folder(path, option)
     return path
+
+
+def sequence_bytes(num_frames: int, image_size: tuple[int, int]) -> int:
+    """Bytes of a saved sequence of ``num_frames`` frames of ``image_size`` ``(width,
+    height)``: its RGB frames and packed silhouettes, stored uncompressed (the ground truth
+    adds a few kB)."""
+    width, height = image_size
+    return num_frames * height * (3 * width + (width + 7) // 8)
+
+
+def _check_output_size(out, num_frames: int, image_size: tuple[int, int], allow: bool) -> None:
+    """Say the size of ``--out`` before anything is rendered, and refuse one above
+    :data:`jaxtrack._files.LARGE_OUTPUT_BYTES` unless ``--allow-large``."""
+    import sys
+
+    from jaxtrack import _files
+
+    size = sequence_bytes(num_frames, image_size)
+    what = f"{num_frames} frames of {image_size[0]}x{image_size[1]}"
+    if size > _files.LARGE_OUTPUT_BYTES and not allow:
+        limit = _files.format_bytes(_files.LARGE_OUTPUT_BYTES)
+        raise UserError(f"--out {out} would be about {_files.format_bytes(size)} ({what}, "
+                        f"uncompressed), more than {limit}; "
+                        "render fewer frames (--frames START:STOP, a lower --fps) or smaller "
+                        "ones (--size), or pass --allow-large")
+    print(f"rendering {what} -> {out} (about {_files.format_bytes(size)})", file=sys.stderr,
+          flush=True)
 
 
 def _resampled_frames(motion, fps: float) -> int:
@@ -163,10 +189,7 @@ def run(args: argparse.Namespace) -> int:
 
     out = _render_output(args.out, "--out")
     video = _render_output(args.video, "--video") if args.video else None
-    seed = _render_number(args.seed, "--seed", int, 0)
-    occluders = _render_number(args.occluders, "--occluders", int, 0)
-    noise = _render_number(args.noise, "--noise", float, 0.0)
-    blur = _render_number(args.blur, "--blur", float, 0.0)
+    seed, occluders, noise, blur = args.seed, args.occluders, args.noise, args.blur
     size = None
     if args.size:
         width, _, height = args.size.lower().partition("x")
@@ -196,10 +219,7 @@ def run(args: argparse.Namespace) -> int:
             start, _, stop = args.frames.partition(":")
             motion = motion.select(int(start or 0), int(stop) if stop else None)
         if args.fps:
-            fps = _render_number(args.fps, "--fps", float)
-            if not _MIN_FPS <= fps <= _MAX_FPS:
-                raise UserError(f"--fps must be between {_MIN_FPS:g} and {_MAX_FPS:g} frames "
-                                f"per second, got {args.fps}")
+            fps = args.fps
             known_size = size or ((640, 480) if args.camera in ("frontal", "random") else None)
             _check_render_memory(_resampled_frames(motion, fps), known_size, noise > 0)
             motion = motion.resample(fps)
@@ -211,30 +231,30 @@ def run(args: argparse.Namespace) -> int:
     except (MarkerMapError, ValueError) as error:  # a rig without hips/shoulders, say
         raise UserError(" ".join(str(error).split())) from None
 
-    from jaxtrack._files import warn_large_output
     from jaxtrack.body.render import render_motion
     from jaxtrack.body.sequence import save_sequence
     from jaxtrack.vision import write_video
 
     _check_render_memory(motion.num_frames, camera.image_size, noise > 0)
+    _check_output_size(out, motion.num_frames, tuple(camera.image_size), args.allow_large)
     try:
         sequence = render_motion(motion, camera, background=args.background, markers=markers,
                                  seed=seed, noise_std=noise, blur=blur, occluders=occluders)
     except (MarkerMapError, ValueError) as error:
         raise UserError(" ".join(str(error).split())) from None
-    width, height = sequence.image_size
-    warn_large_output(out, sequence.num_frames * height * (3 * width + (width + 7) // 8),
-                      f"{sequence.num_frames} uncompressed frames of {width}x{height}")
-    try:
-        save_sequence(out, sequence)
-    except OSError as error:
-        raise UserError(f"cannot write --out {out}: {error.strerror or error}") from None
-    if video is not None:
+    from jaxtrack.cli._common import outputs_or_nothing
+
+    with outputs_or_nothing() as written:  # all or nothing, Ctrl-C included
         try:
-            write_video(sequence, video, overlay=True)
+            written.append(save_sequence(out, sequence))
         except OSError as error:
-            out.unlink(missing_ok=True)  # all or nothing
-            raise UserError(f"cannot write --video {video}: {error.strerror or error}") from None
+            raise UserError(f"cannot write --out {out}: {error.strerror or error}") from None
+        if video is not None:
+            try:
+                written.append(write_video(sequence, video, overlay=True))
+            except OSError as error:
+                raise UserError(f"cannot write --video {video}: "
+                                f"{error.strerror or error}") from None
     visible = sequence.visibility.mean() if sequence.visibility.size else 0.0
     print(f"rendered {sequence.num_frames} frames {sequence.image_size[0]}x"
           f"{sequence.image_size[1]} of {motion.source} ({visible:.0%} of markers visible) "

@@ -27,7 +27,18 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack.cli._common import UserError, fit_mask_file, read_mask_files
+from jaxtrack.cli._common import (
+    UserError,
+    check_seed,
+    fit_mask_file,
+    integer,
+    one_line,
+    output_directory,
+    outputs_or_nothing,
+    read_mask_files,
+    real,
+    seed,
+)
 from jaxtrack.cli._options import add_tracker_options, tracker_options
 
 __all__ = ["add_parser"]
@@ -76,14 +87,14 @@ def add_parser(subparsers) -> None:
                         "first frame's --keypoints, or the 12 markers given by hand (see below)")
     parser.add_argument("--out", required=True, type=Path, metavar="DIR",
                         help="folder to write overlay.mp4 and track.json into (created)")
-    parser.add_argument("--particles", type=int, default=None,
+    parser.add_argument("--particles", type=integer(1), default=None,
                         help="particles of the filter (default 200 for latent, 300 for "
                         "linear-combination, 500 for mixed-state; latent: memory grows by "
                         f"about {_BYTES_PER_PARTICLE // 1000} kB per particle)")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="random seed of the particle filter (default 0)")
+    parser.add_argument("--seed", type=seed, default=0,
+                        help="random seed of the particle filter, 0 to 2**32 - 1 (default 0)")
     add_tracker_options(parser)
-    parser.add_argument("--max-size", type=int, default=960, metavar="PX",
+    parser.add_argument("--max-size", type=integer(32), default=960, metavar="PX",
                         help="downscale so the longer side is at most PX (default 960)")
     parser.add_argument("--frames", metavar="START:STOP", help="frame range (default: all)")
     group = parser.add_argument_group("linear-combination and mixed-state")
@@ -91,9 +102,9 @@ def add_parser(subparsers) -> None:
     group.add_argument("--calibration", type=Path, default=None, metavar="FILE",
                        help="linear-combination: the cameras' calibration (a Pose2Sim "
                        "Calib.qca.txt), one camera per --video in order")
-    group.add_argument("--iterations", type=int, default=None,
+    group.add_argument("--iterations", type=integer(1), default=None,
                        help="linear-combination: CONDENSATION iterations per frame (default 5)")
-    group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
+    group.add_argument("--cameras", type=integer(0), nargs="+", default=None, metavar="INDEX",
                        help="linear-combination: which cameras of --calibration (0-based, in "
                        "its order) filmed the --video files, one per video (default: all)")
     group.add_argument("--view-selection", choices=("ambiguity", "fitness", "paper"),
@@ -106,7 +117,7 @@ def add_parser(subparsers) -> None:
                        help="linear-combination: the 3-D skeleton reported, the particles' "
                        "weighted mean (the default, chosen on validation) or the best "
                        "particle's (the paper's)")
-    parser.add_argument("--coverage-weight", type=float, default=None, metavar="NU",
+    parser.add_argument("--coverage-weight", type=real(0.0), default=None, metavar="NU",
                         help="latent, with --masks: also charge the masks for what the body "
                         "leaves unexplained, NU nats per unit of the coverage term "
                         "(jaxtrack.likelihoods.edges; default off)")
@@ -116,7 +127,7 @@ def add_parser(subparsers) -> None:
                         "(NaN where not found) and optionally 'confidence' (frames, 12), one "
                         "row per video frame from the first (jaxtrack.vision.keypoints); the "
                         "likelihood's keypoint term scores them")
-    parser.add_argument("--keypoint-weight", type=float, default=None, metavar="ETA",
+    parser.add_argument("--keypoint-weight", type=real(0.0), default=None, metavar="ETA",
                         help="latent, with --keypoints: the keypoint term's weight (default "
                         "1.5, the Cauchy density's own: jaxtrack.likelihoods.edges)")
     parser.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
@@ -201,9 +212,9 @@ def _frame_range(text: str | None) -> tuple[int, int | None]:
     return first, last
 
 
-def _manual_markers(text: str) -> np.ndarray:
-    """The 12 markers ``(12, 2)`` of ``--init manual:...`` in video pixels, checked before
-    anything is loaded: 24 finite numbers and a torso of a few pixels at least."""
+def _manual_numbers(text: str) -> np.ndarray:
+    """The 12 markers ``(12, 2)`` of ``--init manual:...`` in video pixels: 24 finite
+    numbers, checked before anything is loaded."""
     from jaxtrack.body import UPPER_BODY_12
 
     try:
@@ -218,7 +229,23 @@ def _manual_markers(text: str) -> np.ndarray:
         bad = [f"{UPPER_BODY_12[i // 2]} {'xy'[i % 2]} ({text.split(',')[i].strip()})"
                for i in np.flatnonzero(~np.isfinite(values))]
         raise UserError(f"--init manual: expects finite numbers; not finite: {', '.join(bad)}")
-    markers = values.reshape(12, 2)
+    return values.reshape(12, 2)
+
+
+def _manual_markers(text: str, size: tuple[int, int]) -> np.ndarray:
+    """The 12 markers ``(12, 2)`` of ``--init manual:...`` in video pixels, checked against the
+    video's ``(width, height)`` before anything is tracked: 24 finite numbers, every marker
+    inside the frame (those outside are named), and a torso of a few pixels at least."""
+    from jaxtrack.body import UPPER_BODY_12
+
+    markers = _manual_numbers(text)
+    width, height = size
+    outside = [f"{name} ({x:g}, {y:g})" for name, (x, y) in zip(UPPER_BODY_12, markers,
+                                                                 strict=True)
+               if not (0 <= x <= width and 0 <= y <= height)]
+    if outside:
+        raise UserError(f"--init manual: {len(outside)} marker(s) outside the {width}x{height} "
+                        f"video (x 0-{width}, y 0-{height}, video pixels): {', '.join(outside)}")
     neck, pelvis = UPPER_BODY_12.index("neck"), UPPER_BODY_12.index("pelvis")
     torso = float(np.linalg.norm(markers[pelvis] - markers[neck]))
     if torso < _MIN_TORSO_PX:
@@ -228,15 +255,17 @@ def _manual_markers(text: str) -> np.ndarray:
     return markers
 
 
-def _inside(markers: np.ndarray, scale: float, size: tuple[int, int]) -> np.ndarray:
-    """``markers`` (video pixels) in tracking pixels, if they lie inside the video."""
-    width, height = size
-    if np.any(markers < 0) or np.any(markers[:, 0] > width) or np.any(markers[:, 1] > height):
-        raise UserError(f"--init manual: markers must lie inside the {width}x{height} video")
-    return markers * scale
+def manual_instead() -> str:
+    """What to give when ``--init face`` finds nobody: the other two initialisations, with the
+    markers' order."""
+    from jaxtrack.body import UPPER_BODY_12
+
+    return (f"give the first frame's pose instead: --init manual:x,y,... (24 numbers, x and y "
+            f"of {', '.join(UPPER_BODY_12)}, in video pixels) or --init keypoints --keypoints "
+            f"FILE (a detector's keypoints)")
 
 
-def _initialise(args, model, template, frames, scale, masks=None, keypoints=None
+def _initialise(args, model, template, frames, scale, original, masks=None, keypoints=None
                 ) -> tuple[np.ndarray, dict]:
     """First-frame markers (tracking pixels) and a description of how they were found; with
     ``masks`` (the person's masks of the tracked frames) ``--init face`` reads the first frame's
@@ -246,10 +275,8 @@ def _initialise(args, model, template, frames, scale, masks=None, keypoints=None
     from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
     from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask, median_background
 
-    height, width = frames.shape[1:3]
-    original = (round(width / scale), round(height / scale))
     if args.init.startswith("manual:"):
-        markers = _inside(_manual_markers(args.init[len("manual:"):]), scale, original)
+        markers = _manual_markers(args.init[len("manual:"):], original) * scale
         return markers, {"method": "manual"}
     if args.init == "keypoints":
         points, confidence = keypoints
@@ -267,7 +294,7 @@ def _initialise(args, model, template, frames, scale, masks=None, keypoints=None
         foreground, source = np.asarray(masks[0], bool), "masks"
         if not foreground.any():
             raise UserError(f"--init face: the first frame's mask in {args.masks[0]} is empty; "
-                            f"give masks that hold the person there, or --init manual:...")
+                            f"give masks that hold the person there, or {manual_instead()}")
     else:
         if len(frames) < 3:
             raise UserError("--init face needs at least 3 frames (a median background)")
@@ -276,13 +303,29 @@ def _initialise(args, model, template, frames, scale, masks=None, keypoints=None
     try:
         found = auto_initialise(model, template, frames[0], foreground)
     except AutoInitError as error:
-        raise UserError(f"automatic initialisation failed on {args.video}: {error}") from None
+        reason = one_line(error).removesuffix("; give the first pose by hand")
+        raise UserError(f"--init face found nobody on {args.video}: {reason}; "
+                        f"{manual_instead()}") from None
     except FaceDetectorUnavailableError as error:
         raise UserError(f"--init face: {error}") from None
     return found.markers, {
         "method": "face", "source": found.source, "score": found.score, "foreground": source,
         "box": (found.face / scale).round(1).tolist(), "torso_px": found.torso / scale,
         "boxes_tried": (found.faces / scale).round(1).tolist()}
+
+
+def _options_record(args: argparse.Namespace) -> dict:
+    """The command line's options as ``track.json`` records them (paths as text)."""
+    record = {}
+    for name, value in sorted(vars(args).items()):
+        if callable(value):
+            continue
+        if isinstance(value, Path):
+            value = str(value)
+        elif isinstance(value, list | tuple):
+            value = [str(item) if isinstance(item, Path) else item for item in value]
+        record[name] = value
+    return record
 
 
 def run(args: argparse.Namespace) -> int:
@@ -292,14 +335,15 @@ def run(args: argparse.Namespace) -> int:
 
     from jaxtrack._files import write_json_atomically
     from jaxtrack.body import UPPER_BODY_12
+    from jaxtrack.cli._status import LOST_RULE, frame_statuses, status_counts, status_legend
     from jaxtrack.trackers import Engine, latent_tracker, track
     from jaxtrack.vision import (
         VideoError,
         median_grey_background,
         read_video,
         to_grey,
-        write_overlay_video,
     )
+    from jaxtrack.vision.overlay import write_overlay_video_from_file
 
     if args.method == "linear-combination":
         from jaxtrack.cli import _linear_combination
@@ -315,6 +359,7 @@ def run(args: argparse.Namespace) -> int:
                             f"(it is a linear-combination setting)")
     if len(args.video) != 1:
         raise UserError(f"--video: --method latent tracks one video, got {len(args.video)}")
+    options_record = _options_record(args)
     given_masks = read_mask_files(args.masks, 1)[0]
     args.video = args.video[0]
     if args.particles is None:
@@ -322,9 +367,10 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     if args.particles < 1:
         raise UserError(f"--particles must be positive, got {args.particles}")
+    check_seed(args.seed)
     _check_particle_memory(args.particles)
     if args.init.startswith("manual:"):
-        _manual_markers(args.init[len("manual:"):])  # refused before anything is loaded
+        _manual_numbers(args.init[len("manual:"):])  # refused before anything is loaded
     elif args.init not in ("face", "keypoints"):
         raise UserError(f"--init must be face, keypoints or manual:x,y,... (24 numbers), got "
                         f"{args.init!r}")
@@ -360,13 +406,19 @@ def run(args: argparse.Namespace) -> int:
             likelihood = dataclasses.replace(likelihood, **{name: value})
         except ValueError as error:
             raise UserError(f"{option}: {error}") from None
-    if args.out.exists() and not args.out.is_dir():
-        raise UserError(f"--out {args.out} is a file; give a folder")
-    model, template = _load_prior(args.model)
+    output_directory(args.out, "--out")  # probed before any frame is read
     start, stop = _frame_range(args.frames)
+    if not args.model.is_file():
+        raise UserError(f"--model {args.model}: no such file")
     try:
         probe = read_video(args.video, start=start, max_frames=1)
-        height, width = probe.frames.shape[1:3]
+    except VideoError as error:
+        raise UserError(f"--video: {' '.join(str(error).split())}") from None
+    height, width = probe.frames.shape[1:3]
+    if args.init.startswith("manual:"):  # against the video's own size, before any work
+        _manual_markers(args.init[len("manual:"):], (width, height))
+    model, template = _load_prior(args.model)
+    try:
         scale = min(1.0, args.max_size / max(height, width))
         video = read_video(args.video, start=start,
                            max_frames=None if stop is None else stop - start, scale=scale)
@@ -380,16 +432,17 @@ def run(args: argparse.Namespace) -> int:
     fps = video.fps if math.isfinite(video.fps) else None
     print(f"{args.video}: {len(frames)} frames {width}x{height}"
           + (f" at {fps:.0f} fps" if fps else "") + f", tracked at {frames.shape[2]}x"
-          f"{frames.shape[1]}")
+          f"{frames.shape[1]}", flush=True)
     masks = None if given_masks is None else fit_mask_file(
         given_masks, args.masks[0], video.frame_indices, (frames.shape[2], frames.shape[1]))
     keypoints = None if given_keypoints is None else _keypoints_for_frames(
         given_keypoints, args.keypoints, video.frame_indices, scale)
-    markers, init = _initialise(args, model, template, frames, scale, masks, keypoints)
+    markers, init = _initialise(args, model, template, frames, scale, (width, height), masks,
+                                keypoints)
     print(f"initialised ({init['method']}"
           + (f", {init['source']} box, overlap {init['score']:.2f} against the "
              f"{init['foreground']}" if "score" in init else "")
-          + ")")
+          + ")", flush=True)
     grey = to_grey(frames)
     # a median of one or two frames holds the person
     foreground = options.foreground and len(grey) >= 3
@@ -401,13 +454,10 @@ def run(args: argparse.Namespace) -> int:
     if not (np.all(np.isfinite(result.markers)) and np.all(np.isfinite(result.best_markers))):
         bad = int(np.argmax(~np.isfinite(result.markers).all(axis=(1, 2))))
         raise UserError(f"tracking produced non-finite markers from frame {bad}; nothing written")
-    args.out.mkdir(parents=True, exist_ok=True)
-    try:
-        video_path = write_overlay_video(frames, {"latent": result.markers}, args.out /
-                                         "overlay.mp4", fps=fps or 30.0,
-                                         marker_names=UPPER_BODY_12)
-    except OSError as error:
-        raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
+    statuses = frame_statuses(
+        result.markers, (frames.shape[2], frames.shape[1]), degenerate=result.degenerate,
+        no_person=None if masks is None else ~np.asarray(masks).any(axis=(1, 2)),
+        log_likelihood=result.log_likelihood)
 
     def named(points):
         return {name: [round(float(x) / scale, 2), round(float(y) / scale, 2)]
@@ -417,20 +467,38 @@ def run(args: argparse.Namespace) -> int:
     per_frame = [{
         "frame": int(index), "time_s": float(index / video.source_fps)
         if math.isfinite(video.source_fps) else None,
+        "status": statuses[t].value,
         "markers": named(result.markers[t]), "best_markers": named(result.best_markers[t]),
         "ess": float(result.ess[t]), "log_likelihood": float(result.log_likelihood[t]),
         "degenerate": bool(result.degenerate[t]),
     } for t, index in enumerate(video.frame_indices)]
-    json_path = write_json_atomically(args.out / "track.json", {
-        "video": str(args.video), "model": str(args.model), "size": [width, height],
-        "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
-        "particles": args.particles, "seed": args.seed, "tracker": result.options,
-        "masks": None if args.masks is None else str(args.masks[0]),
-        "keypoints": None if args.keypoints is None else str(args.keypoints), "init": init,
-        "seconds_per_frame": result.seconds_per_frame, "compile_seconds": result.compile_seconds,
-        "frames": per_frame})
+    counts = status_counts(statuses)
+    with outputs_or_nothing(args.out) as written:  # all or nothing, Ctrl-C included
+        try:  # at the video's own size: the markers scaled back from the tracked frames
+            written.append(write_overlay_video_from_file(
+                args.video, video.frame_indices, {"latent": result.markers / scale},
+                args.out / "overlay.mp4", fps=fps or 30.0, marker_names=UPPER_BODY_12,
+                labels=[f"{t + 1}/{len(statuses)} {status.value}"
+                        for t, status in enumerate(statuses)]))
+        except (OSError, VideoError) as error:
+            raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {one_line(error)}"
+                            ) from None
+        video_path = written[-1]
+        written.append(write_json_atomically(args.out / "track.json", {
+            "method": "latent", "options": options_record,
+            "video": str(args.video), "model": str(args.model), "size": [width, height],
+            "tracked_size": [frames.shape[2], frames.shape[1]], "fps": fps,
+            "particles": args.particles, "seed": args.seed, "tracker": result.options,
+            "masks": None if args.masks is None else str(args.masks[0]),
+            "keypoints": None if args.keypoints is None else str(args.keypoints),
+            "init": init, "statuses": status_legend(), "lost_rule": LOST_RULE,
+            "status_counts": counts,
+            "seconds_per_frame": result.seconds_per_frame,
+            "compile_seconds": result.compile_seconds, "frames": per_frame}))
+        json_path = written[-1]
+    shown = ", ".join(f"{count} {name}" for name, count in counts.items() if count)
     print(f"tracked {len(frames)} frames: {1e3 * result.seconds_per_frame:.2f} ms/frame "
-          f"(compile {result.compile_seconds:.1f} s), {int(result.degenerate.sum())} degenerate "
-          f"frame(s); total {time.perf_counter() - started:.1f} s")
+          f"(compile {result.compile_seconds:.1f} s); frames: {shown}; total "
+          f"{time.perf_counter() - started:.1f} s")
     print(f"  wrote {video_path}\n  wrote {json_path}")
     return 0

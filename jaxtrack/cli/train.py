@@ -16,8 +16,11 @@ from jaxtrack.cli._common import (
     check_clips,
     check_prior_file,
     check_seed,
+    integer,
     load_clip_sources,
     output_folder,
+    real,
+    seed,
 )
 
 __all__ = ["METHODS", "add_parser"]
@@ -50,38 +53,41 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--out", required=True, type=Path, metavar="MODEL.npz",
                         help="model file to write (reused when it holds a model trained with "
                              "the same settings)")
-    parser.add_argument("--views", type=int, default=5,
+    parser.add_argument("--views", type=integer(1), default=5,
                         help="latent: viewpoints per clip (default 5)")
-    parser.add_argument("--active", type=int, default=200, help="active set size (default 200)")
-    parser.add_argument("--iterations", type=int, default=3,
+    parser.add_argument("--active", type=integer(1), default=200,
+                        help="active set size (default 200)")
+    parser.add_argument("--iterations", type=integer(1), default=3,
                         help="outer iterations of Algorithm 1 (default 3)")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="random seed of the training (default 0)")
+    parser.add_argument("--seed", type=seed, default=0,
+                        help="random seed of the training, 0 to 2**32 - 1 (default 0)")
     parser.add_argument("--parts", action="store_true",
                         help="latent: one GPLVM per body part (torso, each arm) instead of one "
                              "of the whole upper body: reconstructs new people's poses better "
                              "(docs/tracking.md, 'A prior that generalises across people')")
     parser.add_argument("--mirror", action="store_true",
                         help="latent: also learn from every clip's left-right mirror image")
-    parser.add_argument("--back-constraint", type=float, default=None, metavar="WIDTH",
+    parser.add_argument("--back-constraint", type=real(positive=True, unit=" width"),
+                        default=None, metavar="WIDTH",
                         help="latent: a back-constrained GPLVM, every latent a smooth function "
                              "of its pose, with this kernel width (relative to the median "
                              "distance between poses; docs/tracking.md)")
     group = parser.add_argument_group("linear-combination and mixed-state")
     # linear-combination options
-    group.add_argument("--cameras", type=int, nargs="+", default=None, metavar="INDEX",
+    group.add_argument("--cameras", type=integer(0), nargs="+", default=None, metavar="INDEX",
                        help="linear-combination: Pose2Sim cameras (0-3) each clip is rendered "
                        "through (default all four)")
-    group.add_argument("--clusters", type=int, default=None,
+    group.add_argument("--clusters", type=integer(2), default=None,
                        help="linear-combination: k-means clusters of the coefficient space")
     # mixed-state options
-    group.add_argument("--max-frames", type=int, default=None, metavar="N",
+    group.add_argument("--max-frames", type=integer(2), default=None, metavar="N",
                        help="linear-combination, mixed-state: at most the first N frames of "
                        "each clip (default: all)")
-    group.add_argument("--bins", type=int, default=None, metavar="B",
+    group.add_argument("--bins", type=integer(1), default=None, metavar="B",
                        help="mixed-state: bins per axis of the silhouette projection histograms "
                        "(default 16)")
-    group.add_argument("--azimuths", type=float, nargs="+", default=None, metavar="DEGREES",
+    group.add_argument("--azimuths", type=real(-180.0, 180.0, unit=" degrees"), nargs="+",
+                       default=None, metavar="DEGREES",
                        help="mixed-state: camera azimuths each clip is rendered from, degrees "
                        "from the subject's facing direction (default 90 -90 45 -45 0)")
     group.add_argument("--size", default=None, metavar="WIDTHxHEIGHT",

@@ -4,10 +4,11 @@
 truth (when given) thin and white on top, so an estimate lying on it never hides it, its markers
 that are not visible drawn hollow; a legend naming the colours and an optional frame counter.
 It serves both videos: :func:`write_overlay_video` (several trackers' estimates, for looking
-at what the numbers say) and :func:`write_video` (a rendered sequence, optionally with its
-ground truth). Videos are written by :func:`jaxtrack.vision.video.write_frames`: OpenCV
-`mp4v`, atomically (a failed write leaves no file). cv2 is imported inside the functions.
-The one drawer for every video: ``docs/layers.md``.
+at what the numbers say; :func:`write_overlay_video_from_file` draws them on a video file's own
+frames, at its own size, a chunk at a time) and :func:`write_video` (a rendered sequence,
+optionally with its ground truth). Videos are written by
+:func:`jaxtrack.vision.video.write_frames`: OpenCV `mp4v`, atomically (a failed write leaves
+no file). cv2 is imported inside the functions. The one drawer for every video: ``docs/layers.md``.
 """
 
 from __future__ import annotations
@@ -22,7 +23,8 @@ from jaxtrack.body.markers import marker_edges
 from jaxtrack.body.sequence import RenderedSequence
 from jaxtrack.vision.video import write_frames
 
-__all__ = ["METHOD_COLOURS", "TRUTH_COLOUR", "draw_tracks", "write_overlay_video", "write_video"]
+__all__ = ["METHOD_COLOURS", "TRUTH_COLOUR", "draw_tracks", "write_overlay_video",
+           "write_overlay_video_from_file", "write_video"]
 
 METHOD_COLOURS = (
     (255, 64, 64), (64, 160, 255), (64, 224, 64), (255, 208, 0), (224, 64, 255), (0, 224, 224),
@@ -192,6 +194,71 @@ def write_overlay_video(images: np.ndarray, tracks: Mapping[str, np.ndarray],
                           label=labels[t], colours=colours)
               for t in range(num_frames))
     return write_frames(frames, path, fps, (width, height))
+
+
+def write_overlay_video_from_file(video: str | os.PathLike, frame_indices: Sequence[int],
+                                  tracks: Mapping[str, np.ndarray], path: str | os.PathLike, *,
+                                  fps: float, marker_names: Sequence[str],
+                                  labels: Sequence[str] | None = None,
+                                  colours: Mapping[str, tuple[int, int, int]] | None = None,
+                                  chunk_size: int = 32) -> Path:
+    """Write an `.mp4` of a video file's own frames, at its own size, with every method's
+    estimate drawn on top (a tracker that ran on downscaled frames gives its markers scaled
+    back to the file's pixels). Frames are decoded a chunk at a time, so the file never has to
+    fit in memory.
+
+    Args:
+        video: the video file tracked.
+        frame_indices: `(time,)` the file's frames tracked, consecutive (every frame from the
+            first).
+        tracks: method -> `(time, markers, 2)` estimated markers in the file's own pixels.
+        path: the video file to write, atomically.
+        fps, marker_names, labels, colours: as for :func:`write_overlay_video`.
+        chunk_size: frames decoded at a time.
+
+    Returns:
+        The path.
+
+    Raises:
+        ValueError: frame indices that are not consecutive, or shapes that disagree.
+        jaxtrack.vision.VideoError: the file yields fewer frames than ``frame_indices``.
+        OSError: OpenCV cannot open a writer for the file.
+    """
+    from jaxtrack.vision.video import VideoError, iter_video_chunks, read_video
+
+    indices = np.asarray(frame_indices, np.int64)
+    if indices.ndim != 1 or len(indices) == 0 or np.any(np.diff(indices) != 1):
+        raise ValueError("frame_indices must be consecutive frame numbers, at least one")
+    num_frames = len(indices)
+    expected = (num_frames, len(marker_names), 2)
+    arrays = {}
+    for method, track in tracks.items():
+        arrays[method] = np.asarray(track, np.float64)
+        if arrays[method].shape != expected:
+            raise ValueError(f"tracks[{method!r}] has shape {arrays[method].shape}, expected "
+                             f"{expected}")
+    if not arrays:
+        raise ValueError("tracks is empty; give at least one method's (time, markers, 2) track")
+    if labels is None:
+        labels = [f"frame {t + 1}/{num_frames}" for t in range(num_frames)]
+    elif len(labels) != num_frames:
+        raise ValueError(f"labels has {len(labels)} texts for {num_frames} frames")
+    first = read_video(video, start=int(indices[0]), max_frames=1)
+    size = first.image_size
+
+    def frames():
+        done = 0
+        for chunk in iter_video_chunks(video, chunk_size, start=int(indices[0]),
+                                       max_frames=num_frames):
+            for image in chunk.frames:
+                yield draw_tracks(image, {m: track[done] for m, track in arrays.items()},
+                                  marker_names, label=labels[done], colours=colours)
+                done += 1
+        if done != num_frames:
+            raise VideoError(f"{video}: {done} frames from frame {indices[0]}, but "
+                             f"{num_frames} were tracked")
+
+    return write_frames(frames(), path, fps, size)
 
 
 def write_video(sequence: RenderedSequence, path: str | os.PathLike, fps: float | None = None, *,
