@@ -15,6 +15,13 @@ from jaxtrack.likelihoods.appearance import (
     make_appearance_templates,
     needs_edges,
 )
+from jaxtrack.likelihoods.detections import (
+    DetectionModel,
+    DetectionsFrame,
+    detection_model,
+    detections_frames,
+)
+from jaxtrack.likelihoods.detections import log_density as detections_log_density
 from jaxtrack.likelihoods.edges import (
     DEFAULT_BORDER_MARGIN,
     DEFAULT_BORDER_SCALES,
@@ -55,9 +62,11 @@ __all__ = [
     "DEFAULT_EDGE_TOLERANCE", "DEFAULT_EDGE_WEIGHT", "DEFAULT_LIKELIHOOD",
     "DEFAULT_LIMB_SHARPNESS", "DEFAULT_NCC_SHARPNESS", "DEFAULT_STRIP_WIDTH", "LIKELIHOODS",
     "LIMB_SEGMENTS",
-    "AppearanceTemplates", "EdgeLimbTemplates", "LimbTemplates", "NCCTemplates", "PartTemplates",
+    "AppearanceTemplates", "DetectionModel", "DetectionsFrame", "EdgeLimbTemplates",
+    "LimbTemplates", "NCCTemplates", "PartTemplates",
     "check_markers",
-    "bilinear_sample", "check_observations", "default_sharpness", "fit_border_widths",
+    "bilinear_sample", "check_observations", "default_sharpness", "detection_model",
+    "detections_frames", "detections_log_density", "fit_border_widths",
     "limb_edge_distances",
     "make_edge_limb_templates", "needs_edges",
     "limb_ncc_log_likelihood", "limb_ncc_scores", "limb_points", "make_appearance_templates",

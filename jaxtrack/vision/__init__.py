@@ -6,6 +6,16 @@ package does not need them.
 """
 
 from jaxtrack.vision.contours import resample_closed_curve, signed_area, silhouette_contour
+from jaxtrack.vision.detections import (
+    DetectionFileError,
+    Detections,
+    load_detections,
+    read_coco,
+    read_detections,
+    read_mediapipe,
+    read_openpose,
+    write_detections,
+)
 from jaxtrack.vision.edges import edge_distance_maps, edge_observations
 from jaxtrack.vision.faces import (
     FaceDetectorUnavailableError,
@@ -57,7 +67,9 @@ from jaxtrack.vision.video import (
 )
 
 __all__ = [
-    "METHOD_COLOURS", "TRUTH_COLOUR", "FaceDetectorUnavailableError", "KeypointFileError",
+    "METHOD_COLOURS", "TRUTH_COLOUR", "DetectionFileError", "Detections",
+    "FaceDetectorUnavailableError", "KeypointFileError", "load_detections", "read_coco",
+    "read_detections", "read_mediapipe", "read_openpose", "write_detections",
     "MaskFileError", "VideoError", "VideoFrames", "check_keypoints", "check_masks",
     "compose_views", "contour_panel", "detect_face",
     "detect_faces", "draw_contour", "draw_tracks", "edge_distance_maps", "edge_observations",
