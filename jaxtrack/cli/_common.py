@@ -274,9 +274,29 @@ def check_asf(asf: Path | None, sources: Sequence) -> None:
                         f"(catalogue clips keep their own skeleton)")
 
 
+TRAINING_FPS = 30.0
+"""The rate training takes a clip's frames at (``jaxtrack.priors.train.train_prior``'s and the
+experiments' default)."""
+
+
+def check_clip_frames(motion, spec: str, option: str, fps: float = TRAINING_FPS) -> None:
+    """A training clip must give at least two frames at ``fps`` (the prior's dynamics are
+    learned from consecutive frames): refused in one line naming the file and how many frames
+    it needs."""
+    step = max(motion.fps / fps, 1.0)
+    taken = len(range(0, math.ceil(max(motion.num_frames - 0.5, 0) / step)))
+    if taken < 2:
+        needed = math.floor(step + 0.5) + 1
+        raise UserError(f"{option} {spec}: {motion.num_frames} frame(s) at {motion.fps:g} fps "
+                        f"give {taken} at {fps:g} fps, the rate clips are trained on; the "
+                        f"motion's dynamics need two consecutive frames: give at least "
+                        f"{needed} frames")
+
+
 def load_clip_sources(sources: Sequence, option: str) -> None:
-    """Read every clip given by path and check that its rig supplies the upper-body markers;
-    catalogue clips are the tested ones and are read when used."""
+    """Read every clip given by path and check that its rig supplies the upper-body markers
+    and that it has frames enough to train on (:func:`check_clip_frames`); catalogue clips are
+    the tested ones and are read when used."""
     from jaxtrack.body.markers import UPPER_BODY_12, MarkerMapError, marker_joint_indices
     from jaxtrack.body.motion import MocapFormatError
 
@@ -284,9 +304,11 @@ def load_clip_sources(sources: Sequence, option: str) -> None:
         if source.from_catalogue:
             continue
         try:
-            marker_joint_indices(source.load(), UPPER_BODY_12)
+            motion = source.load()
+            marker_joint_indices(motion, UPPER_BODY_12)
         except (MocapFormatError, MarkerMapError, OSError) as error:
             raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
+        check_clip_frames(motion, source.spec, option)
 
 
 def check_prior_file(path: Path, what: str, remedy: str) -> None:

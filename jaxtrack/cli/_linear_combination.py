@@ -25,7 +25,6 @@ Every argument is checked before any work; a bad one raises :class:`UserError` (
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
 import time
 from pathlib import Path
@@ -43,7 +42,9 @@ from jaxtrack.cli._common import (
     fit_mask_file,
     load_clip_sources,
     one_line,
+    output_directory,
     output_folder,
+    outputs_or_nothing,
     pose2sim_cameras,
     read_mask_files,
 )
@@ -115,30 +116,6 @@ def _load(path: Path, what: str, remedy: str):
         raise UserError(f"{what} {path}: {reason}; {remedy}") from None
 
 
-@contextlib.contextmanager
-def _outputs(*folders: Path):
-    """Create ``folders``; if the body fails, remove the files it recorded in the yielded list
-    and the folders created here (when left empty), so a failure writes nothing."""
-    created, written = [], []
-    for folder in folders:
-        missing, existing = [], folder
-        while not existing.exists():
-            missing.append(existing)
-            existing = existing.parent
-        folder.mkdir(parents=True, exist_ok=True)
-        created.extend(missing)
-    created.sort(key=lambda folder: len(folder.parts), reverse=True)  # deepest first
-    try:
-        yield written
-    except BaseException:
-        for path in written:
-            Path(path).unlink(missing_ok=True)
-        for folder in created:
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
-
-
 # ----------------------------------------------------------------------------------- train
 
 
@@ -163,7 +140,7 @@ def train(args: argparse.Namespace) -> int:
     if args.out.is_file():  # only a model of this kind is replaced
         _load(args.out, "--out", "delete it or choose another --out")
     _training_clips(names, "--clips")
-    with _outputs(folder):
+    with outputs_or_nothing(folder):
         try:
             trained = lc.train(names, views=cameras, num_clusters=clusters,
                                max_frames=max_frames, seed=args.seed, output=args.out)
@@ -227,7 +204,7 @@ def evaluate(args: argparse.Namespace) -> int:
     trained = _cached_model(cache, train_clips, cameras, args.seed)
     load_clip_sources(test_sources, "--test")
     folders = (folder,) if args.plots is None else (folder, args.plots)
-    with _outputs(*folders) as written:
+    with outputs_or_nothing(*folders) as written:
         if trained is None:
             print(f"training on {len(train_clips)} clip(s) through camera(s) "
                   f"{' '.join(map(str, cameras))} -> {cache}", flush=True)
@@ -384,13 +361,14 @@ def track(args: argparse.Namespace) -> int:
     """``jaxtrack track --method linear-combination``."""
     import jax.random as jr
 
-    from jaxtrack.cli.track import _frame_range
+    from jaxtrack.cli.track import _frame_range, _options_record
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers import Engine
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
     from jaxtrack.vision import VideoError, median_background, read_video, write_views_video
 
     started = time.perf_counter()
+    options_record = _options_record(args)
     particles = at_least(args.particles, 1, "--particles", _PARTICLES)
     iterations = at_least(args.iterations, 1, "--iterations", _ITERATIONS)
     check_seed(args.seed)
@@ -403,9 +381,7 @@ def track(args: argparse.Namespace) -> int:
                             f"linear-combination (it is the latent tracker's likelihood's)")
     skin = _skin(args.skin)
     start, stop = _frame_range(args.frames)
-    if args.out.exists() and not args.out.is_dir():
-        raise UserError(f"--out {args.out} is a file; give a folder")
-    output_folder(args.out / "track.json", "--out")
+    output_directory(args.out, "--out")  # probed before any frame is read
     for path in args.video:
         if not path.is_file():
             raise UserError(f"--video {path}: no such file")
@@ -484,7 +460,8 @@ def track(args: argparse.Namespace) -> int:
                             f"skeletons; nothing written")
     record = _track_record(args, trained, cameras, views, skeletons, chosen, ambiguity, tracker,
                            skin)
-    with _outputs(args.out) as written:
+    record["options"] = options_record
+    with outputs_or_nothing(args.out) as written:
         fps = videos[0].fps if math.isfinite(videos[0].fps) else fps_model
         try:  # with several views: ambiguity bars, the selected view framed (Fig. 17)
             written.append(write_views_video(
@@ -535,10 +512,32 @@ def _rounded(values, digits: int):
     return np.round(values, digits).tolist()
 
 
+def _view_statuses(view: dict) -> list:
+    """Each frame's :class:`jaxtrack.cli._status.FrameStatus` in one view: its head and hands
+    in the video's own pixels against the video's size, its best particle's log-fitness."""
+    from jaxtrack.cli._status import frame_statuses
+
+    estimate = view["run"].estimates
+    points = _to_video(np.asarray(estimate.best_markers, np.float64), view)
+    return frame_statuses(points, tuple(view["size"]),
+                          degenerate=~(np.asarray(estimate.ess) > 0),
+                          no_person=~np.asarray(estimate.found, bool),
+                          log_likelihood=np.asarray(estimate.log_fitness, np.float64))
+
+
 def _track_record(args, trained, cameras, views, skeletons, chosen, ambiguity, tracker,
                   skin) -> dict:
+    from jaxtrack.cli._status import (
+        LOST_RULE,
+        FrameStatus,
+        status_counts,
+        status_legend,
+    )
 
     joints = list(trained.description["skeleton"])
+    view_statuses = [_view_statuses(view) for view in views]
+    frame_statuses = [FrameStatus.NO_PERSON if chosen[t] is None
+                      else view_statuses[chosen[t]][t] for t in range(len(chosen))]
     frames = []
     for t in range(len(chosen)):
         entries = []
@@ -550,6 +549,7 @@ def _track_record(args, trained, cameras, views, skeletons, chosen, ambiguity, t
             skeleton = np.asarray(skeletons[index][t], np.float64)
             entry = {
                 "status": view["status"][t] or "observed", "observed": found,
+                "frame_status": view_statuses[index][t].value,
                 "log_fitness": round(float(estimate.log_fitness[t]), 4),
                 "ambiguity": None if ambiguity is None else _rounded(ambiguity[t, index], 5),
                 "cluster": int(estimate.cluster[t]), "ess": round(float(estimate.ess[t]), 2),
@@ -565,10 +565,14 @@ def _track_record(args, trained, cameras, views, skeletons, chosen, ambiguity, t
         index = int(video.frame_indices[t])
         frames.append({"frame": index, "time_s": (round(index / video.source_fps, 4)
                                                   if math.isfinite(video.source_fps) else None),
+                       "status": frame_statuses[t].value,
                        "views": entries, "selected_view": chosen[t],
                        "selected": None if chosen[t] is None else views[chosen[t]]["name"]})
     return {
         "method": "linear-combination", "model": str(args.model),
+        "statuses": status_legend(), "lost_rule": LOST_RULE,
+        "status_of_a_frame": "the selected view's (each view's is its frame_status)",
+        "status_counts": status_counts(frame_statuses),
         "trained_on": {key: trained.description.get(key) for key in
                        ("clips", "views", "fps", "num_clusters", "frames")},
         "calibration": None if args.calibration is None else str(args.calibration),

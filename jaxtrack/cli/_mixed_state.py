@@ -28,6 +28,7 @@ from pathlib import Path
 from jaxtrack.cli._common import (
     UserError,
     at_least,
+    check_clip_frames,
     check_clips,
     check_held_out,
     check_json_and_plots,
@@ -36,7 +37,9 @@ from jaxtrack.cli._common import (
     finite_json,
     fit_mask_file,
     one_line,
+    output_directory,
     output_folder,
+    outputs_or_nothing,
     pose2sim_cameras,
     read_mask_files,
 )
@@ -159,9 +162,11 @@ def _check_clip_files(sources: list, option: str) -> None:
         if source.from_catalogue:
             continue
         try:
-            marker_joint_indices(source.load(), HUMANEVA_15)
+            motion = source.load()
+            marker_joint_indices(motion, HUMANEVA_15)
         except (MocapFormatError, MarkerMapError, OSError) as error:
             raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
+        check_clip_frames(motion, source.spec, option)
 
 
 def _file_digest(path: Path) -> str:
@@ -427,21 +432,12 @@ def _compiled(key, model, observations, particles: int):
     return compiled_filter, compiled_smooth
 
 
-def _remove_new(paths: list[Path], folder: Path, created: bool) -> None:
-    for path in paths:
-        path.unlink(missing_ok=True)
-    if created:
-        try:
-            folder.rmdir()
-        except OSError:
-            pass
-
-
 def track(args: argparse.Namespace) -> int:
     """``jaxtrack track --method mixed-state``: posture and parts through one video."""
-    from jaxtrack.cli.track import _frame_range
+    from jaxtrack.cli.track import _frame_range, _options_record
 
     started = time.perf_counter()
+    options_record = _options_record(args)
     _refuse_other_methods(args, "track")
     if len(args.video) != 1:
         raise UserError(f"--video: --method mixed-state tracks one video, got "
@@ -453,9 +449,7 @@ def track(args: argparse.Namespace) -> int:
     check_seed(args.seed)
     if args.max_size < 32:
         raise UserError(f"--max-size must be at least 32, got {args.max_size}")
-    if args.out.exists() and not args.out.is_dir():
-        raise UserError(f"--out {args.out} is a file; give a folder")
-    output_folder(args.out / "track.json", "--out")
+    output_directory(args.out, "--out")  # probed before any frame is read
     start, stop = _frame_range(args.frames)
     saved = _load_model(args.model)
     if not video_path.exists():
@@ -465,15 +459,17 @@ def track(args: argparse.Namespace) -> int:
     import jax.random as jr
     import numpy as np
 
+    from jaxtrack.cli._status import LOST_RULE, frame_statuses, status_counts, status_legend
     from jaxtrack.priors.postures import POSTURE_NAMES
     from jaxtrack.trackers.mixed_state import (
         MixedStateModel,
         instantaneous_estimates,
         observations_from_silhouettes,
     )
-    from jaxtrack.vision import VideoError, median_background, read_video, write_overlay_video
+    from jaxtrack.vision import VideoError, median_background, read_video
     from jaxtrack.vision.foreground import largest_component
     from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES, silhouettes
+    from jaxtrack.vision.overlay import write_overlay_video_from_file
     from jaxtrack.vision.parts import PART_NAMES
 
     try:
@@ -540,6 +536,9 @@ def track(args: argparse.Namespace) -> int:
         raise UserError("tracking produced non-finite values; nothing written")
 
     ok = status == FRAME_OK
+    smoothed_posture, smoothed_parts, _ = estimates["smoothed"]
+    statuses = frame_statuses(smoothed_parts, (tracked_width, tracked_height),
+                              degenerate=~(ess > 0), no_person=~ok)
 
     def named(points) -> dict:
         return {name: [round(float(x) / scale, 2), round(float(y) / scale, 2)]
@@ -550,7 +549,8 @@ def track(args: argparse.Namespace) -> int:
         entry = {"frame": int(index),
                  "time_s": float(index / video.source_fps)
                  if math.isfinite(video.source_fps) else None,
-                 "status": STATUS_NAMES[int(status[t])], "ess": round(float(ess[t]), 2),
+                 "status": statuses[t].value, "silhouette": STATUS_NAMES[int(status[t])],
+                 "ess": round(float(ess[t]), 2),
                  "posture": {}, "posture_probability": {}, "parts": {}}
         for kind, (posture, parts, probabilities) in estimates.items():
             # the instantaneous estimate reads the frame's silhouette alone: none without one
@@ -562,22 +562,13 @@ def track(args: argparse.Namespace) -> int:
                     float(probabilities[t, int(posture[t])]), 4)
         per_frame.append(entry)
 
-    folder_existed = args.out.is_dir()
-    args.out.mkdir(parents=True, exist_ok=True)
     overlay_path = args.out / "overlay.mp4"
-    smoothed_posture, smoothed_parts, _ = estimates["smoothed"]
-    try:  # the smoothed parts, labelled with the smoothed posture
-        overlay = write_overlay_video(
-            frames, {"smoothed": smoothed_parts}, overlay_path, fps=fps or 30.0,
-            marker_names=PART_NAMES, labels=[f"{POSTURE_NAMES[int(posture)].replace('_', ' ')}"
-                                             f"  {t + 1}/{num_frames}"
-                                             for t, posture in enumerate(smoothed_posture)])
-    except OSError as error:
-        _remove_new([], args.out, not folder_existed)
-        raise UserError(f"cannot write {overlay_path}: {one_line(error)}") from None
     tracked = int(ok.sum())
+    counts = status_counts(statuses)
     record = {
-        "method": "mixed-state", "video": str(video_path), "model": str(args.model),
+        "method": "mixed-state", "options": options_record, "video": str(video_path),
+        "model": str(args.model), "statuses": status_legend(), "lost_rule": LOST_RULE,
+        "status_counts": counts,
         "size": [width, height], "tracked_size": [tracked_width, tracked_height], "fps": fps,
         "silhouettes": ("median background" if masks_path is None
                         else f"masks {masks_path}"),
@@ -592,11 +583,19 @@ def track(args: argparse.Namespace) -> int:
                     "total": time.perf_counter() - started},
         "frames": per_frame,
     }
-    try:
+    with outputs_or_nothing(args.out) as written:  # all or nothing, Ctrl-C included
+        try:  # the smoothed parts, labelled with the smoothed posture, at the video's own size
+            overlay = write_overlay_video_from_file(
+                video_path, video.frame_indices, {"smoothed": smoothed_parts / scale},
+                overlay_path, fps=fps or 30.0, marker_names=PART_NAMES,
+                labels=[f"{POSTURE_NAMES[int(posture)].replace('_', ' ')}  {t + 1}/"
+                        f"{num_frames} {statuses[t].value}"
+                        for t, posture in enumerate(smoothed_posture)])
+        except (OSError, VideoError) as error:
+            raise UserError(f"cannot write {overlay_path}: {one_line(error)}") from None
+        written.append(overlay)
         json_path = _write_json(args.out / "track.json", finite_json(record))
-    except BaseException:
-        _remove_new([overlay], args.out, not folder_existed)
-        raise
+        written.append(json_path)
     counts = np.bincount(estimates["smoothed"][0], minlength=len(POSTURE_NAMES))
     shown = ", ".join(f"{name} {count}" for name, count in zip(POSTURE_NAMES, counts,
                                                                strict=True) if count)

@@ -19,6 +19,7 @@ from jaxtrack.cli._common import (
     integer,
     load_clip_sources,
     output_folder,
+    outputs_or_nothing,
     real,
     seed,
 )
@@ -122,14 +123,15 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--back-constraint must be a positive width, got {args.back_constraint}")
     check_prior_file(args.out, "--out", "delete it or choose another --out to train a new one")
     load_clip_sources(sources, "--clips")
-    folder.mkdir(parents=True, exist_ok=True)
     from jaxtrack.priors.gplvm import UPPER_BODY_PARTS
 
-    prior = train_prior(args.clips, views=args.views, active_size=args.active,
-                        iterations=args.iterations, seed=args.seed, cache=args.out,
-                        asf=args.asf, mirror=args.mirror,
-                        parts=UPPER_BODY_PARTS if args.parts else None,
-                        back_constraint=args.back_constraint)
+    with outputs_or_nothing(folder):  # a folder created for --out goes again on Ctrl-C
+        print(f"training on {len(args.clips)} clip(s) -> {args.out}", flush=True)
+        prior = train_prior(args.clips, views=args.views, active_size=args.active,
+                            iterations=args.iterations, seed=args.seed, cache=args.out,
+                            asf=args.asf, mirror=args.mirror,
+                            parts=UPPER_BODY_PARTS if args.parts else None,
+                            back_constraint=args.back_constraint)
     kind = f"{len(UPPER_BODY_PARTS)} GPLVMs, one per part," if args.parts else "GPLVM"
     print(f"{kind} of {prior.description['num_poses']} poses, active set "
           f"{prior.model.active_size} -> {args.out}")

@@ -64,6 +64,12 @@ WINDOW_X = (-1.6, 1.6)
 WINDOW_Y = (-1.3, 1.45)
 #: weight of unexplained foreground below a candidate's hips (its legs)
 LEG_WEIGHT = 0.3
+#: the smallest foreground blob taken for a person, pixels: a person about 50 px tall (far-away
+#: people in surveillance footage such as OpenCV's vtest.avi are about 80 px tall, 1 500-2 500 px
+#: of foreground), whatever the frame's size
+MIN_PERSON_PIXELS = 500
+#: foreground blobs searched for a head, largest first
+MAX_PEOPLE = 5
 
 
 class AutoInitError(RuntimeError):
@@ -328,10 +334,15 @@ def auto_initialise(prior: GPLVM, template: SPMTemplate, frame_rgb: np.ndarray,
         raise AutoInitError(
             f"{len(faces)} face candidate(s) found, but the first frame has no foreground "
             f"(nothing differs from the background), so there is no person to initialise on")
-    blobs = head_boxes(foreground) if use_blob_heads else np.zeros((0, 4))
+    # head_boxes' default smallest blob is a fraction of the frame: people far away in a large
+    # frame fall below it, so the least blob is given in pixels
+    blobs = (head_boxes(foreground, max_people=MAX_PEOPLE,
+                        min_area=min(0.005, MIN_PERSON_PIXELS / foreground.size))
+             if use_blob_heads else np.zeros((0, 4)))
     if not len(faces) and not len(blobs):
-        raise AutoInitError("no face (OpenCV Haar cascades, frontal and profile) and no person-"
-                            "sized foreground blob in the first frame; initialise by hand")
+        raise AutoInitError(f"no face (OpenCV Haar cascades, frontal and profile) and no person-"
+                            f"sized foreground blob (at least {MIN_PERSON_PIXELS} pixels) in the "
+                            f"first frame; give the first pose by hand")
     bodies = _bodies(prior, template, scales, max_latents, resolution)
     weights = _checked_foreground(foreground)
     # the best box of each kind; a blob head must beat the faces outright
@@ -343,5 +354,5 @@ def auto_initialise(prior: GPLVM, template: SPMTemplate, frame_rgb: np.ndarray,
         raise AutoInitError(
             f"{len(faces)} face candidate(s) found, but no pose under any face or foreground "
             f"blob explains the foreground (best overlap {best.score:.2f} < {min_score}); "
-            f"initialise by hand")
+            f"give the first pose by hand")
     return best
