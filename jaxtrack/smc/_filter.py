@@ -4,9 +4,13 @@ Each frame runs ``iterations_per_frame`` select → predict → measure cycles (
 Gong ran several per frame). Selection is skipped where the effective sample size is still at
 least ``ess_threshold × N`` (adaptive resampling; ``ess_threshold = 1`` always resamples,
 ``0`` never). The first frame is measured directly on particles drawn from ``model.init``.
+A model may propose instead (``StateSpaceModel``'s ``propose`` and ``init_propose``): its
+particles then come from a proposal that may look at the frame's observation, and their
+weights carry the proposal's log-weight corrections.
 
 A frame where every weight is zero (all log-likelihoods −∞ or NaN) is *degenerate*: the info
-reports it, the particles are re-drawn from ``model.init`` and re-weighted by the same frame,
+reports it, the particles are re-drawn from ``model.init`` (or ``model.init_propose``, given
+the frame's observation) and re-weighted by the same frame,
 and the filter goes on instead of producing NaN. Its log-evidence increment is −∞, which is the
 estimate (the frame is impossible under every particle), not a numerical failure, and its ESS
 is reported as 0 (no particle carried any weight into the frame), not the ESS of the re-seeded
@@ -25,7 +29,7 @@ from jax import lax
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
 from jaxtrack.smc._cond import cond_any
-from jaxtrack.smc._model import StateSpaceModel, check_observation_shape
+from jaxtrack.smc._model import StateSpaceModel, check_observation_shape, defines
 from jaxtrack.smc._random import particle_keys, split
 from jaxtrack.smc._resampling import Resampler, Systematic, effective_sample_size
 
@@ -94,12 +98,26 @@ def _log_likelihoods(model, particles, observation):
     return jnp.where(invalid, -jnp.inf, values), jnp.sum(invalid, dtype=jnp.int32)
 
 
-def _init_particles(key, model, num_particles):
-    return jax.vmap(model.init)(particle_keys(key, num_particles))
+def _corrections(values):
+    """A proposal's log-weight corrections, NaN as −∞ (weight zero), and how many were NaN."""
+    invalid = jnp.isnan(values)
+    return jnp.where(invalid, -jnp.inf, values), jnp.sum(invalid, dtype=jnp.int32)
+
+
+def _init_particles(key, model, num_particles, observation):
+    """Frame 0's particles from ``init``, or from ``init_propose`` with their log-weight
+    corrections and count of NaN corrections (``None`` and 0 without the hook)."""
+    keys = particle_keys(key, num_particles)
+    if defines(model, "init_propose"):
+        particles, corrections = jax.vmap(model.init_propose, in_axes=(0, None))(keys,
+                                                                                observation)
+        return particles, *_corrections(corrections)
+    return jax.vmap(model.init)(keys), None, 0
 
 
 def _measure(key, model, particles, prior_log_weights, observation, axis_name):
-    """Weight particles by one observation; re-seed from ``init`` if every weight is zero."""
+    """Weight particles by one observation; re-seed from ``init`` (or ``init_propose``) if
+    every weight is zero. ``prior_log_weights`` already hold any proposal's corrections."""
     log_likelihoods, num_invalid = _log_likelihoods(model, particles, observation)
     unnormalised = prior_log_weights + log_likelihoods
     increment = jax.nn.logsumexp(unnormalised)
@@ -108,8 +126,10 @@ def _measure(key, model, particles, prior_log_weights, observation, axis_name):
 
     def reseed(operands):
         key, model, particles, observation, unnormalised, increment, degenerate = operands
-        fresh = _init_particles(key, model, num)
+        fresh, corrections, _ = _init_particles(key, model, num, observation)
         fresh_log_likelihoods, _ = _log_likelihoods(model, fresh, observation)
+        if corrections is not None:
+            fresh_log_likelihoods = fresh_log_likelihoods + corrections
         fresh_log_weights = fresh_log_likelihoods - jax.nn.logsumexp(fresh_log_likelihoods)
         uniform = jnp.full_like(unnormalised, -math.log(num))
         fresh_log_weights = jnp.where(
@@ -152,16 +172,22 @@ def initialize(
     *,
     axis_name: str | None = None,
 ) -> tuple[FilterState, StepInfo]:
-    """Draw ``num_particles`` from ``model.init`` and weight them by the first observation."""
+    """Draw ``num_particles`` from ``model.init`` (or ``model.init_propose``, given the first
+    observation, with its log-weight corrections) and weight them by the first observation."""
     if not isinstance(num_particles, int) or num_particles < 1:
         raise ValueError(f"num_particles must be a positive int, got {num_particles!r}")
     check_observation_shape(model, observation, time_axis=False)
     key_init, key_reseed = split(key)
-    particles = _init_particles(key_init, model, num_particles)
-    uniform = jnp.full((num_particles,), -math.log(num_particles))
+    particles, corrections, invalid_corrections = _init_particles(key_init, model,
+                                                                  num_particles, observation)
+    prior = jnp.full((num_particles,), -math.log(num_particles))
+    if corrections is not None:
+        prior = prior + corrections
     particles, log_weights, increment, degenerate, num_invalid = _measure(
-        key_reseed, model, particles, uniform, observation, axis_name
+        key_reseed, model, particles, prior, observation, axis_name
     )
+    if corrections is not None:
+        num_invalid = num_invalid + invalid_corrections
     state = FilterState(particles, log_weights, jnp.asarray(0, jnp.int32), increment)
     info = StepInfo(
         increment, _reported_ess(log_weights, degenerate), jnp.asarray(False), degenerate,
@@ -188,6 +214,9 @@ def step(
 ) -> tuple[FilterState, StepInfo]:
     """Advance the filter by one frame: ``iterations_per_frame`` select/predict/measure cycles.
 
+    Predict draws from ``model.propose`` with its log-weight corrections where the model
+    defines it (``StateSpaceModel``'s docstring), from ``model.propagate`` otherwise.
+
     Args:
         key: PRNG key for this frame.
         state: the filter state at frame ``state.time``.
@@ -209,6 +238,7 @@ def step(
     num = state.log_weights.shape[0]
     time = state.time + 1
     identity = jnp.arange(num, dtype=jnp.int32)
+    proposes = defines(model, "propose")
 
     def select(key, log_weights):
         """(ancestors, carried log weights, resampled?) for the three threshold regimes."""
@@ -226,12 +256,20 @@ def step(
         key_select, key_propagate, key_reseed = split(key, 3)
         ancestors, carried, resample = select(key_select, log_weights)
         parents = _gather(particles, ancestors)
-        children = jax.vmap(model.propagate, in_axes=(0, 0, None))(
-            particle_keys(key_propagate, num), parents, time
-        )
+        keys = particle_keys(key_propagate, num)
+        if proposes:
+            children, corrections = jax.vmap(model.propose, in_axes=(0, 0, None, None))(
+                keys, parents, time, observation
+            )
+            corrections, invalid_corrections = _corrections(corrections)
+            carried = carried + corrections
+        else:
+            children = jax.vmap(model.propagate, in_axes=(0, 0, None))(keys, parents, time)
         children, log_weights, increment, degenerate, num_invalid = _measure(
             key_reseed, model, children, carried, observation, axis_name
         )
+        if proposes:
+            num_invalid = num_invalid + invalid_corrections
         carry = (children, log_weights, ancestors_so_far[ancestors], resampled_so_far | resample)
         return carry, (increment, degenerate, num_invalid)
 

@@ -33,6 +33,30 @@ class StateSpaceModel(eqx.Module):
     broadcast silently. ``LinearGaussian`` declares it.
     Numeric model parameters must be array fields so ``jax.grad`` of the log evidence reaches
     them; shapes and counts are ``eqx.field(static=True)``.
+
+    Proposals (optional). A model may draw its particles from something other than its
+    dynamics, and say by how much that tilts them, by defining either or both of:
+
+    - ``propose(key, particle, time, observation) -> (particle, log_weight_correction)``: draw
+      the particle of frame ``time`` from a proposal q(x_t | x_{t-1}, y_t) that may look at
+      that frame's observation. ``step`` calls it instead of ``propagate`` and weighs each child
+      by ``log_weight_correction + log_likelihood(child, observation)``; the two together must
+      be the log importance weight log [p(y_t | x_t) p(x_t | x_{t-1}) / q(x_t | x_{t-1}, y_t)],
+      up to a constant shared by all particles. Usually the correction is log p(x_t | x_{t-1})
+      − log q(x_t | x_{t-1}, y_t) and ``log_likelihood`` stays log p(y_t | x_t); a proposal
+      that already accounts for part of the likelihood may instead put the whole weight of
+      that part in the correction and leave the rest in ``log_likelihood`` (the "optimal"
+      proposal p(x_t | x_{t-1}, y_t): correction log p(y_t | x_{t-1}), log-likelihood zero,
+      ``tests/smc/test_proposals.py``; the mixed-state tracker: the posture drawn from eq. 8–9,
+      correction its row normaliser, ``log_likelihood`` the parts' term).
+    - ``init_propose(key, observation) -> (particle, log_weight_correction)``: the same for
+      frame 0 (a proposal for p(x_0) that may look at the first observation), used by
+      ``initialize`` instead of ``init``, and by the re-seeding of a degenerate frame (with that
+      frame's observation).
+
+    Corrections are scalars per particle (the engine vmaps these methods like the others); a
+    NaN correction counts as an invalid particle (weight zero). A model that defines neither
+    runs as the bootstrap filter, bit for bit as before the hooks existed.
     """
 
     @abc.abstractmethod
@@ -58,6 +82,11 @@ class StateSpaceModel(eqx.Module):
             f"{type(self).__name__} does not define log_transition_density, which backward "
             "simulation (ffbsi) needs; use the ancestry-tracing smoother instead."
         )
+
+
+def defines(model: Any, hook: str) -> bool:
+    """Whether ``model`` defines the optional method ``hook`` (``propose``, ``init_propose``)."""
+    return callable(getattr(model, hook, None))
 
 
 def _is_shape(value: Any) -> bool:
