@@ -40,6 +40,7 @@ from jaxtrack.priors.linear_combinations import (
     save_linear_combinations,
 )
 from jaxtrack.trackers._options import Engine
+from jaxtrack.trackers.linear_combination import observe_contours
 
 __all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_SKELETON_ESTIMATE", "DEFAULT_VIEW_SELECTION",
            "METHODS", "SKELETON_ESTIMATES", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
@@ -175,64 +176,9 @@ def _background_of(sequence, size) -> np.ndarray:
     return _backgrounds.make_background(name, size, rng)[0]
 
 
-def observe(images: np.ndarray, background: np.ndarray | None, *, skin_reference=None,
-            threshold: int = 30, sigma: float = 1.0, masks: np.ndarray | None = None
-            ) -> tuple[ContourObservation, list[str]]:
-    """Frames as the linear-combination tracker observes them (Ong & Gong §5.2).
-
-    Per frame: background subtraction and the largest connected component (the silhouette),
-    skin blobs inside it (head = top), and the gradient-magnitude map.
-
-    Args:
-        images: ``(time, height, width, 3)`` uint8 RGB.
-        background: ``(height, width, 3)`` uint8 RGB empty scene (unused with ``masks``).
-        masks: ``(time, height, width)`` bool person masks (a segmenter's,
-            :mod:`jaxtrack.vision.masks`) to take the silhouette from instead of background
-            subtraction; their largest connected component is the silhouette.
-        skin_reference: an RGB sample of the person's skin (None: the fixed chroma box).
-        threshold: grey levels of the background subtraction.
-        sigma: smoothing of the gradient map.
-
-    Returns:
-        ``(observations, status)``: a :class:`ContourObservation` of numpy arrays with a
-        leading time axis, and per frame an empty string or why it was not observed (no
-        silhouette, too little skin); such frames have ``found`` False.
-    """
-    from jaxtrack.vision.foreground import foreground_mask, largest_component
-    from jaxtrack.vision.normals import gradient_magnitude
-    from jaxtrack.vision.skin import skin_blobs, skin_mask
-
-    images = np.asarray(images)
-    if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
-        raise ValueError(f"images must be (time, height, width, 3) uint8 RGB, got shape "
-                         f"{images.shape} dtype {images.dtype}")
-    count, height, width = images.shape[:3]
-    if masks is None and background is None:
-        raise ValueError("observe needs a background or masks")
-    if masks is not None and np.shape(masks) != images.shape[:3]:
-        raise ValueError(f"masks must be (time, height, width) = {images.shape[:3]}, got "
-                         f"{np.shape(masks)}")
-    gradient = np.empty((count, height, width), np.float32)
-    head = np.zeros((count, 2))
-    hands = np.zeros((count, 2, 2))
-    found = np.zeros(count, bool)
-    status = []
-    for t, image in enumerate(images):
-        gradient[t] = gradient_magnitude(image, sigma=sigma)
-        person = (foreground_mask(image, background, threshold=threshold) if masks is None
-                  else np.asarray(masks[t], bool))
-        silhouette = largest_component(person)
-        if not silhouette.any():
-            status.append("no silhouette (nothing differs from the background)" if masks is None
-                          else "no silhouette (the mask is empty)")
-            continue
-        blobs = skin_blobs(skin_mask(image, silhouette, reference=skin_reference))
-        if not blobs.found:
-            status.append(f"no skin blobs: {blobs.reason}")
-            continue
-        head[t], hands[t], found[t] = blobs.head, blobs.hands, True
-        status.append("")
-    return ContourObservation(gradient, head, hands, found), status
+observe = observe_contours
+"""Frames as the linear-combination tracker observes them (Ong & Gong §5.2):
+:func:`jaxtrack.trackers.linear_combination.observe_contours`."""
 
 
 def subject_centre(frames: np.ndarray, background: np.ndarray | None, *,

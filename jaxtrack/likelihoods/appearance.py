@@ -27,6 +27,7 @@ from jaxtyping import ArrayLike, Float
 from jaxtrack.likelihoods.edges import EdgeLimbTemplates, make_edge_limb_templates
 from jaxtrack.likelihoods.limbs import DEFAULT_LIMB_SHARPNESS, LimbTemplates, make_limb_templates
 from jaxtrack.likelihoods.ncc import DEFAULT_NCC_SHARPNESS, NCCTemplates, make_templates
+from jaxtrack.vision.observations import images_of
 
 __all__ = ["DEFAULT_LIKELIHOOD", "LIKELIHOODS", "AppearanceTemplates", "default_sharpness",
            "check_observations", "make_appearance_templates", "needs_edges"]
@@ -72,6 +73,7 @@ def make_appearance_templates(
     ``foreground_weight``, ``coverage_weight``, ``keypoint_weight``, ``keypoint_scale``) go to
     ``make_edge_limb_templates``; other likelihoods take none."""
     _check(likelihood)
+    image = images_of(image)
     if likelihood == "limbs+edges":
         return make_edge_limb_templates(image, markers_2d, background=background,
                                         **edge_options)

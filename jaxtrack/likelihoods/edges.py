@@ -60,7 +60,7 @@ depends on the whole pose, not on one strip, so it is no part's term:
 :meth:`residuals` include it (the residuals with their gradient), the part functions leave it
 out, and the refinement solves with the whole residual vector where it is on.
 
-**The keypoint term** (``keypoint_weight`` η > 0, with a keypoint channel; off by default). A
+**The keypoint term** (``keypoint_weight`` η > 0, with keypoints; off by default). A
 per-frame detector's keypoints (:mod:`jaxtrack.vision.keypoints`: the 12 markers' positions
 ``k_j`` and confidences ``w_j`` in [0, 1]) say where the joints are. The term is the
 detector's error model: a bivariate Cauchy (Student's t with one degree of freedom) about each
@@ -83,10 +83,11 @@ refinement takes its 12 residuals apart from the parts').
 
 Observations are ``(3, height, width)``: the grey frame, its edge distance map and the
 nearest edge's tangent direction (:func:`jaxtrack.vision.edge_observations` makes them for a
-sequence), or ``(4, height, width)`` with the person's mask as the fourth; templates with the
-keypoint term read one more channel, last, that carries the keypoints. Trackers take grey
-frames as with the other likelihoods: ``jaxtrack.trackers.track`` adds the edge maps chunk by
-chunk (and the masks, given with ``masks=``).
+sequence), or ``(4, height, width)`` with the person's mask as the fourth; the keypoint term
+reads a detector's keypoints, which travel beside the image channels in an
+:class:`jaxtrack.vision.ImageObservation` (:func:`jaxtrack.vision.image_observations`). Trackers
+observe grey frames themselves (``Tracker.observe``), chunk by chunk in
+``jaxtrack.trackers.track``.
 
 Why, and the measurements behind each choice: see docs/likelihoods.md, "Edges".
 """
@@ -121,7 +122,7 @@ from jaxtrack.likelihoods._strips import (
     strip_points,
 )
 from jaxtrack.likelihoods.limbs import DEFAULT_STRIP_WIDTH, LimbTemplates, make_limb_templates
-from jaxtrack.vision.keypoints import unpack_keypoints
+from jaxtrack.vision.observations import images_of, keypoints_of
 
 __all__ = ["COVERAGE_DEPTH", "COVERAGE_GRID", "COVERAGE_SCALE", "DEFAULT_BORDER_MARGIN",
            "DEFAULT_BORDER_SCALES", "DEFAULT_EDGE_SCALE", "DEFAULT_EDGE_TOLERANCE",
@@ -206,29 +207,33 @@ MASK_CHANNEL = 3
 """The observation channel that holds the person's mask, where there is one."""
 
 
-def _check_observation(observation: Array, keypoints: bool = False) -> Array:
-    observation = jnp.asarray(observation)
-    extra = int(keypoints)
-    if observation.ndim != 3 or observation.shape[0] not in (_CHANNELS + extra,
-                                                            _CHANNELS + 1 + extra):
+def _check_observation(observation, keypoints: bool = False) -> Array:
+    """The image channels of ``observation`` (an :class:`jaxtrack.vision.ImageObservation` or
+    a bare ``(3 or 4, height, width)`` array), refused unless they are the grey frame and its
+    edge maps (with the person's mask or not) and, when ``keypoints``, the observation carries
+    a detector's keypoints."""
+    images = jnp.asarray(images_of(observation))
+    if images.ndim != 3 or images.shape[0] not in (_CHANNELS, _CHANNELS + 1):
         raise ValueError("observation must be (3, height, width): the grey frame, its edge "
                          "distance map and the edges' orientation (edge_observations), or "
-                         "(4, height, width) with the person's mask"
-                         + (", then the keypoint channel" if keypoints else "")
-                         + f", got shape {observation.shape}")
-    return observation
+                         "(4, height, width) with the person's mask, got shape "
+                         f"{images.shape}")
+    if keypoints and keypoints_of(observation) is None:
+        raise ValueError("the keypoint term (keypoint_weight > 0) reads a detector's keypoints: "
+                         "give an ImageObservation with keypoints "
+                         "(jaxtrack.vision.image_observations(..., keypoints=...))")
+    return images
 
 
-def _edge_maps_of(observation: Array) -> Array:
+def _edge_maps_of(observation) -> Array:
     """The grey frame and its edge maps, the first three channels of an observation with or
-    without a mask and keypoints (all a reference frame is read for)."""
-    observation = jnp.asarray(observation)
-    if observation.ndim != 3 or not _CHANNELS <= observation.shape[0] <= _CHANNELS + 2:
+    without a mask (all a reference frame is read for)."""
+    images = jnp.asarray(images_of(observation))
+    if images.ndim != 3 or not _CHANNELS <= images.shape[0] <= _CHANNELS + 1:
         raise ValueError(f"observation must be (3, height, width): the grey frame, its edge "
                          f"distance map and the edges' orientation (edge_observations), with "
-                         f"the person's mask and keypoints after them or not, got shape "
-                         f"{observation.shape}")
-    return observation[:_CHANNELS]
+                         f"the person's mask after them or not, got shape {images.shape}")
+    return images[:_CHANNELS]
 
 
 def _borders(values: Array) -> Array:
@@ -343,7 +348,7 @@ class EdgeLimbTemplates(PartTemplates):
         the nearest pixel (angles do not interpolate). ``spine``: the length the widths and σ
         are fractions of, None: the markers' own.
         """
-        observation = _check_observation(observation, self.reads_keypoints)
+        observation = _check_observation(observation)
         markers = jnp.asarray(markers_2d)
         dtype = float_dtype(observation, markers)
         markers, observation = markers.astype(dtype), observation.astype(dtype)
@@ -385,12 +390,12 @@ class EdgeLimbTemplates(PartTemplates):
 
     @property
     def reads_keypoints(self) -> bool:
-        """Whether the keypoint term is on: its observations end with a keypoint channel."""
+        """Whether the keypoint term is on: its observations carry a detector's keypoints."""
         return self.keypoint_weight > 0
 
-    def _has_mask(self, observation: Array) -> bool:
-        """Whether the observation (static shape) carries the person's mask."""
-        return observation.shape[0] - int(self.reads_keypoints) > MASK_CHANNEL
+    def _has_mask(self, images: Array) -> bool:
+        """Whether the image channels (static shape) carry the person's mask."""
+        return images.shape[0] > MASK_CHANNEL
 
     @property
     def has_whole_pose_terms(self) -> bool:
@@ -403,12 +408,13 @@ class EdgeLimbTemplates(PartTemplates):
         docstring), or None without the term; the first is differentiable in the markers."""
         if not self.reads_keypoints:
             return None
-        observation = _check_observation(observation, True)
+        images = _check_observation(observation, True)
         markers = jnp.asarray(markers_2d)
-        dtype = float_dtype(observation, markers)
+        dtype = float_dtype(images, markers)
         markers = markers.astype(dtype)
-        points, confidence = (values.astype(dtype) for values in
-                              unpack_keypoints(observation[-1]))
+        detected = keypoints_of(observation)
+        points = jnp.asarray(detected.points).astype(dtype)
+        confidence = jnp.asarray(detected.confidence).astype(dtype)
         spine = spine_length(markers) if spine is None else jnp.asarray(spine, dtype)
         scales = jnp.asarray(KEYPOINT_SCALES, dtype) * self.keypoint_scale * spine
 
@@ -427,7 +433,7 @@ class EdgeLimbTemplates(PartTemplates):
         """``(c_g, m_g / max(Σ m, 1))`` of the coverage term's grid points (module
         docstring), or None without the term or a mask channel. ``c_g`` is differentiable in
         the markers; the mask is read at the nearest pixel."""
-        observation = _check_observation(observation, self.reads_keypoints)
+        observation = _check_observation(observation)
         if not self.coverage_weight > 0 or not self._has_mask(observation):
             return None
         markers = jnp.asarray(markers_2d)
@@ -459,7 +465,8 @@ class EdgeLimbTemplates(PartTemplates):
     def whole_pose_log_likelihood(self, markers_2d, observation) -> Array:
         """The coverage term ``−ν Σ_g m_g c_g² / max(Σ m, 1)`` and the keypoint term ``−η
         Σ_j w_j log(1 + q_j²)`` of one pose (module docstring); 0 without them."""
-        value = jnp.zeros((), float_dtype(jnp.asarray(observation), jnp.asarray(markers_2d)))
+        value = jnp.zeros((), float_dtype(jnp.asarray(images_of(observation)),
+                                          jnp.asarray(markers_2d)))
         coverage = self._coverage(markers_2d, observation)
         if coverage is not None:
             cost, weight = coverage
@@ -474,7 +481,7 @@ class EdgeLimbTemplates(PartTemplates):
         """The residuals of the whole-pose terms, after the parts' in :meth:`residuals`:
         ``√(2ν m_g / Σ m) c_g`` per grid point (coverage), then ``√(2η w_j log(1 + q_j²))``
         per marker (keypoints); empty without them."""
-        residuals = [jnp.zeros((0,), float_dtype(jnp.asarray(observation),
+        residuals = [jnp.zeros((0,), float_dtype(jnp.asarray(images_of(observation)),
                                                  jnp.asarray(markers_2d)))]
         coverage = self._coverage(markers_2d, observation, spine)
         if coverage is not None:
@@ -673,10 +680,10 @@ def make_edge_limb_templates(
     ``jaxtrack.vision.median_grey_background``) the arm strips are also scored by the
     foreground term (μ = ``foreground_weight``, module docstring); with ``coverage_weight``
     ν > 0, observations with a mask are also scored by the coverage term; with
-    ``keypoint_weight`` η > 0, observations end with a detector's keypoints, scored by the
-    keypoint term with its scales :data:`KEYPOINT_SCALES` times ``keypoint_scale`` (a reference
-    observation then carries them too)."""
-    image = jnp.asarray(image)
+    ``keypoint_weight`` η > 0, observations carry a detector's keypoints
+    (:class:`jaxtrack.vision.ImageObservation`), scored by the keypoint term with its scales
+    :data:`KEYPOINT_SCALES` times ``keypoint_scale``."""
+    image = jnp.asarray(images_of(image))
     observation = None
     if image.ndim == 3:
         observation = _edge_maps_of(image)

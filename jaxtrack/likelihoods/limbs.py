@@ -40,6 +40,7 @@ from jaxtrack.likelihoods._strips import (
     spine_length,
     strip_points,
 )
+from jaxtrack.vision.observations import images_of
 
 __all__ = [
     "DEFAULT_LIMB_SHARPNESS",
@@ -94,7 +95,7 @@ def _strips(image: Array, markers: Array, along: int, across: int, width, neares
     """The grey frame at the strips' sample points, ``(segments, along, across)`` (the strips
     ``segments`` picks; ``spine`` the length the width is a fraction of, None: the markers'
     own), at the nearest pixel or bilinearly."""
-    image = jnp.asarray(image)
+    image = jnp.asarray(images_of(image))
     if image.ndim != 2:
         raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
                          f"convert colour frames with jaxtrack.vision.to_grey")

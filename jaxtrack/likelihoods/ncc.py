@@ -50,6 +50,7 @@ from jaxtyping import Array, ArrayLike, Float
 from jaxtrack.likelihoods._base import SPINE_MARKERS, PartTemplates, check_markers
 from jaxtrack.likelihoods._correlation import correlation, normalise, template_residuals
 from jaxtrack.likelihoods._sampling import bilinear_sample, float_dtype
+from jaxtrack.vision.observations import images_of
 
 __all__ = [
     "DEFAULT_NCC_SHARPNESS",
@@ -120,7 +121,7 @@ def sample_patches(
         ``(markers, size, size)``; ``patches[m, i, j]`` is the image at
         ``(x_m + j − half_size, y_m + i − half_size)``.
     """
-    image = jnp.asarray(image)
+    image = jnp.asarray(images_of(image))
     centres = jnp.asarray(centres)
     if image.ndim != 2:
         raise ValueError(f"image must be (height, width) grey levels, got shape {image.shape}; "
@@ -340,7 +341,7 @@ def sample_patches_nearest(
     Returns:
         ``(markers, size, size)`` in the promoted floating dtype of the inputs.
     """
-    image = jnp.asarray(image)
+    image = jnp.asarray(images_of(image))
     centres = jnp.asarray(centres)
     _check_image_and_centres(image, centres, half_size)
     dtype = float_dtype(image, centres)
@@ -388,7 +389,7 @@ def ncc_scores_nearest(
         ``(markers,)`` scores in the promoted floating dtype of ``markers_2d`` and ``image``.
     """
     markers = jnp.asarray(markers_2d)
-    image = jnp.asarray(image)
+    image = jnp.asarray(images_of(image))
     half = templates.half_size
     _check_image_and_centres(image, markers, half)
     if markers.shape[0] != templates.num_markers:

@@ -29,7 +29,7 @@ from jaxtyping import Array, ArrayLike, Float, PyTree, Scalar
 from jaxtrack.body import SPMTemplate, spm_forward
 from jaxtrack.likelihoods import DEFAULT_NCC_SHARPNESS, PartTemplates
 from jaxtrack.trackers._parts_gauss_newton import parts_gauss_newton
-from jaxtrack.trackers._tracker import FrameInChunk
+from jaxtrack.trackers._tracker import FrameInChunk, frame_at
 
 __all__ = ["ArmijoGaussNewton", "refine_pose", "refinement_cost"]
 
@@ -69,7 +69,7 @@ def _solver(tolerance: float, dtype) -> ArmijoGaussNewton:
 
 
 class _Problem(eqx.Module):
-    frame: Float[Array, "height width"]
+    frame: PyTree[Array]  # the frame's observation (an image array or an ImageObservation)
     templates: PartTemplates
     template: SPMTemplate
     prior_mean: Float[Array, " 25"]
@@ -97,7 +97,8 @@ def refinement_cost(
     """The cost :func:`refine_pose` minimises: ``λ Σ_m (1 − NCC_m) + ½ Σ_d ((x_d − μ_d)/σ_d)²``
     (exactly, for markers whose image patch and template both have texture)."""
     state = jnp.asarray(state)
-    problem = _Problem(jnp.asarray(frame, state.dtype), templates, template,
+    problem = _Problem(jax.tree.map(lambda leaf: jnp.asarray(leaf, state.dtype), frame),
+                       templates, template,
                        jnp.asarray(prior_mean, state.dtype), jnp.asarray(prior_std, state.dtype),
                        jnp.asarray(sharpness, state.dtype))
     return 0.5 * jnp.sum(_residuals(state, problem) ** 2)
@@ -154,13 +155,14 @@ def refine_pose(
     dtype = state.dtype
     if isinstance(frame, FrameInChunk):
         frames, index = frame.frames, frame.index
-        frame = frames[index]
+        frame = frame_at(frame)
     elif isinstance(frame, tuple):
         raise ValueError("frame must be an array or a FrameInChunk (the chunk and an index), "
                          f"got a tuple of {len(frame)}")
     else:
         frames = index = None
-    problem = _Problem(jnp.asarray(frame, dtype), templates, template,
+    cast = lambda leaf: jnp.asarray(leaf, dtype)  # noqa: E731
+    problem = _Problem(jax.tree.map(cast, frame), templates, template,
                        jnp.asarray(prior_mean, dtype), jnp.asarray(prior_std, dtype),
                        jnp.asarray(sharpness, dtype))
     if solver == "parts":
@@ -171,7 +173,7 @@ def refine_pose(
             # barrier ties the index to the iterate, or XLA hoists the slice out of the loop
             # and copies the frame whole (docstring)
             index_now, markers = jax.lax.optimization_barrier((index, markers))
-            return markers, frames[index_now]
+            return markers, jax.tree.map(lambda leaf: leaf[index_now], frames)
 
         def parts(markers, *spine):  # the spine length, where the templates read it apart
             markers, observation = read(markers)

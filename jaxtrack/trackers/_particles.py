@@ -1,9 +1,11 @@
-"""What the particle-filter trackers share: frame 0's SPM pose and templates, the engine's step
-on a frame read from the chunk in place, and the per-frame report of a particle cloud."""
+"""What the image trackers share (latent, CONDENSATION, MHT): how they observe a video
+(:class:`ImageTracker`), frame 0's SPM pose and templates, the engine's step on a frame read from
+the chunk in place, and the per-frame report of a particle cloud."""
 
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
@@ -12,10 +14,91 @@ from jaxtrack import smc
 from jaxtrack.body import SPMTemplate, spm_initial_state
 from jaxtrack.likelihoods import PartTemplates, check_markers, make_appearance_templates
 from jaxtrack.trackers._options import Engine, Likelihood
-from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, VideoChunk
+from jaxtrack.vision.observations import ImageObservation, images_of
 
-__all__ = ["check_initial_pose", "cloud_estimate", "filter_step", "first_info", "frame0_state",
-           "frame0_templates", "initialize_filter"]
+__all__ = ["ImageTracker", "check_initial_pose", "cloud_estimate", "device_observation",
+           "filter_step", "first_info", "frame0_state", "frame0_templates", "initialize_filter",
+           "observe_images"]
+
+
+def observe_images(likelihood: Likelihood, chunk: VideoChunk, out=None) -> ImageObservation:
+    """A chunk's :class:`jaxtrack.vision.ImageObservation` as ``likelihood`` reads it: the grey
+    frames alone (limb strips, NCC), or with their edge maps (``"limbs+edges"``; the person's
+    masks as a fourth channel where given), and a detector's keypoints where the likelihood's
+    keypoint term is on. Grey frames may also be edge observations made beforehand, ``(time,
+    3 or 4, height, width)``. Anything that does not suit the likelihood is refused in one
+    line, naming what to give."""
+    from jaxtrack.vision.observations import image_observations
+
+    if chunk.grey is None:
+        raise ValueError("the image trackers read grey frames: give grey=... (time, height, "
+                         "width)")
+    grey = np.asarray(chunk.grey)
+    if likelihood.has_keypoints and chunk.keypoints is None:
+        raise ValueError("the likelihood's keypoint term (keypoint_weight) reads a detector's "
+                         "keypoints: give keypoints=...")
+    if chunk.keypoints is not None and not likelihood.has_keypoints:
+        raise ValueError("keypoints are read by the likelihood's keypoint term only: give "
+                         "Likelihood(keypoint_weight=...) or leave keypoints out")
+    if chunk.masks is not None and not likelihood.needs_edges:
+        raise ValueError(f"masks are read by the 'limbs+edges' likelihood only (its foreground "
+                         f"and coverage terms), not by {likelihood.kind!r}")
+    if grey.ndim == 4:  # edge observations made beforehand
+        if not likelihood.needs_edges or grey.shape[1] not in (3, 4):
+            raise ValueError(f"frames must be (time, height, width) grey frames"
+                             f"{', or (time, 3 or 4, height, width) edge observations' if likelihood.needs_edges else ''}"  # noqa: E501
+                             f" for the {likelihood.kind!r} likelihood, got shape {grey.shape}")
+        if chunk.masks is not None:
+            raise ValueError("edge observations made beforehand carry their own mask channel: "
+                             "leave masks out")
+        with_mask = grey.shape[1] == 4
+        observation = ImageObservation(np.asarray(grey, np.float32), None)
+        if chunk.keypoints is not None:
+            observation = image_observations(grey[:, 0], edges=False,
+                                             keypoints=chunk.keypoints)
+            observation = ImageObservation(np.asarray(grey, np.float32), observation.keypoints)
+    elif grey.ndim == 3:
+        with_mask = chunk.masks is not None
+        images = None if out is None else out.images[:len(grey)]
+        if images is not None and images.shape[1:] != (
+                ((3 + with_mask,) if likelihood.needs_edges else ()) + grey.shape[1:]):
+            images = None
+        observation = image_observations(grey, edges=likelihood.needs_edges, masks=chunk.masks,
+                                         keypoints=chunk.keypoints, out=images)
+    else:
+        raise ValueError(f"frames must be (time, height, width) grey frames, got shape "
+                         f"{grey.shape}")
+    if likelihood.has_coverage and not with_mask:
+        raise ValueError("the likelihood's coverage term (coverage_weight) reads the person's "
+                         "masks: give masks=..., or observations with a mask channel")
+    return observation
+
+
+def device_observation(observation, dtype=None):
+    """A frame's observation (any pytree) as JAX arrays, floating leaves in ``dtype``."""
+    def convert(leaf):
+        leaf = np.asarray(leaf)
+        if dtype is not None and np.issubdtype(leaf.dtype, np.floating):
+            return jnp.asarray(leaf, dtype)
+        return jnp.asarray(leaf)
+
+    return jax.tree.map(convert, observation)
+
+
+class ImageTracker(Tracker):
+    """A tracker whose likelihood reads image channels (limb strips, edges, NCC) and, with its
+    keypoint term, a detector's keypoints: the latent, CONDENSATION and MHT trackers."""
+
+    likelihood: eqx.AbstractVar[Likelihood]
+
+    @property
+    def reads(self) -> tuple[str, ...]:
+        return (("grey",) + (("masks",) if self.likelihood.has_coverage else ())
+                + (("keypoints",) if self.likelihood.has_keypoints else ()))
+
+    def observe(self, chunk: VideoChunk, out=None) -> ImageObservation:
+        return observe_images(self.likelihood, chunk, out)
 
 
 def check_initial_pose(initial_pose: Float[ArrayLike, "markers 2"]) -> np.ndarray:
@@ -30,7 +113,7 @@ def frame0_templates(likelihood: Likelihood, first_frame: Float[ArrayLike, "..."
                      ) -> PartTemplates:
     """The likelihood's templates cut from frame 0 (as the likelihood observes it) at its
     markers, in ``dtype``."""
-    first_frame = np.asarray(first_frame)
+    first_frame = np.asarray(images_of(first_frame))
     if likelihood.needs_edges and (first_frame.ndim != 3 or first_frame.shape[0] not in (3, 4)):
         raise ValueError(f"first_frame must be the {likelihood.kind!r} likelihood's observation, "
                          f"(3, height, width): the grey frame and its edge maps "
@@ -64,7 +147,8 @@ class _FrameOfChunk(smc.StateSpaceModel):
 
     def log_likelihood(self, particle, observation) -> Float[Array, ""]:
         frames, index = observation
-        return self.model.log_likelihood(particle, frames[index])
+        return self.model.log_likelihood(particle,
+                                         jax.tree.map(lambda leaf: leaf[index], frames))
 
 
 def filter_step(engine: Engine, key: PRNGKeyArray, state: smc.FilterState,

@@ -39,8 +39,10 @@ from jaxtrack.priors.dynamics import (
 )
 from jaxtrack.trackers._options import Engine, Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import (
+    ImageTracker,
     check_initial_pose,
     cloud_estimate,
+    device_observation,
     filter_step,
     first_info,
     frame0_state,
@@ -48,7 +50,7 @@ from jaxtrack.trackers._particles import (
     initialize_filter,
 )
 from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
-from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk
 
 __all__ = ["CondensationModel", "CondensationState", "CondensationTracker",
            "condensation_tracker", "random_walk_tracker"]
@@ -112,7 +114,7 @@ class CondensationState(eqx.Module):
     refine_std: Float[Array, " 25"] | None
 
 
-class CondensationTracker(Tracker):
+class CondensationTracker(ImageTracker):
     """CONDENSATION in the full SPM state (module docstring; :func:`condensation_tracker`).
 
     Attributes:
@@ -167,7 +169,7 @@ class CondensationTracker(Tracker):
             sharpness=jnp.asarray(self.likelihood.lam, dtype),
             nearest=self.likelihood.nearest)
         refined, refine_std = start_refinement(self.refinement, initial)
-        filtered = initialize_filter(key, model, jnp.asarray(first_frame, dtype),
+        filtered = initialize_filter(key, model, device_observation(first_frame, dtype),
                                     self.num_particles)
         return CondensationState(model, filtered, refined, refine_std)
 

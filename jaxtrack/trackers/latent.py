@@ -55,8 +55,10 @@ from jaxtrack.priors.poses import (
 )
 from jaxtrack.trackers._options import RESAMPLERS, Engine, Likelihood, Refinement, options_record
 from jaxtrack.trackers._particles import (
+    ImageTracker,
     check_initial_pose,
     cloud_estimate,
+    device_observation,
     filter_step,
     first_info,
     frame0_state,
@@ -65,7 +67,7 @@ from jaxtrack.trackers._particles import (
 )
 from jaxtrack.trackers._partitioned import partitioned_step, stages_of
 from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
-from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk
 
 __all__ = ["DEFAULT_JUMP_PROBABILITY", "LatentModel", "LatentState", "LatentTracker",
            "default_refinement", "latent_tracker"]
@@ -194,7 +196,7 @@ def _inverse_latent(prior, features: Array) -> Array:
     return prior.inverse(features[None]).latents[0]
 
 
-class LatentTracker(Tracker):
+class LatentTracker(ImageTracker):
     """Algorithm 2 of Tian et al. (module docstring; build one with :func:`latent_tracker`).
 
     Attributes:
@@ -299,7 +301,7 @@ class LatentTracker(Tracker):
             initial_spread=cast(self.initial_spread), sharpness=cast(self.likelihood.lam),
             link_scale=cast(link_scale), nearest=self.likelihood.nearest)
         refined, refine_std = start_refinement(self.refinement, cast(state))
-        filtered = initialize_filter(key, model, jnp.asarray(first_frame),
+        filtered = initialize_filter(key, model, device_observation(first_frame),
                                     self.num_particles)
         return LatentState(model, filtered, refined, refine_std)
 

@@ -24,8 +24,6 @@ deviations per coefficient and no clamp. The tracker follows the contract of
 
 from __future__ import annotations
 
-import time as _time
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -37,8 +35,9 @@ from jaxtrack import smc
 from jaxtrack.body.hybrid import split_hybrid
 from jaxtrack.likelihoods.contour_normals import ContourObservation, FitnessSettings, log_fitness
 from jaxtrack.priors.linear_combinations import LinearCombinationModel
+from jaxtrack.trackers import _runner
 from jaxtrack.trackers._options import RESAMPLERS, Engine, options_record
-from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, VideoChunk
 
 __all__ = ["LinearCombinationEstimate", "LinearCombinationSSM", "LinearCombinationState",
            "LinearCombinationTrack", "LinearCombinationTracker", "linear_combination_tracker",
@@ -170,16 +169,79 @@ def _observation_at(frame) -> ContourObservation:
     return frame
 
 
+def observe_contours(images: np.ndarray, background: np.ndarray | None, *, skin_reference=None,
+            threshold: int = 30, sigma: float = 1.0, masks: np.ndarray | None = None
+            ) -> tuple[ContourObservation, list[str]]:
+    """Frames as the linear-combination tracker observes them (Ong & Gong §5.2).
+
+    Per frame: background subtraction and the largest connected component (the silhouette),
+    skin blobs inside it (head = top), and the gradient-magnitude map.
+
+    Args:
+        images: ``(time, height, width, 3)`` uint8 RGB.
+        background: ``(height, width, 3)`` uint8 RGB empty scene (unused with ``masks``).
+        masks: ``(time, height, width)`` bool person masks (a segmenter's,
+            :mod:`jaxtrack.vision.masks`) to take the silhouette from instead of background
+            subtraction; their largest connected component is the silhouette.
+        skin_reference: an RGB sample of the person's skin (None: the fixed chroma box).
+        threshold: grey levels of the background subtraction.
+        sigma: smoothing of the gradient map.
+
+    Returns:
+        ``(observations, status)``: a :class:`ContourObservation` of numpy arrays with a
+        leading time axis, and per frame an empty string or why it was not observed (no
+        silhouette, too little skin); such frames have ``found`` False.
+    """
+    from jaxtrack.vision.foreground import foreground_mask, largest_component
+    from jaxtrack.vision.normals import gradient_magnitude
+    from jaxtrack.vision.skin import skin_blobs, skin_mask
+
+    images = np.asarray(images)
+    if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
+        raise ValueError(f"images must be (time, height, width, 3) uint8 RGB, got shape "
+                         f"{images.shape} dtype {images.dtype}")
+    count, height, width = images.shape[:3]
+    if masks is None and background is None:
+        raise ValueError("observe needs a background or masks")
+    if masks is not None and np.shape(masks) != images.shape[:3]:
+        raise ValueError(f"masks must be (time, height, width) = {images.shape[:3]}, got "
+                         f"{np.shape(masks)}")
+    gradient = np.empty((count, height, width), np.float32)
+    head = np.zeros((count, 2))
+    hands = np.zeros((count, 2, 2))
+    found = np.zeros(count, bool)
+    status = []
+    for t, image in enumerate(images):
+        gradient[t] = gradient_magnitude(image, sigma=sigma)
+        person = (foreground_mask(image, background, threshold=threshold) if masks is None
+                  else np.asarray(masks[t], bool))
+        silhouette = largest_component(person)
+        if not silhouette.any():
+            status.append("no silhouette (nothing differs from the background)" if masks is None
+                          else "no silhouette (the mask is empty)")
+            continue
+        blobs = skin_blobs(skin_mask(image, silhouette, reference=skin_reference))
+        if not blobs.found:
+            status.append(f"no skin blobs: {blobs.reason}")
+            continue
+        head[t], hands[t], found[t] = blobs.head, blobs.hands, True
+        status.append("")
+    return ContourObservation(gradient, head, hands, found), status
+
+
 class LinearCombinationTracker(Tracker):
     """Ong & Gong's tracker (module docstring).
 
     Attributes:
         model: the trained :class:`LinearCombinationModel` (in the tracker's float type).
         likelihood: eq. 9's :class:`FitnessSettings`.
-        engine: N, resampler and ESS threshold (Ong & Gong: resample every cycle).
-        iterations: CONDENSATION cycles per frame (Ong & Gong: 5).
+        engine: N, resampler, ESS threshold (Ong & Gong: resample every cycle) and the
+            CONDENSATION cycles per frame, ``iterations_per_frame`` (Ong & Gong: 5).
         step, jump_spread: ω inside a cluster and after a jump.
         constrained: the paper's clusters; False: the global-PCA Brownian baseline.
+        skin_reference: an RGB sample of the person's skin for observing frames (None: the
+            fixed chroma box; :func:`observe_contours`).
+        background_threshold: grey levels of the background subtraction (:meth:`observe`).
     """
 
     model: LinearCombinationModel
@@ -187,16 +249,36 @@ class LinearCombinationTracker(Tracker):
     engine: Engine
     step: Float[Array, ""]
     jump_spread: Float[Array, ""]
-    iterations: int = eqx.field(static=True, default=5)
     constrained: bool = eqx.field(static=True, default=True)
+    skin_reference: np.ndarray | None = None
+    background_threshold: int = eqx.field(static=True, default=30)
 
-    def __check_init__(self):
-        if not isinstance(self.iterations, int) or self.iterations < 1:
-            raise ValueError(f"iterations must be a positive integer, got {self.iterations!r}")
+    @property
+    def iterations(self) -> int:
+        """CONDENSATION cycles per frame: the engine's ``iterations_per_frame``."""
+        return self.engine.iterations_per_frame
 
     @property
     def num_particles(self) -> int:
         return self.engine.num_particles
+
+    @property
+    def reads(self) -> tuple[str, ...]:
+        return ("colour", "background")  # or the person's masks in the background's place
+
+    def observe(self, chunk: VideoChunk, out=None) -> ContourObservation:
+        """The chunk's :class:`ContourObservation` (:func:`observe_contours`) from its colour
+        frames and the static scene's background, or the person's masks in its place."""
+        if chunk.colour is None:
+            raise ValueError("the linear-combination tracker reads colour frames: give "
+                             "colour=... (time, height, width, 3) uint8 RGB")
+        if chunk.background is None and chunk.masks is None:
+            raise ValueError("the linear-combination tracker finds the silhouette against the "
+                             "static scene: give background=... or the person's masks=...")
+        observations, _ = observe_contours(
+            chunk.colour, chunk.background, skin_reference=self.skin_reference,
+            threshold=self.background_threshold, masks=chunk.masks)
+        return observations
 
     def options(self) -> dict:
         return {"method": "linear-combination" if self.constrained else "global-pca",
@@ -210,6 +292,7 @@ class LinearCombinationTracker(Tracker):
                                     self.constrained)
 
     def _cycles(self, key, filtered, observation, iterations):
+        """``iterations`` of the engine's cycles on one frame."""
         return smc.step(key, filtered, observation, self._ssm(),
                         resampler=RESAMPLERS[self.engine.resampler](),
                         ess_threshold=self.engine.ess_threshold,
@@ -250,7 +333,7 @@ class LinearCombinationTracker(Tracker):
     def update(self, key: PRNGKeyArray, state: LinearCombinationState, frame
                ) -> tuple[LinearCombinationState, LinearCombinationEstimate]:
         observation = _observation_at(frame)
-        filtered, info = self._cycles(key, state.filter, observation, self.iterations)
+        filtered, info = self.engine.step(key, state.filter, observation, self._ssm())
         state = self._state(filtered, info, observation)
         return state, self._estimate(state)
 
@@ -274,58 +357,10 @@ def _start(tracker: LinearCombinationTracker, key: PRNGKeyArray,
     return tracker._state(filtered, info, observation)
 
 
-@eqx.filter_jit
-def _scan(tracker: LinearCombinationTracker, state: LinearCombinationState, keys,
-          observations: ContourObservation):
-    def body(state, inputs):
-        key, index = inputs
-        return tracker.update(key, state, FrameInChunk(observations, index))
-
-    return jax.lax.scan(body, state, (keys, jnp.arange(keys.shape[0])))
-
-
-@eqx.filter_jit
-def _begin(tracker: LinearCombinationTracker, key: PRNGKeyArray, first: ContourObservation):
-    """Frame 0 of :func:`track_observations`: the key split for frame 0 and the others, then
-    ``tracker.start`` on the first observation and its estimate."""
-    key_start, key_frames = jr.split(key)
-    state = _start(tracker, key_start, first)
-    return state, tracker.first_estimate(state), key_frames
-
-
-@eqx.filter_jit
-def _continue(tracker: LinearCombinationTracker, state: LinearCombinationState, key,
-              observations: ContourObservation):
-    """The frames after frame 0 of :func:`track_observations`, one key each: ``_scan``."""
-    keys = jr.split(key, observations.found.shape[0] - 1)
-    return _scan(tracker, state, keys, jax.tree.map(lambda leaf: leaf[1:], observations))
-
-
-_COMPILED: dict = {}
-
-
-def _compiled(function, *args):
-    """``function`` (``_begin`` or ``_continue``) compiled ahead of time for
-    ``args``, so that compilation is timed apart; kept per function, structure and shapes:
-    sequences of one length and settings given as JAX scalars reuse it. Returns
-    ``(executable, seconds spent compiling)`` (0 when reused)."""
-    leaves, structure = jax.tree.flatten(args)
-    signature = (function, structure, tuple((leaf.shape, str(leaf.dtype)) if eqx.is_array(leaf)
-                                            else leaf for leaf in leaves))
-    if signature in _COMPILED:
-        return _COMPILED[signature], 0.0
-    if len(_COMPILED) > 48:  # a sweep over shapes should not hold every executable
-        _COMPILED.clear()
-    tick = _time.perf_counter()
-    _COMPILED[signature] = function.lower(*args).compile()
-    return _COMPILED[signature], _time.perf_counter() - tick
-
-
 def release_compiled() -> None:
-    """Forget the executables :func:`track_observations` compiled ahead of time (as
-    ``jax.clear_caches`` forgets ``jax.jit``'s): each holds memory mappings, of which a process
-    may hold a limited number."""
-    _COMPILED.clear()
+    """Forget the executables :func:`jaxtrack.trackers.track` compiled ahead of time
+    (:func:`jaxtrack.trackers._runner.release_compiled`)."""
+    _runner.release_compiled()
 
 
 class LinearCombinationTrack(eqx.Module):
@@ -348,41 +383,24 @@ class LinearCombinationTrack(eqx.Module):
 
 def track_observations(tracker: LinearCombinationTracker, key: PRNGKeyArray,
                        observations: ContourObservation) -> LinearCombinationTrack:
-    """Track a sequence of observations (every leaf with a leading ``time`` axis): start on
-    frame 0, then one compiled ``lax.scan`` of ``update`` over the others. Each is compiled
-    ahead of time and the compiles are timed apart from the run (``compile_seconds``,
-    ``seconds_per_frame``)."""
+    """Track a sequence of observations (every leaf with a leading ``time`` axis) with
+    :func:`jaxtrack.trackers.track` (start on frame 0, then compiled chunks of ``update``),
+    keeping every field of the tracker's estimate. Compilation is timed apart from the run
+    (``compile_seconds``, ``seconds_per_frame``)."""
     if not isinstance(observations, ContourObservation):
         raise TypeError(f"observations must be a ContourObservation with a time axis, got "
                         f"{type(observations).__name__}")
-    num_frames = observations.found.shape[0] if observations.found.ndim == 1 else 0
+    num_frames = observations.found.shape[0] if np.ndim(observations.found) == 1 else 0
     if num_frames < 1:
         raise ValueError("observations hold no frame (found must have a leading time axis)")
     dtype = tracker.model.mean.dtype
     leaves = (observations.gradient, observations.head, observations.hands, observations.found)
     dtypes = (dtype, dtype, dtype, bool)
-    # frame 0 cut before conversion (on the host for NumPy observations: nothing to compile),
-    # so that its executable serves sequences of every length; the key splits and the
-    # other frames' slices are compiled with the work, so compile_seconds holds them too
-    first = ContourObservation(*(jnp.asarray(leaf[0], kind)
-                                 for leaf, kind in zip(leaves, dtypes, strict=True)))
-    observations = ContourObservation(*(jnp.asarray(leaf, kind)
+    observations = ContourObservation(*(np.asarray(leaf, kind)
                                         for leaf, kind in zip(leaves, dtypes, strict=True)))
-    begin, compile_seconds = _compiled(_begin, tracker, key, first)
-    state, estimate, key_frames = begin(tracker, key, first)
-    outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], estimate)]
-    run_seconds = 0.0
-    if num_frames > 1:
-        scan, seconds = _compiled(_continue, tracker, state, key_frames, observations)
-        compile_seconds += seconds
-        tick = _time.perf_counter()
-        _, estimates = scan(tracker, state, key_frames, observations)
-        estimates = jax.block_until_ready(estimates)
-        run_seconds = _time.perf_counter() - tick
-        outputs.append(jax.tree.map(np.asarray, estimates))
-    merged = jax.tree.map(lambda *leaves: np.concatenate(leaves), *outputs)
-    return LinearCombinationTrack(merged, run_seconds / max(num_frames - 1, 1), compile_seconds,
-                                  tracker.options())
+    result = _runner.track(tracker, key, observations, None, progress=False)
+    return LinearCombinationTrack(result.estimates, result.seconds_per_frame,
+                                  result.compile_seconds, result.options)
 
 
 def linear_combination_tracker(
@@ -394,6 +412,7 @@ def linear_combination_tracker(
     step: float = 0.1,
     jump_spread: float = 0.3,
     constrained: bool = True,
+    skin_reference=None,
     dtype=jnp.float32,
 ) -> LinearCombinationTracker:
     """Ong & Gong's tracker with a trained model (module docstring).
@@ -402,20 +421,27 @@ def linear_combination_tracker(
         model: a trained :class:`LinearCombinationModel`.
         engine: N, resampler, ESS threshold (Ong & Gong: up to 300 samples).
         fitness: eq. 9's weights and tolerances.
-        iterations: CONDENSATION cycles per frame (Ong & Gong: 5).
+        iterations: CONDENSATION cycles per frame (Ong & Gong: 5), the engine's
+            ``iterations_per_frame`` (``engine``'s own is replaced).
         step: ω inside a cluster, a fraction of its ±1 box (with ``constrained=False``: the
             Brownian step in training standard deviations).
         jump_spread: ω after a jump to a new cluster's mean.
         constrained: False for the global-PCA Brownian baseline.
+        skin_reference: an RGB sample of the person's skin for :meth:`observe` (None: the
+            fixed chroma box).
         dtype: the filter's float type.
     """
     for name, value in (("step", step), ("jump_spread", jump_spread)):
         if np.shape(value) != () or not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    if not isinstance(iterations, int) or isinstance(iterations, bool) or iterations < 1:
+        raise ValueError(f"iterations must be a positive integer, got {iterations!r}")
+    engine = Engine(engine.num_particles, engine.resampler, engine.ess_threshold,
+                    iterations_per_frame=iterations)
     return LinearCombinationTracker(
         model=model.astype(dtype), likelihood=fitness, engine=engine,
         step=jnp.asarray(step, dtype), jump_spread=jnp.asarray(jump_spread, dtype),
-        iterations=iterations, constrained=constrained)
+        constrained=constrained, skin_reference=skin_reference)
 
 
 @eqx.filter_jit

@@ -58,9 +58,15 @@ from jaxtrack.likelihoods import PartTemplates
 from jaxtrack.priors.dynamics import constant_velocity, default_noise_floor, step_std_within
 from jaxtrack.trackers._gauss_newton import refine_pose
 from jaxtrack.trackers._options import Likelihood, Refinement, options_record
-from jaxtrack.trackers._particles import check_initial_pose, frame0_state, frame0_templates
+from jaxtrack.trackers._particles import (
+    ImageTracker,
+    check_initial_pose,
+    frame0_state,
+    frame0_templates,
+)
 from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
-from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, frame_at
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, frame_at
+from jaxtrack.vision.observations import images_of
 
 __all__ = ["MHTModel", "MHTState", "MHTTracker", "ModePool", "mht_tracker"]
 
@@ -173,7 +179,7 @@ class MHTModel(eqx.Module):
              ) -> tuple[ModePool, FrameEstimate]:
         """One frame: predict, refill, refine, weight, merge and prune (module docstring)."""
         dtype = self.initial_state.dtype
-        frame = jnp.asarray(frame, dtype)
+        frame = jax.tree.map(lambda leaf: jnp.asarray(leaf, dtype), frame)
         key_parents, key_refill = jr.split(key)
         # 1. predict every mode
         predicted = constant_velocity(state.modes, state.previous, self.velocity_weight)
@@ -204,7 +210,7 @@ class MHTModel(eqx.Module):
         # a marker more than half the frame beyond its border) cannot be scored: pixel reads
         # there return clamped, finite values, so it is ruled out here, not by its likelihood
         markers = self._markers(refined)
-        size = jnp.asarray(frame.shape[-1:-3:-1], dtype)  # (width, height)
+        size = jnp.asarray(images_of(frame).shape[-1:-3:-1], dtype)  # (width, height)
         on_frame = jnp.all((markers >= -0.5 * size) & (markers <= 1.5 * size), axis=(-2, -1))
         scorable = jnp.all(jnp.isfinite(refined), axis=-1) & on_frame
         log_likelihoods = jnp.where(scorable, self._log_likelihoods(refined, frame), -jnp.inf)
@@ -247,7 +253,7 @@ class MHTState(eqx.Module):
     refine_std: Float[Array, " 25"] | None
 
 
-class MHTTracker(Tracker):
+class MHTTracker(ImageTracker):
     """Cham & Rehg-style multiple-hypothesis tracking (module docstring; :func:`mht_tracker`).
 
     Attributes:

@@ -122,16 +122,14 @@ def edge_distance_maps(frames: np.ndarray, *, low: float = 40.0, high: float = 1
 
 def edge_observations(frames: np.ndarray, *, out: np.ndarray | None = None, low: float = 40.0,
                       high: float = 120.0, blur: float = 1.0, workers: int | None = None,
-                      masks: np.ndarray | None = None,
-                      keypoints: tuple[np.ndarray, np.ndarray] | np.ndarray | None = None
-                      ) -> np.ndarray:
+                      masks: np.ndarray | None = None) -> np.ndarray:
     """``(time, 3, height, width)`` float32: each grey frame, its edge distance map and the
     tangent direction (radians in [0, π), image coordinates) of the nearest edge pixel: the
-    observations of ``jaxtrack.likelihoods.EdgeLimbTemplates`` (``likelihood="limbs+edges"``).
+    image channels of ``jaxtrack.likelihoods.EdgeLimbTemplates`` (``likelihood="limbs+edges"``).
     With ``masks``, ``(time, 4, height, width)``: the person's mask (1 on the person, 0 off)
     as a fourth channel, which the likelihood's foreground term then reads frame by frame.
-    With ``keypoints``, one more channel, last: a detector's keypoints of each frame
-    (:mod:`jaxtrack.vision.keypoints`), which the likelihood's keypoint term reads.
+    A detector's keypoints travel beside these channels, not in them
+    (:func:`jaxtrack.vision.image_observations`).
 
     Args:
         frames: ``(time, height, width)`` grey frames (floats in [0, 1], or uint8).
@@ -139,9 +137,6 @@ def edge_observations(frames: np.ndarray, *, out: np.ndarray | None = None, low:
         low, high, blur, workers: as in :func:`edge_distance_maps`.
         masks: optional ``(time, height, width)`` bool person masks
             (:mod:`jaxtrack.vision.masks`).
-        keypoints: optional ``(points, confidence)``, ``(time, 12, 2)`` pixel positions in
-            these frames and ``(time, 12)`` confidences, or the positions alone (NaN where not
-            found): :func:`jaxtrack.vision.keypoints.check_keypoints`.
     """
     frames = _check_frames(frames, low, high, blur)
     channels = 3
@@ -150,18 +145,9 @@ def edge_observations(frames: np.ndarray, *, out: np.ndarray | None = None, low:
 
         masks = check_masks(masks, frames.shape)
         channels = 4
-    if keypoints is not None:
-        from jaxtrack.vision.keypoints import check_keypoint_input
-
-        points, confidence = check_keypoint_input(keypoints, num_frames=frames.shape[0])
-        channels += 1
     out = _check_out(out, (frames.shape[0], channels, *frames.shape[1:]))
     if masks is not None:
         out[:, 3] = masks
-    if keypoints is not None:
-        from jaxtrack.vision.keypoints import pack_keypoints
-
-        pack_keypoints(points, confidence, out[:, -1])
     _for_each_frame(lambda index: _edge_maps(frames[index], low, high, blur, out[index, 1],
                                              out[index, 2]), len(frames), workers)
     if frames.dtype == np.uint8:

@@ -12,11 +12,10 @@ tracked, and a confidence per keypoint in ``[0, 1]`` (the detector's visibility 
 found, its position ignored). A frame where the detector found no one has confidence 0
 throughout.
 
-**Where they travel.** The likelihood's observation of a frame is one array, ``(channels,
-height, width)``, so that chunking, in-place reads and every tracker take it unchanged; the
-keypoints ride in it as its last channel, of which they fill the first :data:`KEYPOINT_VALUES`
-values in row-major order (x, y, confidence per marker; the rest of the channel is 0):
-:func:`pack_keypoints` writes them, :func:`unpack_keypoints` reads them (NumPy or JAX arrays).
+**Where they travel.** Beside the image channels, never inside one: an observation is a
+:class:`jaxtrack.vision.ImageObservation` whose ``keypoints`` are a
+:class:`jaxtrack.vision.Keypoints` (points and confidences, a leading ``time`` axis for a chunk;
+:func:`jaxtrack.vision.image_observations`).
 
 The file ``jaxtrack track --keypoints`` reads (:func:`read_keypoints`): a ``.npz`` with
 ``keypoints`` ``(frames, 12, 2)`` in the video's own pixels (NaN where not found) and
@@ -34,16 +33,11 @@ import numpy as np
 from jaxtrack._files import write_npz_atomically
 from jaxtrack.body import SPM_MARKERS
 
-__all__ = ["KEYPOINT_VALUES", "KeypointFileError", "NUM_KEYPOINTS", "check_keypoint_input",
-           "check_keypoints", "pack_keypoints", "read_keypoints", "unpack_keypoints",
-           "write_keypoints"]
+__all__ = ["KeypointFileError", "NUM_KEYPOINTS", "check_keypoint_input", "check_keypoints",
+           "read_keypoints", "write_keypoints"]
 
 NUM_KEYPOINTS = len(SPM_MARKERS)
 """Keypoints per frame: the tracker's markers, in ``SPM_MARKERS`` order."""
-
-KEYPOINT_VALUES = 3 * NUM_KEYPOINTS
-"""Values of the keypoint channel that hold the keypoints (x, y, confidence per marker)."""
-
 
 class KeypointFileError(ValueError):
     """A keypoints file is missing, unreadable, or holds arrays that are not per-frame
@@ -87,28 +81,6 @@ def check_keypoint_input(keypoints, *, num_frames: int | None = None
     points alone (confidence 1 where found)."""
     points, confidence = keypoints if isinstance(keypoints, tuple) else (keypoints, None)
     return check_keypoints(points, confidence, num_frames=num_frames)
-
-
-def pack_keypoints(points: np.ndarray, confidence: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Write checked keypoints (:func:`check_keypoints`) into ``out``, the observations'
-    keypoint channel ``(frames, height, width)`` (module docstring), and return it."""
-    frames = out.shape[0]
-    if out.shape[1] * out.shape[2] < KEYPOINT_VALUES:
-        raise ValueError(f"frames of {out.shape[1]} × {out.shape[2]} pixels are too small to "
-                         f"carry {NUM_KEYPOINTS} keypoints ({KEYPOINT_VALUES} values)")
-    out[...] = 0
-    rows, columns = np.divmod(np.arange(KEYPOINT_VALUES), out.shape[2])
-    # fancy indexing writes through a strided view (a channel of (time, channels, h, w))
-    out[:, rows, columns] = np.concatenate([points, confidence[..., None]],
-                                           axis=-1).reshape(frames, -1)
-    return out
-
-
-def unpack_keypoints(channel):
-    """``(points (12, 2), confidence (12,))`` of one frame's keypoint channel ``(height,
-    width)`` (a NumPy or JAX array: the likelihood reads it inside the trackers)."""
-    values = channel.reshape(-1)[:KEYPOINT_VALUES].reshape(NUM_KEYPOINTS, 3)
-    return values[:, :2], values[:, 2]
 
 
 def read_keypoints(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
