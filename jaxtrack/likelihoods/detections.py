@@ -249,7 +249,7 @@ def log_density(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: D
     def person_terms(order):
         # Σ_k log[p(d_k | μ_order(k)) / U] of every person: the detections labelled k against
         # the pose's marker order(k) (the identity, or the left/right swap)
-        mean, scale = pose[jnp.asarray(order)], sigma[jnp.asarray(order)]
+        mean, scale = pose[order], sigma[order]
         z = (frame.points - mean) / scale[:, None]
         log_gauss = (-0.5 * jnp.sum(z ** 2, -1) - 2 * jnp.log(scale) - jnp.log(2 * jnp.pi)
                      - jnp.sum(_log_normal_mass((-0.5 - mean) / scale[:, None],
@@ -257,11 +257,11 @@ def log_density(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: D
         ratio = jnp.logaddexp(log_weight + log_gauss + log_area, log_rest)
         return jnp.sum(jnp.where(present, ratio, 0.0), -1)
 
-    identity = tuple(range(pose.shape[0]))
+    orders = jnp.asarray([tuple(range(pose.shape[0])), params.swap])
+    straight, swapped = jax.vmap(person_terms)(orders)
     swap = params.swap_probability
     # ℓ_j = log[(1 − s) Π_k … + s Π_k …(swapped)] − log B(D_j)
-    ell = jnp.logaddexp(jnp.log1p(-swap) + person_terms(identity),
-                        jnp.log(swap) + person_terms(params.swap))
+    ell = jnp.logaddexp(jnp.log1p(-swap) + straight, jnp.log(swap) + swapped)
     count = frame.num_people
     log_ours = (jnp.log1p(-params.absent_probability)
                 - jnp.log(jnp.maximum(count, 1)).astype(dtype) + ell)
