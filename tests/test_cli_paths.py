@@ -204,9 +204,11 @@ EVALUATE = ["evaluate", "--method", "latent", "--train", "animateddrawings/fair1
     (["train", "--clips", "{asf}", "--out", "{tmp}/m.npz"],
      "--clips {asf}: {asf}: not a motion file"),
     (["train", "--clips", "{bvh}", "--seed", "-1", "--out", "{tmp}/m.npz"],
-     "--seed must be from 0 to 9223372036854775807, got -1"),
+     "--seed must be from 0 to 4294967295 (a 32-bit seed: jax.random.key keeps only the low 32 "
+     "bits), got -1"),
     (EVALUATE + ["--seed", "-1", "--json", "{tmp}/o.json"],
-     "--seed must be from 0 to 9223372036854775807, got -1"),
+     "--seed must be from 0 to 4294967295 (a 32-bit seed: jax.random.key keeps only the low 32 "
+     "bits), got -1"),
     (EVALUATE + ["--max-frames", "0", "--json", "{tmp}/o.json"],
      "--max-frames must be at least 2 (frame 0 starts the tracker), got 0"),
     (EVALUATE[:-1] + ["{bvh}", "--train", "./{bvh}", "--json", "{tmp}/o.json"],

@@ -107,8 +107,19 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
     torso = _torso(sequence.truth[0])
     errors = np.linalg.norm(markers - sequence.truth[:10], axis=-1).mean(axis=-1) / torso
     assert errors[0] < 0.25 and errors.mean() < 0.5, errors
-    assert (out / "overlay.mp4").stat().st_size > 0
+    # the overlay at the video's own size, not the tracked one
+    from jaxtrack.vision import read_video
+
+    overlay = read_video(out / "overlay.mp4")
+    assert overlay.image_size == (320, 240) and overlay.num_frames == 10
     assert record["masks"] is None
+    # what ran, and every frame's status by the one enum's names
+    assert record["method"] == "latent" and record["options"]["particles"] == 50
+    assert record["options"]["max_size"] == 160 and "lost_rule" in record
+    assert set(record["statuses"]) == {"ok", "degenerate", "no person", "lost"}
+    statuses = [frame["status"] for frame in record["frames"]]
+    assert set(statuses) <= set(record["statuses"]) and statuses[0] == "ok"
+    assert sum(record["status_counts"].values()) == 10
     # person masks as the likelihood's foreground: read, fitted to the tracked frames, recorded
     from jaxtrack.vision import write_masks
 
@@ -172,21 +183,25 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
                          (320, 240))
     out = tmp_path / "out"
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out))
-    assert code == 2 and "automatic initialisation failed" in error and str(still) in error
+    assert code == 2 and "--init face found nobody on" in error and str(still) in error
+    # the message names what to give instead, with the markers' order
+    assert ("give the first frame's pose instead: --init manual:x,y,... (24 numbers, x and y of "
+            "head, neck, thorax, pelvis, right_shoulder") in error
+    assert "or --init keypoints --keypoints FILE" in error and error.count("\n") == 1
     assert not out.exists()  # nothing written
     code, error = run("--model", str(model_file), "--video", str(tmp_path / "none.mp4"),
                       "--out", str(out))
     assert code == 2 and "none.mp4" in error
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--refine-steps", "-1")
-    assert code == 2 and "--refine-steps must be 0 or more" in error
+    assert code == 2 and "--refine-steps must be at least 0, got -1" in error
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--arm-grid", "2")
     assert code == 2 and "--arm-grid must be an odd positive integer" in error
     assert error.strip().endswith("got 2")
     code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                       "--arm-momentum", "-0.5")
-    assert code == 2 and "--arm-momentum must be a finite number >= 0 and <= 1, got -0.5" in error
+    assert code == 2 and "--arm-momentum must be between 0 and 1, got -0.5" in error
     corrupt = tmp_path / "corrupt.mp4"
     corrupt.write_bytes(b"not a video" * 100)
     code, error = run("--model", str(model_file), "--video", str(corrupt), "--out", str(out))
@@ -266,3 +281,46 @@ def test_track_cli_initialises_from_the_first_frames_mask(model_file, sequence, 
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "the first frame's mask in" in error[0] and "empty" in error[0]
     assert not (tmp_path / "bad").exists()
+
+
+def _small_person(image, x, y, height, colour):
+    """A standing person-shaped figure ``height`` pixels tall, its head's top at (x, y)."""
+    import cv2
+
+    def point(dx, dy):
+        return int(x + dx * height), int(y + dy * height)
+
+    cv2.circle(image, point(0, 0.065), int(0.065 * height), colour, -1)
+    cv2.rectangle(image, point(-0.11, 0.13), point(0.11, 0.52), colour, -1)
+    for side in (-1, 1):
+        cv2.line(image, point(0.11 * side, 0.16), point(0.16 * side, 0.5), colour,
+                 max(2, int(0.05 * height)))
+        cv2.line(image, point(0.05 * side, 0.52), point(0.07 * side, 1.0), colour,
+                 max(2, int(0.06 * height)))
+
+
+def test_auto_initialise_finds_people_80_pixels_tall_in_a_large_frame(prior):
+    """A vtest.avi-like scene: two people about 80 px tall walking over a static 768x576
+    background. Their blobs (1 500-2 500 px) are below 0.5 % of the frame, the least blob
+    head_boxes takes by default; autoinit asks for blobs from MIN_PERSON_PIXELS instead."""
+    import cv2
+
+    from jaxtrack.trackers.autoinit import MIN_PERSON_PIXELS
+
+    rng = np.random.default_rng(0)
+    background = cv2.GaussianBlur(rng.integers(60, 200, (576, 768, 3), dtype=np.uint8),
+                                  (0, 0), 3)
+    frames = np.repeat(background[None], 5, axis=0)
+    for t in range(5):
+        _small_person(frames[t], 150 + 12 * t, 300, 80, (30, 40, 50))
+        _small_person(frames[t], 500 - 10 * t, 200, 84, (220, 210, 200))
+    foreground = foreground_mask(frames[0], median_background(frames))
+    assert MIN_PERSON_PIXELS < foreground.sum() / 2 < 0.005 * foreground.size
+    assert len(head_boxes(foreground)) == 0  # the default least blob misses both
+    found = auto_initialise(prior.model, prior.template, frames[0], foreground,
+                            faces=np.zeros((0, 4)), max_latents=150)
+    assert found.source == "foreground" and found.score > 0.6
+    head, pelvis = found.markers[UPPER_BODY_12.index("head")], found.markers[3]
+    # on one of the two people: the head at its head, the pelvis at its hips
+    assert (np.linalg.norm(head - [150, 305]) < 6 or np.linalg.norm(head - [500, 205]) < 6), head
+    assert 20 < np.linalg.norm(pelvis - head) < 50
