@@ -48,8 +48,6 @@ paths × particles density evaluations per frame. See ``docs/mixed-state.md``.
 
 from __future__ import annotations
 
-import math
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -61,7 +59,6 @@ from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
 from jaxtrack import smc
 from jaxtrack.likelihoods.part_distances import PartDistances
 from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
-from jaxtrack.smc._resampling import systematic_ancestors
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
 
 __all__ = ["MixedStateFrame", "MixedStateModel", "MixedStateResult", "MixedStateTracker",
@@ -87,8 +84,13 @@ class MixedStateFrame(eqx.Module):
     status: Int[Array, "*time"]
 
 
-class MixedStateModel(eqx.Module):
-    """The posture model, the part likelihood and the dynamics' noise (module docstring).
+class MixedStateModel(smc.StateSpaceModel):
+    """The posture model, the part likelihood and the dynamics' noise (module docstring), as a
+    model of the engine (:class:`jaxtrack.smc.StateSpaceModel`): a particle is
+    ``{"posture": int32, "parts": (5, 2), "velocities": (5, 2)}``, an observation one
+    :class:`MixedStateFrame`. It proposes (``init_propose``, ``propose``: steps 1 and 3–5 of
+    the module docstring) with the posture evidence as the log-weight correction, and its
+    ``log_likelihood`` is the parts' term alone (step 6).
 
     Attributes:
         postures: p(h | q), T and π.
@@ -162,6 +164,85 @@ class MixedStateModel(eqx.Module):
         values = self.postures.log_likelihoods(frame.features)
         return jnp.where(frame.status == FRAME_OK, values, 0.0)
 
+    def init(self, key: PRNGKeyArray) -> dict:
+        raise NotImplementedError(
+            "MixedStateModel draws its first particles about the first frame's hypotheses "
+            "(§3.2 step 1): call init_propose(key, first_frame), as the engine does")
+
+    def init_propose(self, key: PRNGKeyArray, frame: MixedStateFrame
+                     ) -> tuple[dict, Float[Array, ""]]:
+        """§3.2 step 1: q ~ π(q) p(h_1 | q) normalised, parts ~ N(z_1^q, σ_init² I) projected
+        into the silhouette, velocities ~ N(0, σ_v,init² I); the correction is the posture
+        evidence log Σ_q π(q) p(h_1 | q) (the same for every particle)."""
+        dtype = jnp.result_type(float)
+        ok = frame.status == FRAME_OK
+        logits = (self.postures.log_initial + self.log_posture_likelihoods(frame)).astype(dtype)
+        log_evidence = jax.nn.logsumexp(logits)
+        key_posture, key_noise = jr.split(key)
+        posture = _draw_posture(jr.uniform(key_posture, (), dtype), logits - log_evidence)
+        hypotheses = frame.hypotheses.astype(dtype)
+        noise = smc.fast_normal(key_noise, (2, *hypotheses.shape[1:]), dtype)
+        parts = hypotheses[posture] + self.initial_std.astype(dtype) * noise[0]
+        parts = jnp.where(ok, _project(parts, frame.nearest), parts)
+        velocities = self.initial_velocity_std.astype(dtype) * noise[1]
+        particle = {"posture": posture, "parts": parts, "velocities": velocities}
+        return particle, jnp.where(ok, log_evidence, 0.0)
+
+    def propose(self, key: PRNGKeyArray, particle: dict, time: Int[Array, ""],
+                frame: MixedStateFrame) -> tuple[dict, Float[Array, ""]]:
+        """Steps 3–5: the posture from the parent's row of F (eq. 8–9), the parts by constant
+        velocity (or re-drawn), projected into the silhouette; the correction is the row's
+        normaliser log Σ_j p(h_t | j) T_ij (zero on a frame whose status is not ok)."""
+        ok = frame.status == FRAME_OK
+        log_row = self.postures.log_transition[particle["posture"]] + (
+            self.log_posture_likelihoods(frame))
+        log_normaliser = jax.nn.logsumexp(log_row)
+        moved = self._move(key, particle, log_row - log_normaliser, frame)
+        return moved, jnp.where(ok, log_normaliser, 0.0).astype(particle["parts"].dtype)
+
+    def propagate(self, key: PRNGKeyArray, particle: dict, time: Int[Array, ""]) -> dict:
+        """The dynamics without a frame: the posture from T, the parts by constant velocity
+        (what ``propose`` does on a frame whose status is not ok)."""
+        return self._move(key, particle, self.postures.log_transition[particle["posture"]],
+                          None)
+
+    def _move(self, key, particle: dict, log_probabilities, frame: MixedStateFrame | None
+              ) -> dict:
+        """The posture drawn from ``log_probabilities`` (normalised), the parts predicted
+        (step 4), re-drawn about the frame's hypotheses and projected (step 5) where the frame
+        has a silhouette."""
+        parts, velocities = particle["parts"], particle["velocities"]
+        dtype = parts.dtype
+        key_uniforms, key_noise = jr.split(key)
+        uniforms = jr.uniform(key_uniforms, (2,), dtype)
+        noise = smc.fast_normal(key_noise, (3, *parts.shape), dtype)
+        posture = _draw_posture(uniforms[0], log_probabilities.astype(dtype)).astype(
+            particle["posture"].dtype)
+        velocities = velocities + self.velocity_std.astype(dtype) * noise[0]
+        predicted = parts + velocities + self.position_std.astype(dtype) * noise[1]
+        if frame is None:
+            return {"posture": posture, "parts": predicted, "velocities": predicted - parts}
+        ok = frame.status == FRAME_OK
+        # a few particles' parts re-drawn about their posture's hypotheses (recovery)
+        redraw = uniforms[1] < self.redetect_probability.astype(dtype)
+        if self.redraw_on_switch:  # a new posture starts from its own hypotheses
+            redraw = redraw | (posture != particle["posture"])
+        redraw = redraw & ok
+        fresh = frame.hypotheses.astype(dtype)[posture] + self.initial_std.astype(
+            dtype) * noise[2]
+        predicted = jnp.where(redraw, fresh, predicted)
+        predicted = jnp.where(ok, _project(predicted, frame.nearest), predicted)
+        velocities = jnp.where(redraw, 0.0, predicted - parts)
+        return {"posture": posture, "parts": predicted, "velocities": velocities}
+
+    def log_likelihood(self, particle: dict, frame: MixedStateFrame) -> Float[Array, ""]:
+        """Step 6's parts term, log p(Z_t | x, q) (eq. 4–7); zero on a frame whose status is
+        not ok. The posture's evidence is in ``propose``'s correction."""
+        dtype = particle["parts"].dtype
+        value = self.part_likelihood.log_likelihood(
+            particle["posture"], particle["parts"], frame.hypotheses.astype(dtype))
+        return jnp.where(frame.status == FRAME_OK, value, 0.0).astype(dtype)
+
 
 class MixedStateResult(eqx.Module):
     """The filter's outputs for a sequence (leading ``time`` axis on per-frame fields).
@@ -202,6 +283,15 @@ def _project(parts: Float[Array, "parts 2"], nearest: Int[Array, "height width 2
     return jnp.where(inside[:, None], parts, target)
 
 
+def _draw_posture(uniform: Float[Array, ""], log_probabilities: Float[Array, " postures"]
+                  ) -> Int[Array, ""]:
+    """Inverse-CDF draw of one posture from normalised log probabilities, one uniform in
+    [0, 1) (postures of probability zero are never drawn)."""
+    cumulative = jnp.cumsum(jnp.exp(log_probabilities))
+    index = jnp.searchsorted(cumulative, uniform * cumulative[-1], side="right")
+    return jnp.minimum(index, log_probabilities.shape[0] - 1).astype(jnp.int32)
+
+
 def _estimate(postures, parts, log_weights):
     """Posture of largest total weight; weighted mean of the parts of the particles in it."""
     weights = jax.nn.softmax(log_weights)
@@ -212,68 +302,6 @@ def _estimate(postures, parts, log_weights):
     return best, probabilities, jnp.tensordot(chosen, parts, axes=1)
 
 
-def _initial(key, model: MixedStateModel, frame: MixedStateFrame, num_particles: int, dtype):
-    key_posture, key_parts, key_velocities = jr.split(key, 3)
-    logits = model.postures.log_initial + model.log_posture_likelihoods(frame)
-    postures = jr.categorical(key_posture, logits.astype(dtype), shape=(num_particles,))
-    centres = frame.hypotheses.astype(dtype)[postures]
-    parts = centres + model.initial_std.astype(dtype) * jr.normal(key_parts, centres.shape, dtype)
-    velocities = model.initial_velocity_std.astype(dtype) * jr.normal(
-        key_velocities, centres.shape, dtype)
-    ok = frame.status == FRAME_OK
-    projected = jax.vmap(_project, in_axes=(0, None))(parts, frame.nearest)
-    parts = jnp.where(ok, projected, parts)
-    log_likelihoods = jax.vmap(model.part_likelihood.log_likelihood, in_axes=(0, 0, None))(
-        postures, parts, frame.hypotheses.astype(dtype))
-    # the posture evidence Σ_q π(q) p(h_1 | q) is one constant here (all share it)
-    log_weights = jnp.where(ok, log_likelihoods, 0.0)
-    return postures, parts, velocities, log_weights
-
-
-def _step(key, model: MixedStateModel, postures, parts, velocities, log_weights,
-          frame: MixedStateFrame):
-    """One frame: resample, sample posture from F (eq. 8–9), predict, project, weigh."""
-    key_resample, key_posture, key_velocity, key_position, key_redraw, key_redetect = jr.split(
-        key, 6)
-    dtype = parts.dtype
-    num = postures.shape[0]
-    ancestors = systematic_ancestors(key_resample, log_weights)
-    postures, parts, velocities = postures[ancestors], parts[ancestors], velocities[ancestors]
-    ok = frame.status == FRAME_OK
-    # eq. 8–9: F_ij ∝ p(h_t | q = j) T_ij, rows normalised; the normaliser weighs the parent
-    log_f = model.postures.log_transition + model.log_posture_likelihoods(frame)[None, :]
-    log_rows = jax.nn.logsumexp(log_f, axis=1)
-    log_f = (log_f - log_rows[:, None]).astype(dtype)
-    # inverse-CDF draw from the parent's row of F: one uniform per particle
-    cumulative = jnp.cumsum(jnp.exp(log_f), axis=1)
-    uniforms = jr.uniform(key_posture, (num,), dtype) * cumulative[:, -1][postures]
-    children = jnp.minimum(jnp.sum(cumulative[postures] < uniforms[:, None], axis=1),
-                           NUM_POSTURES - 1).astype(postures.dtype)
-    velocities = velocities + model.velocity_std.astype(dtype) * smc.fast_normal(
-        key_velocity, velocities.shape, dtype)
-    predicted = parts + velocities + model.position_std.astype(dtype) * smc.fast_normal(
-        key_position, parts.shape, dtype)
-    # a few particles' parts re-drawn about their posture's hypotheses (recovery)
-    redraw = jr.uniform(key_redetect, (num,), dtype) < model.redetect_probability.astype(dtype)
-    if model.redraw_on_switch:  # a new posture starts from its own hypotheses
-        redraw = redraw | (children != postures)
-    redraw = redraw & ok
-    fresh = frame.hypotheses.astype(dtype)[children] + model.initial_std.astype(
-        dtype) * smc.fast_normal(key_redraw, parts.shape, dtype)
-    predicted = jnp.where(redraw[:, None, None], fresh, predicted)
-    projected = jax.vmap(_project, in_axes=(0, None))(predicted, frame.nearest)
-    predicted = jnp.where(ok, projected, predicted)
-    velocities = jnp.where(redraw[:, None, None], 0.0, predicted - parts)
-    log_likelihoods = jax.vmap(model.part_likelihood.log_likelihood, in_axes=(0, 0, None))(
-        children, predicted, frame.hypotheses.astype(dtype))
-    unnormalised = jnp.where(ok, log_likelihoods + log_rows[postures].astype(dtype), 0.0)
-    increment = jax.nn.logsumexp(unnormalised) - math.log(num)
-    finite = jnp.isfinite(increment)
-    new_log_weights = jnp.where(finite, unnormalised - jax.nn.logsumexp(unnormalised),
-                                -math.log(num))
-    return children, predicted, velocities, new_log_weights.astype(dtype), ancestors, increment
-
-
 def _ess(log_weights):
     return 1.0 / jnp.sum(jax.nn.softmax(log_weights) ** 2)
 
@@ -281,7 +309,8 @@ def _ess(log_weights):
 @eqx.filter_jit
 def filter_sequence(key: PRNGKeyArray, model: MixedStateModel, observations: MixedStateFrame,
                     num_particles: int) -> MixedStateResult:
-    """Filter a whole sequence in one ``lax.scan`` and keep the particle history.
+    """Filter a whole sequence with the engine (:func:`jaxtrack.smc.filter_sequence`, one
+    ``lax.scan``, systematic resampling every frame) and keep the particle history.
 
     Args:
         key: PRNG key.
@@ -293,43 +322,16 @@ def filter_sequence(key: PRNGKeyArray, model: MixedStateModel, observations: Mix
     Returns:
         :class:`MixedStateResult`.
     """
-    if num_particles < 1:
-        raise ValueError(f"num_particles must be at least 1, got {num_particles}")
-    dtype = jnp.result_type(float)
-    key_init, key_steps = jr.split(key)
-    first = jax.tree.map(lambda leaf: leaf[0], observations)
-    postures, parts, velocities, log_weights = _initial(key_init, model, first, num_particles,
-                                                        dtype)
-    first_increment = jax.nn.logsumexp(log_weights) - math.log(num_particles)
-    log_weights = log_weights - jax.nn.logsumexp(log_weights)
-
-    def body(carry, inputs):
-        postures, parts, velocities, log_weights = carry
-        key, frame = inputs
-        postures, parts, velocities, log_weights, ancestors, increment = _step(
-            key, model, postures, parts, velocities, log_weights, frame)
-        return (postures, parts, velocities, log_weights), (postures, parts, velocities,
-                                                            log_weights, ancestors, increment)
-
-    rest = jax.tree.map(lambda leaf: leaf[1:], observations)
-    num_frames = observations.status.shape[0]
-    _, (all_postures, all_parts, all_velocities, all_log_weights, ancestors,
-        increments) = lax.scan(
-        body, (postures, parts, velocities, log_weights),
-        (jr.split(key_steps, num_frames - 1), rest))
-    cat = lambda head, tail: jnp.concatenate([head[None], tail])  # noqa: E731
-    all_postures = cat(postures, all_postures)
-    all_parts = cat(parts, all_parts)
-    all_velocities = cat(velocities, all_velocities)
-    all_log_weights = cat(log_weights, all_log_weights)
-    ancestors = cat(jnp.arange(num_particles, dtype=ancestors.dtype), ancestors)
-    increments = cat(first_increment.astype(increments.dtype), increments)
-    best, probabilities, mean_parts = jax.vmap(_estimate)(all_postures, all_parts,
-                                                          all_log_weights)
-    return MixedStateResult(all_postures, all_parts, all_velocities, all_log_weights,
-                            ancestors, increments,
-                            jax.vmap(_ess)(all_log_weights), observations.status, best,
-                            probabilities, mean_parts)
+    if not isinstance(num_particles, int) or num_particles < 1:
+        raise ValueError(f"num_particles must be an int of at least 1, got {num_particles!r}")
+    history = smc.filter_sequence(key, model, observations, num_particles, keep_history=True)
+    particles = history.particles
+    best, probabilities, mean_parts = jax.vmap(_estimate)(
+        particles["posture"], particles["parts"], history.log_weights)
+    return MixedStateResult(particles["posture"], particles["parts"], particles["velocities"],
+                            history.log_weights, history.ancestors,
+                            history.log_evidence_increments, history.ess, observations.status,
+                            best, probabilities, mean_parts)
 
 
 def _as_filter_result(result: MixedStateResult) -> smc.FilterResult:
@@ -479,17 +481,33 @@ def observations_from_silhouettes(masks: np.ndarray, *, num_bins: int = 16) -> M
 
 
 class MixedStateState(eqx.Module):
-    """What :class:`MixedStateTracker` carries from frame to frame."""
+    """What :class:`MixedStateTracker` carries from frame to frame: the engine's filter state
+    (particles ``{"posture", "parts", "velocities"}``) and whether the last frame was
+    degenerate."""
 
-    postures: Int[Array, " particles"]
-    parts: Float[Array, "particles parts 2"]
-    velocities: Float[Array, "particles parts 2"]
-    log_weights: Float[Array, " particles"]
+    filter: smc.FilterState
     degenerate: Bool[Array, ""]
+
+    @property
+    def postures(self) -> Int[Array, " particles"]:
+        return self.filter.particles["posture"]
+
+    @property
+    def parts(self) -> Float[Array, "particles parts 2"]:
+        return self.filter.particles["parts"]
+
+    @property
+    def velocities(self) -> Float[Array, "particles parts 2"]:
+        return self.filter.particles["velocities"]
+
+    @property
+    def log_weights(self) -> Float[Array, " particles"]:
+        return self.filter.log_weights
 
 
 class MixedStateTracker(Tracker):
-    """The mixed-state filter under the tracker contract (frame by frame, causal).
+    """The mixed-state filter under the tracker contract (frame by frame, causal): the engine's
+    :func:`jaxtrack.smc.initialize` and :func:`jaxtrack.smc.step` on :class:`MixedStateModel`.
 
     Its frames are :class:`MixedStateFrame` observations; it reports the five parts (head,
     hand, hand, foot, foot) as its markers. It starts from the first frame's silhouette
@@ -515,27 +533,22 @@ class MixedStateTracker(Tracker):
         return {"method": "mixed-state", "particles": self.particles, **self.model.options()}
 
     def start(self, key, first_frame: MixedStateFrame, initial_pose=None) -> MixedStateState:
-        dtype = jnp.result_type(float)
-        postures, parts, velocities, log_weights = _initial(key, self.model, first_frame,
-                                                            self.particles, dtype)
-        log_weights = log_weights - jax.nn.logsumexp(log_weights)
-        return MixedStateState(postures, parts, velocities, log_weights, jnp.asarray(False))
+        state, info = smc.initialize(key, self.model, first_frame, self.particles)
+        return MixedStateState(state, info.degenerate)
 
     def _report(self, state: MixedStateState, increment) -> FrameEstimate:
         _, _, parts = _estimate(state.postures, state.parts, state.log_weights)
         best = state.parts[jnp.argmax(state.log_weights)]
-        return FrameEstimate(parts, best, _ess(state.log_weights), increment, state.degenerate)
+        ess = jnp.where(state.degenerate, 0.0, _ess(state.log_weights))
+        return FrameEstimate(parts, best, ess, increment, state.degenerate)
 
     def first_estimate(self, state: MixedStateState) -> FrameEstimate:
-        return self._report(state, jnp.asarray(0.0, state.log_weights.dtype))
+        return self._report(state, state.filter.log_evidence)
 
     def update(self, key, state: MixedStateState, frame: MixedStateFrame | FrameInChunk
                ) -> tuple[MixedStateState, FrameEstimate]:
         if isinstance(frame, FrameInChunk):  # a pytree frame: index every leaf in place
             frame = jax.tree.map(lambda leaf: leaf[frame.index], frame.frames)
-        postures, parts, velocities, log_weights, _, increment = _step(
-            key, self.model, state.postures, state.parts, state.velocities, state.log_weights,
-            frame)
-        state = MixedStateState(postures, parts, velocities, log_weights,
-                                ~jnp.isfinite(increment))
-        return state, self._report(state, increment)
+        filtered, info = smc.step(key, state.filter, frame, self.model)
+        state = MixedStateState(filtered, info.degenerate)
+        return state, self._report(state, info.log_evidence_increment)

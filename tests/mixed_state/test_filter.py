@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from jaxtrack import smc
 from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES, PostureModel
 from jaxtrack.trackers.mixed_state import (
     MixedStateFrame,
     MixedStateModel,
     _project,
-    _step,
     filter_sequence,
     instantaneous_estimates,
     observations_from_silhouettes,
@@ -50,6 +50,18 @@ def _flat_frames(features, size=6):
                            jnp.zeros(num, jnp.int32))
 
 
+def _one_frame(key, model, postures, parts, frame):
+    """The engine's step from equally weighted particles (zero velocities) into ``frame``:
+    the new particles and the step's info."""
+    num = len(postures)
+    particles = {"posture": jnp.asarray(postures, jnp.int32), "parts": parts,
+                 "velocities": jnp.zeros_like(parts)}
+    state = smc.FilterState(particles, jnp.full(num, -np.log(num)), jnp.asarray(0, jnp.int32),
+                            jnp.asarray(0.0))
+    state, info = eqx.filter_jit(smc.step)(key, state, frame, model)
+    return state.particles, info
+
+
 def test_postures_are_drawn_from_the_rows_of_f():
     rng = np.random.default_rng(0)
     postures = _toy_postures(rng)
@@ -59,9 +71,8 @@ def test_postures_are_drawn_from_the_rows_of_f():
     log_h = np.asarray(postures.log_likelihoods(frame.features))
     for parent in (1, 3):
         parts = jnp.full((num, 5, 2), 2.0)
-        children, *_ = eqx.filter_jit(_step)(
-            jr.PRNGKey(parent), model, jnp.full(num, parent), parts, jnp.zeros_like(parts),
-            jnp.full(num, -np.log(num)), frame)
+        children = _one_frame(jr.PRNGKey(parent), model, np.full(num, parent), parts,
+                              frame)[0]["posture"]
         row = np.exp(np.asarray(postures.log_transition)[parent] + log_h)
         expected = num * row / row.sum()
         observed = np.bincount(np.asarray(children), minlength=NUM_POSTURES)
@@ -84,10 +95,9 @@ def test_a_particle_that_changes_posture_takes_the_new_postures_hypotheses_only_
     for redraw in (False, True):
         model = MixedStateModel(postures, position_std=0.5, velocity_std=0.1, initial_std=1.0,
                                 initial_velocity_std=0.1, redraw_on_switch=redraw)
-        children, moved, velocities, *_ = eqx.filter_jit(_step)(
-            jr.PRNGKey(3), model, jnp.zeros(num, jnp.int32), parts, jnp.zeros_like(parts),
-            jnp.full(num, -np.log(num)), frame)
-        children, moved = np.asarray(children), np.asarray(moved)
+        particles, _ = _one_frame(jr.PRNGKey(3), model, np.zeros(num), parts, frame)
+        children, moved = np.asarray(particles["posture"]), np.asarray(particles["parts"])
+        velocities = particles["velocities"]
         to_two = children == 2
         assert 50 < to_two.sum() < num - 50  # both kinds of particle are there
         centre = moved[to_two].reshape(-1, 2).mean(axis=0)
