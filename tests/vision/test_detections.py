@@ -10,6 +10,7 @@ import pytest
 
 from benchmarks._mediapipe import keypoint_confidence, to_upper_body
 from jaxtrack.body import SPM_MARKERS
+from jaxtrack.data import shared_folder
 from jaxtrack.evaluation.reference import read_openpose as reference_read_openpose
 from jaxtrack.vision import (
     DetectionFileError,
@@ -21,13 +22,16 @@ from jaxtrack.vision import (
     read_openpose,
     write_detections,
 )
-from jaxtrack.vision.detections import LAYOUT_KEYPOINTS, mapping_table
+from jaxtrack.vision.detections import LAYOUT_KEYPOINTS, mapping_table, openpose_layout
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "detections"
 OPENPOSE = DATA / "openpose_body25b" / "cam01_json"
 COCO = DATA / "coco17" / "test_coco.json"
 MEDIAPIPE = DATA / "mediapipe"
 FULL = (*SPM_MARKERS, "right_knee", "right_ankle", "left_knee", "left_ankle")
+SHARED = shared_folder()
+DEMO = None if SHARED is None else \
+    SHARED / "pose2sim_demo_singleperson" / "reference" / "openpose_body25b"
 
 
 def _at(detections, frame, person, marker):
@@ -88,6 +92,29 @@ def _rewrite(folder: Path, out: Path, layout: str) -> Path:
         number = file.stem.split(".")[-1]
         (out / f"take_{int(number):012d}_keypoints.json").write_text(json.dumps(data))
     return out
+
+
+def _as_body_25(keypoints):
+    """BODY_25B keypoints ``(..., 25, 3)`` re-indexed into BODY_25 (MidHip: the hips' midpoint)."""
+    source = {name: i for i, name in enumerate(LAYOUT_KEYPOINTS["BODY_25B"])}
+    hips = keypoints[..., [source["LHip"], source["RHip"]], :]
+    mid = np.concatenate([hips[..., :2].mean(-2), hips[..., 2:].min(-2)], -1)
+    return np.stack([mid if name == "MidHip" else keypoints[..., source[name], :]
+                     for name in LAYOUT_KEYPOINTS["BODY_25"]], -2)
+
+
+@pytest.mark.skipif(DEMO is None or not DEMO.is_dir(),
+                    reason="the shared/data collection (pose2sim_demo_singleperson) is not "
+                           "beside this checkout")
+def test_body_25_and_body_25b_are_told_apart_on_every_camera_of_the_demo():
+    # front views (cam01, cam02) and views from behind (cam03, cam04: no eyes found), from one
+    # frame to all 100, as written (BODY_25B) and re-indexed into BODY_25
+    for camera in ("cam01", "cam02", "cam03", "cam04"):
+        frames = reference_read_openpose(DEMO / f"{camera}_json")
+        for count in (1, 3, 100):
+            keypoints = np.concatenate(frames[:count])
+            assert openpose_layout(keypoints) == "BODY_25B", (camera, count)
+            assert openpose_layout(_as_body_25(keypoints)) == "BODY_25", (camera, count)
 
 
 @pytest.mark.parametrize("layout", ["BODY_25", "COCO_18"])
