@@ -39,6 +39,9 @@ def _parse(argv):
     parser.add_argument("--seeds", type=int, default=3, help="tracker seeds per test take "
                         "(default 3); every score pools them")
     parser.add_argument("--actor", default=setting.ACTOR, help="the actor (default bd)")
+    parser.add_argument("--validation", action="store_true", help="also try the model "
+                        "settings of setting.VALIDATION_GRID on the validation takes (entry "
+                        "'validation')")
     args = parser.parse_args(argv)
     if args.particles < 1 or args.seeds < 1:
         parser.error("--particles and --seeds must be at least 1")
@@ -56,24 +59,21 @@ def _progress(iterable, **kwargs):
     return tqdm(iterable, file=sys.stderr, **kwargs)
 
 
-def paper_setting(actor: str = setting.ACTOR, num_particles: int = 500, seeds: int = 3,
-                  test_takes=setting.TEST_TAKES) -> tuple[dict, dict]:
-    """Render, train, track and score (module docstring). Returns the JSON-able results and
-    the arrays the plots need."""
-    import jax.random as jr
-
-    from jaxtrack.experiments.mixed_state import fit, part_squared_errors, score, track
-    from jaxtrack.trackers.mixed_state import MixedStateModel, observations_from_silhouettes
+def prepare(actor: str, held_out) -> tuple:
+    """Load every take of ``actor``, fit the side camera on all of them, and train the posture
+    model on the takes not in ``held_out`` (and their mirror images). Returns the posture
+    model, its JSON-able description, the camera and the staged motions by take."""
+    from jaxtrack.experiments.mixed_state import fit
     from jaxtrack.vision.histograms import FRAME_OK, silhouette_features
 
     takes = setting.actor_takes(actor)
-    unknown = sorted(set(test_takes) - {take.name for take in takes})
+    unknown = sorted(set(held_out) - {take.name for take in takes})
     if unknown:
-        raise ValueError(f"test takes {unknown} are not takes of actor {actor}")
+        raise ValueError(f"takes {unknown} are not takes of actor {actor}")
     motions = {take.name: setting.load_take(take) for take in
                _progress(takes, desc="loading takes")}
     camera = setting.side_camera(list(motions.values()))
-    training = [name for name in motions if name not in test_takes]
+    training = [name for name in motions if name not in held_out]
     features, labels, training_iou = [], [], []
     for index, name in enumerate(_progress(training, desc="rendering training takes")):
         rendered = setting.render_take(motions[name], camera, name, seed=index)
@@ -83,49 +83,83 @@ def paper_setting(actor: str = setting.ACTOR, num_particles: int = 500, seeds: i
             features.append(values[status == FRAME_OK])
             labels.append(view.labels[status == FRAME_OK])
     postures, description = fit(features, labels, actor=actor, training_takes=training,
-                                mirrored=True,
-                                background=setting.BACKGROUND,
-                                silhouette_iou_min=float(min(training_iou)))
-    model = MixedStateModel(postures)
+                                mirrored=True, background=setting.BACKGROUND,
+                                silhouette_iou={name: round(value, 3) for name, value in
+                                                zip(training, training_iou, strict=True)})
+    return postures, description, camera, motions
+
+
+def render_tests(motions: dict, camera, names) -> list:
+    """The held-out takes through the camera (seeds 1000, 1001, … apart from training's)."""
+    return [setting.render_take(motions[name], camera, name, seed=1000 + index)
+            for index, name in enumerate(names)]
+
+
+def hypothesis_floor(rendered: list, observations: list) -> dict:
+    """What any choice among the hypotheses can reach: the mean squared error (all parts, px²)
+    of the true posture's hypotheses in every frame, and of the best posture's per frame."""
+    from jaxtrack.experiments.mixed_state import part_squared_errors
+
+    true_posture, best_posture = [], []
+    for take, frames in zip(rendered, observations, strict=True):
+        hypotheses = np.asarray(frames.hypotheses)
+        steps = np.arange(len(hypotheses))
+        true_posture.append(part_squared_errors(hypotheses[steps, take.labels], take.parts))
+        per_posture = np.stack([part_squared_errors(hypotheses[:, q], take.parts).mean(axis=1)
+                                for q in range(hypotheses.shape[1])], axis=1)
+        best_posture.append(per_posture.min(axis=1))
+    true_posture = np.concatenate(true_posture)
+    return {"true_posture": {name: float(true_posture[:, idx].mean()) for name, idx in (
+                ("head", [0]), ("hands", [1, 2]), ("feet", [3, 4]), ("all", slice(None)))},
+            "best_posture_per_frame_all": float(np.concatenate(best_posture).mean())}
+
+
+def evaluate(model, rendered: list, num_particles: int, seeds: int) -> tuple[dict, dict]:
+    """Track every rendered take with ``seeds`` tracker seeds and score the instantaneous,
+    filtered and smoothed estimates, pooled over takes and seeds (Table 1), per take, and as
+    fraction-within-ε curves. Returns the JSON-able results and the arrays the plots need."""
+    import jax.random as jr
+
+    from jaxtrack.experiments.mixed_state import part_squared_errors, score, track
+    from jaxtrack.trackers.mixed_state import observations_from_silhouettes
+    from jaxtrack.vision.histograms import FRAME_OK
+
     per_take, pooled, arrays = {}, {kind: [] for kind in ESTIMATES}, {}
-    truth_parts, truth_labels, valid = [], [], []
-    for index, name in enumerate(_progress(test_takes, desc="tracking test takes")):
-        rendered = setting.render_take(motions[name], camera, name, seed=1000 + index)
-        observations = observations_from_silhouettes(rendered.masks)
-        runs = [track(jr.PRNGKey(seed), model, observations, num_particles)
-                for seed in range(seeds)]
+    truth_parts, truth_labels, valid, observations = [], [], [], []
+    for take in _progress(rendered, desc="tracking"):
+        frames = observations_from_silhouettes(take.masks)
+        observations.append(frames)
+        runs = [track(jr.PRNGKey(seed), model, frames, num_particles) for seed in range(seeds)]
         ok = runs[0]["status"] == FRAME_OK
-        per_take[name] = {kind: [score(run[kind]["parts"], run[kind]["posture"], rendered.parts,
-                                       rendered.labels, ok) for run in runs]
-                          for kind in ESTIMATES}
-        per_take[name]["frames"] = int(len(ok))
-        per_take[name]["silhouette_iou"] = rendered.silhouette_iou
-        per_take[name]["true_postures"] = np.bincount(rendered.labels, minlength=5).tolist()
+        per_take[take.name] = {kind: [score(run[kind]["parts"], run[kind]["posture"],
+                                            take.parts, take.labels, ok) for run in runs]
+                               for kind in ESTIMATES}
+        per_take[take.name].update(frames=int(len(ok)), silhouette_iou=take.silhouette_iou,
+                                   true_postures=np.bincount(take.labels, minlength=5).tolist())
         for run in runs:
             for kind in ESTIMATES:
                 pooled[kind].append((run[kind]["parts"], run[kind]["posture"]))
-            truth_parts.append(rendered.parts)
-            truth_labels.append(rendered.labels)
+            truth_parts.append(take.parts)
+            truth_labels.append(take.labels)
             valid.append(ok)
-        arrays[name] = {"truth": rendered.parts, "labels": rendered.labels,
-                        **{kind: runs[0][kind]["parts"] for kind in ESTIMATES},
-                        **{f"{kind}_posture": runs[0][kind]["posture"] for kind in ESTIMATES}}
+        arrays[take.name] = {"truth": take.parts, "labels": take.labels,
+                             **{kind: runs[0][kind]["parts"] for kind in ESTIMATES},
+                             **{f"{kind}_posture": runs[0][kind]["posture"]
+                                for kind in ESTIMATES}}
     truth_parts, truth_labels = np.concatenate(truth_parts), np.concatenate(truth_labels)
     valid = np.concatenate(valid)
-    overall, squared = {}, {}
+    summary, squared = {}, {}
     for kind in ESTIMATES:
         parts = np.concatenate([p for p, _ in pooled[kind]])
         posture = np.concatenate([q for _, q in pooled[kind]])
-        overall[kind] = score(parts, posture, truth_parts, truth_labels, valid)
+        overall = score(parts, posture, truth_parts, truth_labels, valid)
         squared[kind] = part_squared_errors(parts, truth_parts)[valid]
-    summary = {kind: {"mse_all": overall[kind]["mse"]["all"],
-                      "posture_error": overall[kind]["posture_error"],
-                      "mse": overall[kind]["mse"],
-                      "head_within_20px": overall[kind]["within"]["head"]["20"],
-                      "within": overall[kind]["within"],
-                      "frames": overall[kind]["frames"]} for kind in ESTIMATES}
+        summary[kind] = {"mse_all": overall["mse"]["all"],
+                         "posture_error": overall["posture_error"], "mse": overall["mse"],
+                         "head_within_20px": overall["within"]["head"]["20"],
+                         "within": overall["within"], "frames": overall["frames"]}
     instant, smoothed = summary["instantaneous"], summary["smoothed"]
-    targets = {
+    summary["targets"] = {
         "mse_halved": smoothed["mse_all"] <= 0.5 * instant["mse_all"],
         "posture_error_halved": smoothed["posture_error"] <= 0.5 * instant["posture_error"],
         "head_within_20px_95": smoothed["head_within_20px"] >= 0.95,
@@ -133,19 +167,56 @@ def paper_setting(actor: str = setting.ACTOR, num_particles: int = 500, seeds: i
         "posture_error_ratio": (smoothed["posture_error"] / instant["posture_error"]
                                 if instant["posture_error"] > 0 else None),
     }
-    results = {**summary, "targets": targets, "target_text": TARGETS, "per_take": per_take,
-               "posture_model": description,
-               "camera": {"focal_length": np.asarray(camera.focal_length).tolist(),
-                          "principal_point": np.asarray(camera.principal_point).tolist(),
-                          "image_size": list(camera.image_size)},
-               "settings": {"actor": actor, "test_takes": list(test_takes),
-                            "particles": num_particles, "seeds": seeds, "fps": setting.FPS,
-                            "model": model.options()}}
+    summary["hypothesis_floor"] = hypothesis_floor(rendered, observations)
+    summary["per_take"] = per_take
     curves = {kind: {part: [float(np.mean(np.sqrt(squared[kind][:, idx]) <= eps))
                             for eps in CURVE_EPSILONS]
                      for part, idx in (("head", [0]), ("hands", [1, 2]), ("feet", [3, 4]))}
               for kind in ESTIMATES}
-    return results, {"takes": arrays, "curves": curves}
+    return summary, {"takes": arrays, "curves": curves}
+
+
+def paper_setting(actor: str = setting.ACTOR, num_particles: int = 500, seeds: int = 3,
+                  model_options: dict | None = None) -> tuple[dict, dict]:
+    """Train on every take of ``actor`` but :data:`setting.TEST_TAKES`, track and score those
+    (module docstring). Returns the JSON-able results and the arrays the plots need."""
+    from jaxtrack.trackers.mixed_state import MixedStateModel
+
+    postures, description, camera, motions = prepare(actor, setting.TEST_TAKES)
+    options = dict(setting.MODEL_OPTIONS if model_options is None else model_options)
+    model = MixedStateModel(postures, **options)
+    results, arrays = evaluate(model, render_tests(motions, camera, setting.TEST_TAKES),
+                               num_particles, seeds)
+    results.update(
+        target_text=TARGETS, posture_model=description,
+        camera={"focal_length": np.asarray(camera.focal_length).tolist(),
+                "principal_point": np.asarray(camera.principal_point).tolist(),
+                "image_size": list(camera.image_size)},
+        settings={"actor": actor, "test_takes": list(setting.TEST_TAKES),
+                  "particles": num_particles, "seeds": seeds, "fps": setting.FPS,
+                  "model": model.options()})
+    return results, arrays
+
+
+def validation(actor: str = setting.ACTOR, num_particles: int = 500, seeds: int = 1) -> dict:
+    """The model settings of :data:`setting.VALIDATION_GRID` on the validation takes
+    (:data:`setting.VALIDATION_TAKES`), the posture model trained without them and without the
+    test takes: smoothed and instantaneous MSE and posture error per setting."""
+    from jaxtrack.trackers.mixed_state import MixedStateModel
+
+    held_out = setting.TEST_TAKES + setting.VALIDATION_TAKES
+    postures, _, camera, motions = prepare(actor, held_out)
+    rendered = render_tests(motions, camera, setting.VALIDATION_TAKES)
+    rows = []
+    for options in setting.VALIDATION_GRID:
+        results, _ = evaluate(MixedStateModel(postures, **options), rendered, num_particles,
+                              seeds)
+        rows.append({"options": options, **{kind: {
+            "mse_all": results[kind]["mse_all"], "posture_error": results[kind]["posture_error"],
+            "head_within_20px": results[kind]["head_within_20px"]}
+            for kind in ("instantaneous", "smoothed")}})
+    return {"takes": list(setting.VALIDATION_TAKES), "particles": num_particles,
+            "seeds": seeds, "rows": rows}
 
 
 def plot(arrays: dict, folder: Path, stem: str) -> list[Path]:
@@ -217,10 +288,13 @@ def main(argv=None) -> int:
     out = Path(args.json)
     try:
         results, arrays = paper_setting(args.actor, args.particles, args.seeds)
+        chosen = validation(args.actor, args.particles) if args.validation else None
     except (FileNotFoundError, ValueError) as error:
         print(f"python -m papers.kwatra2002: {error}", file=sys.stderr)
         return 2
     contents = {"paper_setting": results}
+    if chosen is not None:
+        contents["validation"] = chosen
     plots = plot(arrays, out.parent, out.stem)
     contents["plots"] = [p.name for p in plots]
     _write_json(out, contents)

@@ -30,8 +30,10 @@ import numpy as np
 
 from jaxtrack.priors.postures import LYING_LEFT, LYING_RIGHT
 
-__all__ = ["ACTOR", "DATA_ROOT", "FPS", "IMAGE_SIZE", "TEST_TAKES", "Take", "actor_takes",
-           "data_root", "extremity_points", "mirrored", "render_take", "side_camera", "stage"]
+__all__ = ["ACTOR", "BACKGROUND", "DATA_ROOT", "FPS", "IMAGE_SIZE", "MODEL_OPTIONS",
+           "TEST_TAKES", "VALIDATION_GRID", "VALIDATION_TAKES", "Take", "actor_takes",
+           "data_root", "extremity_points", "load_take", "mirrored", "render_take",
+           "side_camera", "stage"]
 
 DATA_ROOT = Path(__file__).resolve().parents[3] / "shared" / "data" / "hdm05_cut"
 """Where the HDM05 cut clips are by default (``JAXTRACK_HDM05`` overrides)."""
@@ -41,6 +43,18 @@ FPS = 30.0
 """Frames per second the 120 Hz takes are resampled to (video rate)."""
 TEST_TAKES = ("lieDownFloor_001", "squat1Reps_001", "depositFloorR_001")
 """The held-out lie-down, squat and crouch (put an object on the floor) takes."""
+VALIDATION_TAKES = ("lieDownFloor_002", "squat1Reps_002", "depositFloorR_002")
+"""Where the tracker's settings are chosen (trained without them and the test takes)."""
+VALIDATION_GRID = (
+    {"initial_std": 20.0, "redraw_on_switch": True},
+    {"initial_std": 5.0, "redraw_on_switch": True},
+    {"initial_std": 20.0, "redraw_on_switch": False},
+)
+"""The mixed-state model's settings tried on the validation takes
+(:class:`jaxtrack.trackers.mixed_state.MixedStateModel`'s keywords): the library default
+first."""
+MODEL_OPTIONS = {"initial_std": 20.0, "redraw_on_switch": True}
+"""The settings of the test run: :data:`VALIDATION_GRID`'s best smoothed MSE."""
 ELEVATION = 0.1
 """The side camera's elevation (radians): nearly level, as a camera on a tripod."""
 MARGIN = 0.05

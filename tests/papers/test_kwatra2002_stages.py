@@ -118,6 +118,12 @@ def _toy_postures(rng, cutoff=1e9):
                         jnp.asarray(cutoff))
 
 
+FLAT = PartDistances((1e6,) * 5)
+"""A part likelihood flat over the image (σ_i 10⁶ px): the parts say nothing, so the posture
+marginals are those of the posture chain alone (with σ_init, re-drawn parts on a switch would
+otherwise sit nearer the hypotheses than carried ones and tilt the posture paths)."""
+
+
 def _flat_frames(features, status=None, size=6):
     """Frames whose silhouette fills a small image and whose hypotheses coincide for every
     posture: the parts then carry no posture information."""
@@ -129,6 +135,7 @@ def _flat_frames(features, status=None, size=6):
                            jnp.zeros(num, jnp.int32) if status is None else jnp.asarray(status))
 
 
+@pytest.mark.slow  # a compiled filter of 20 000 particles; tests/mixed_state checks F fast
 @pytest.mark.parametrize("parent", [0, 3])
 def test_f_is_sampled_from_its_rows(parent):
     """Eq. 8–9 through the public filter: every particle starts in ``parent`` (π one-hot, a
@@ -139,8 +146,9 @@ def test_f_is_sampled_from_its_rows(parent):
     initial = np.full(NUM_POSTURES, 1e-300)
     initial[parent] = 1.0
     postures = eqx.tree_at(lambda m: m.log_initial, toy, jnp.asarray(np.log(initial)))
-    model = MixedStateModel(postures)
-    frames = _flat_frames([0.0, 0.4], status=[FRAME_EMPTY, 0])
+    # four frames and 20 000 particles, as the enumeration test: one compiled filter for both
+    model = MixedStateModel(postures, FLAT, initial_std=1.0, position_std=0.5, velocity_std=0.5)
+    frames = _flat_frames([0.0, 0.4, 0.0, 0.0], status=[FRAME_EMPTY, 0, 0, 0])
     num = 20000
     result = filter_sequence(jr.PRNGKey(parent), model, frames, num)
     assert np.all(np.asarray(result.postures[0]) == parent)
@@ -150,6 +158,7 @@ def test_f_is_sampled_from_its_rows(parent):
     assert stats.chisquare(observed, num * row / row.sum()).pvalue > 1e-3, observed
 
 
+@pytest.mark.slow  # 20 000 particles; tests/mixed_state/test_filter.py has a fast analogue
 def test_smoothed_map_posture_is_the_enumerated_one():
     """§3.3 on a four-frame tiny model: the smoother's posture marginals and MAP posture match
     enumeration of all 5⁴ posture paths of p(q_1:4 | h_1:4) ∝ π T T T Π p(h_t | q_t)."""
@@ -166,10 +175,7 @@ def test_smoothed_map_posture_is_the_enumerated_one():
         for t, q in enumerate(path):
             marginals[t, q] += np.exp(log_p)
     marginals /= marginals.sum(axis=1, keepdims=True)
-    # parts that say nothing: a part likelihood flat over the image (σ_i 10⁶ px), so the
-    # posture marginals are those of the posture chain alone
-    flat = PartDistances((1e6,) * 5)
-    model = MixedStateModel(toy, flat, initial_std=1.0, position_std=0.5, velocity_std=0.5)
+    model = MixedStateModel(toy, FLAT, initial_std=1.0, position_std=0.5, velocity_std=0.5)
     smoothed = smooth(filter_sequence(jr.PRNGKey(0), model, _flat_frames(features), 20000))
     np.testing.assert_allclose(smoothed.posture_probabilities, marginals, atol=0.03)
     ordered = np.sort(marginals, axis=1)
@@ -235,6 +241,7 @@ def _integration_gain(posture_dependent: bool) -> tuple[float, float]:
     return mse(parts), mse(smoothed.parts)
 
 
+@pytest.mark.slow  # two filter runs on drawn silhouettes
 def test_integration_halves_the_error_only_where_a_wrong_posture_misplaces_the_parts():
     """The paper's gain, and why it can vanish: smoothing fixes the misfired frames' posture,
     which lowers the part error only if the wrong posture's hypotheses are worse than the true
