@@ -80,8 +80,8 @@ class DetectionsFrame(eqx.Module):
 
     Attributes:
         points: ``(people, markers, 2)`` pixels; 0 where absent.
-        confidence: ``(people, markers)`` in ``[0, 1]``; 0 where absent (or outside the image,
-            :func:`detections_frames`) and for people past ``num_people``.
+        confidence: ``(people, markers)`` in ``[0, 1]``; 0 where absent and for people past
+            ``num_people`` (a keypoint outside the image counts as absent).
         num_people: ``()`` how many people the frame holds.
         image_size: ``(2,)`` the frame's width and height in pixels.
     """
@@ -92,7 +92,8 @@ class DetectionsFrame(eqx.Module):
     image_size: Float[Array, "2"]
 
 
-def detections_frames(detections, *, frame_size: tuple[float, float] | None = None,
+def detections_frames(detections, *, markers: tuple[str, ...] | None = None,
+                      frame_size: tuple[float, float] | None = None,
                       dtype=None) -> DetectionsFrame:
     """The :class:`DetectionsFrame` of every frame of ``detections``, stacked on a time axis.
 
@@ -101,6 +102,8 @@ def detections_frames(detections, *, frame_size: tuple[float, float] | None = No
 
     Args:
         detections: a :class:`jaxtrack.vision.detections.Detections`.
+        markers: the markers, in the pose's order, to take from ``detections`` (default all of
+            them, in their order).
         frame_size: ``(width, height)`` in pixels; default ``detections.frame_size``.
         dtype: the floating dtype (default JAX's default float).
 
@@ -115,8 +118,10 @@ def detections_frames(detections, *, frame_size: tuple[float, float] | None = No
     width, height = (float(value) for value in size)
     if not (width > 0 and height > 0):
         raise ValueError(f"frame_size must be a positive (width, height), got {size}")
-    points = np.nan_to_num(np.asarray(detections.points, np.float64))
-    confidence = np.asarray(detections.confidence, np.float64)
+    columns = slice(None) if markers is None else \
+        [detections.marker(marker) for marker in markers]
+    points = np.nan_to_num(np.asarray(detections.points, np.float64)[:, :, columns])
+    confidence = np.asarray(detections.confidence, np.float64)[:, :, columns]
     inside = np.all((points >= -0.5) & (points <= np.array([width, height]) - 0.5), -1)
     confidence = np.where(inside, confidence, 0.0)
     points = np.where((confidence > 0)[..., None], points, 0.0)
@@ -239,7 +244,9 @@ def log_density(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: D
     sigma = jnp.sqrt((params.joint_scales * torso) ** 2 + params.pixel_noise ** 2)
     size = frame.image_size.astype(dtype)
     log_area = jnp.sum(jnp.log(size))
-    present = frame.confidence > 0
+    # a keypoint outside the image is not found: the model's support is the image
+    inside = jnp.all((frame.points >= -0.5) & (frame.points <= size - 0.5), -1)
+    present = (frame.confidence > 0) & inside
     valid = jnp.arange(frame.points.shape[0]) < frame.num_people
     present = present & valid[:, None]
     confidence = jnp.where(present, frame.confidence, 1.0).astype(dtype)

@@ -709,9 +709,14 @@ def write_detections(path: str | os.PathLike, detections: Detections) -> Path:
     })
 
 
-def read_detections(path: str | os.PathLike) -> Detections:
+def read_detections(path: str | os.PathLike, *,
+                    markers: tuple[str, ...] | None = None) -> Detections:
     """Detections from the library's own ``.npz`` (:func:`write_detections`; module
     docstring), checked.
+
+    Args:
+        path: the ``.npz``.
+        markers: the markers wanted, among those the file holds (default all, in its order).
 
     Raises:
         DetectionFileError: no such file, unreadable, an array missing, or arrays of the wrong
@@ -729,7 +734,7 @@ def read_detections(path: str | os.PathLike) -> Detections:
     if points.ndim != 4:
         raise DetectionFileError(f"{path}: points must be (time, people, markers, 2), got "
                                  f"shape {points.shape}")
-    markers = tuple(str(m) for m in arrays["markers"]) if "markers" in arrays else \
+    stored = tuple(str(m) for m in arrays["markers"]) if "markers" in arrays else \
         SPM_MARKERS[:points.shape[2]]
     confidence = arrays["confidence"]
     if confidence.shape == points.shape[:3] and not np.all(np.isfinite(confidence)):
@@ -740,10 +745,18 @@ def read_detections(path: str | os.PathLike) -> Detections:
     size = np.asarray(arrays["frame_size"], np.float64).reshape(-1)
     frame_size = None if size.size == 2 and np.all(np.isnan(size)) else tuple(size)
     try:
-        return Detections(points, confidence, people, markers, str(arrays["layout"]),
-                          frame_size, arrays.get("frame_ids"), str(path))
+        detections = Detections(points, confidence, people, stored, str(arrays["layout"]),
+                                frame_size, arrays.get("frame_ids"), str(path))
+        if markers is None or tuple(markers) == detections.markers:
+            return detections
+        columns = [detections.marker(marker) for marker in markers]
     except ValueError as error:
-        raise DetectionFileError(str(error)) from None
+        message = str(error)
+        raise DetectionFileError(message if message.startswith(str(path)) else
+                                 f"{path}: {message}") from None
+    return Detections(detections.points[:, :, columns], detections.confidence[:, :, columns],
+                      detections.people, tuple(markers), detections.layout,
+                      detections.frame_size, detections.frame_ids, detections.source)
 
 
 def load_detections(path: str | os.PathLike, **options) -> Detections:

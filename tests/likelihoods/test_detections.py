@@ -322,7 +322,18 @@ def test_real_openpose_frames_mirror_and_passer_by():
         assert int(jnp.argmax(along)) == 0
     with pytest.raises(ValueError, match="frame size is unknown"):
         detections_frames(detections)
-    # keypoints outside the image are not found (the model's support is the image)
+    # keypoints outside the image are not found (the model's support is the image), whether
+    # the frames say so or the density sees it
     small = detections_frames(detections, frame_size=(400, 1920))
     outside = np.asarray(detections.points[..., 0] > 399.5) & (detections.confidence > 0)
     assert outside.any() and np.all(np.asarray(small.confidence)[outside] == 0)
+    frame = jax.tree.map(lambda a: a[0], small)
+    unmarked = eqx.tree_at(lambda f: (f.points, f.confidence), frame,
+                           (jnp.asarray(np.nan_to_num(detections.points[0])),
+                            jnp.asarray(detections.confidence[0])))
+    man = detections.points[0, 0]
+    assert float(density(man, unmarked, params)) == float(density(man, frame, params))
+    # the markers the pose has, in its order, taken by name
+    wide = read_openpose(OPENPOSE / "cam01_json", markers=(*SPM_MARKERS[::-1], "left_knee"))
+    picked = detections_frames(wide, markers=SPM_MARKERS, frame_size=(1080, 1920))
+    np.testing.assert_array_equal(picked.points, frames.points)

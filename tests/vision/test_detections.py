@@ -219,6 +219,12 @@ def test_own_npz_round_trips_and_load_detections_picks_the_reader(tmp_path):
     np.testing.assert_array_equal(back.people, detections.people)
     assert (back.markers, back.layout, back.frame_size) == (FULL, "BODY_25B", (1080.0, 1920.0))
     assert load_detections(path).layout == "BODY_25B"
+    some = read_detections(path, markers=("left_wrist", "neck"))
+    np.testing.assert_allclose(some.points[..., 0, :],
+                               back.points[..., FULL.index("left_wrist"), :])
+    with pytest.raises(DetectionFileError, match="no marker 'chin'") as error:
+        read_detections(path, markers=("chin",))
+    _one_line(error, path)
     assert load_detections(OPENPOSE).layout == "BODY_25B"
     assert load_detections(COCO).layout == "COCO_17"
     assert load_detections(MEDIAPIPE / "mediapipe_run.npz").layout == "MEDIAPIPE_33"
