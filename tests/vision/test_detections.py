@@ -83,7 +83,7 @@ def _rewrite(folder: Path, out: Path, layout: str) -> Path:
             keypoints = np.asarray(person["pose_keypoints_2d"]).reshape(25, 3)
             rows = []
             for name in LAYOUT_KEYPOINTS[layout]:
-                if name == "MidHip":
+                if name in ("MidHip", "Hip"):  # BODY_25's and HALPE_26's hip centre
                     hips = keypoints[[source["LHip"], source["RHip"]]]
                     rows.append([*hips[:, :2].mean(0), hips[:, 2].min()])
                 else:
@@ -117,17 +117,19 @@ def test_body_25_and_body_25b_are_told_apart_on_every_camera_of_the_demo():
             assert openpose_layout(_as_body_25(keypoints)) == "BODY_25", (camera, count)
 
 
-@pytest.mark.parametrize("layout", ["BODY_25", "COCO_18"])
+@pytest.mark.parametrize("layout", ["BODY_25", "COCO_18", "HALPE_26", "COCO_17"])
 def test_other_openpose_layouts_map_the_same_keypoints_to_the_same_markers(tmp_path, layout):
     detections = read_openpose(_rewrite(OPENPOSE, tmp_path / layout, layout))
     reference = read_openpose(OPENPOSE)
     assert detections.layout == layout
-    same = ["neck", "pelvis", "thorax", "right_shoulder", "right_elbow", "right_wrist",
-            "right_hip", "left_shoulder", "left_elbow", "left_wrist", "left_hip"]
-    if layout == "COCO_18":  # no hip centre: the hips' midpoint, as BODY_25B's
-        same.remove("pelvis")
-        same.remove("thorax")
-    columns = [SPM_MARKERS.index(marker) for marker in same]
+    # markers every layout takes from the same keypoints (the pelvis: BODY_25's MidHip and
+    # HALPE_26's Hip are the hips' midpoint here); the head from the top of the head where
+    # there is one (HALPE_26), the neck from the ears where there is none (COCO_17)
+    same = {"right_shoulder", "right_elbow", "right_wrist", "right_hip", "left_shoulder",
+            "left_elbow", "left_wrist", "left_hip", "pelvis", "neck", "thorax"}
+    same |= {"head"} if layout == "HALPE_26" else set()
+    same -= {"neck", "thorax"} if layout == "COCO_17" else set()
+    columns = [SPM_MARKERS.index(marker) for marker in sorted(same)]
     np.testing.assert_allclose(detections.points[..., columns, :],
                                reference.points[..., columns, :], atol=1e-9)
     np.testing.assert_allclose(detections.confidence[..., columns],
