@@ -42,6 +42,8 @@ def _parse(argv):
     parser.add_argument("--validation", action="store_true", help="also try the model "
                         "settings of setting.VALIDATION_GRID on the validation takes (entry "
                         "'validation')")
+    parser.add_argument("--held-out", action="store_true", help="also part 2: train on actors "
+                        "bd, bk, dg and test on actor tr (entry 'held_out'; held_out.SPLIT)")
     args = parser.parse_args(argv)
     if args.particles < 1 or args.seeds < 1:
         parser.error("--particles and --seeds must be at least 1")
@@ -289,12 +291,18 @@ def main(argv=None) -> int:
     try:
         results, arrays = paper_setting(args.actor, args.particles, args.seeds)
         chosen = validation(args.actor, args.particles) if args.validation else None
+        if args.held_out:
+            from papers.kwatra2002.held_out import held_out
+
+            other_people = held_out(args.particles)
     except (FileNotFoundError, ValueError) as error:
         print(f"python -m papers.kwatra2002: {error}", file=sys.stderr)
         return 2
     contents = {"paper_setting": results}
     if chosen is not None:
         contents["validation"] = chosen
+    if args.held_out:
+        contents["held_out"] = other_people
     plots = plot(arrays, out.parent, out.stem)
     contents["plots"] = [p.name for p in plots]
     _write_json(out, contents)
