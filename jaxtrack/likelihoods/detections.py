@@ -86,10 +86,10 @@ class DetectionsFrame(eqx.Module):
         image_size: ``(2,)`` the frame's width and height in pixels.
     """
 
-    points: Float[Array, "people markers 2"]
-    confidence: Float[Array, "people markers"]
-    num_people: Int[Array, ""]
-    image_size: Float[Array, "2"]
+    points: Float[Array, "*time people markers 2"]
+    confidence: Float[Array, "*time people markers"]
+    num_people: Int[Array, "*time"]
+    image_size: Float[Array, "*time 2"]
 
 
 def detections_frames(detections, *, markers: tuple[str, ...] | None = None,
@@ -168,7 +168,7 @@ def detection_model(markers: tuple[str, ...] = SPM_MARKERS, *,
         joint_scales: ``(markers,)`` f_k; default :data:`DEFAULT_JOINT_SCALES`.
         pixel_noise: σ₀ in pixels (positive).
         outlier_rate, swap_probability, absent_probability: ε, s, ρ, each in ``[0, 1]``
-            (ε, ρ below 1).
+            (ε, ρ below 1; inside ``(0, 1)`` where their gradients are wanted).
         dtype: the floating dtype of the arrays (default JAX's default float).
     """
     markers = tuple(markers)
