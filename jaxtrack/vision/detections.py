@@ -539,7 +539,8 @@ def read_coco(path: str | os.PathLike, *, markers: tuple[str, ...] = SPM_MARKERS
     path = Path(path)
     markers = _check_markers(markers)
     if not path.is_file():
-        raise DetectionFileError(f"{path}: no such COCO keypoint file")
+        raise DetectionFileError(f"{path}: no such COCO keypoint file; give the path of the "
+                                 f"results or annotation JSON")
 
     def constant(word):
         raise DetectionFileError(f"{path}: {word} where a number must be; fix the file")
@@ -602,7 +603,7 @@ def read_coco(path: str | os.PathLike, *, markers: tuple[str, ...] = SPM_MARKERS
 
 def _load_arrays(path: Path) -> dict[str, np.ndarray]:
     if not path.is_file():
-        raise DetectionFileError(f"{path}: no such file")
+        raise DetectionFileError(f"{path}: no such file; give the path of the detections file")
     try:
         data = np.load(path, allow_pickle=False)
         if isinstance(data, np.ndarray):
@@ -611,7 +612,8 @@ def _load_arrays(path: Path) -> dict[str, np.ndarray]:
             return {key: np.asarray(data[key]) for key in data.files}
     except (zipfile.BadZipFile, EOFError, OSError, ValueError) as error:
         raise DetectionFileError(f"{path}: not a readable .npy/.npz ({type(error).__name__}: "
-                                 f"{' '.join(str(error).split())})") from None
+                                 f"{' '.join(str(error).split())}); write it again with "
+                                 f"numpy.save / numpy.savez") from None
 
 
 def read_mediapipe(path: str | os.PathLike, *, frame_size: tuple[float, float] | None = None,
