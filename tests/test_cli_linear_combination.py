@@ -111,8 +111,10 @@ def test_track_one_calibrated_view_in_video_pixels(folder, model, full_video):
         if t < EMPTY:
             assert entry["status"].startswith("no silhouette") and entry["head"] is None
             assert frame["selected_view"] is None
+            assert frame["status"] == entry["frame_status"] == "no person"
             continue
         assert entry["observed"] and frame["selected_view"] == 0
+        assert frame["status"] == entry["frame_status"] and frame["status"] in record["statuses"]
         head = (seen.head[t] + (x0, y0) + 0.5) / 0.5 - 0.5
         np.testing.assert_allclose(entry["head"], head, atol=0.01)
         hands = (np.asarray(entry["hands"]) + 0.5) * 0.5 - 0.5 - (x0, y0)

@@ -114,7 +114,7 @@ def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp
     assert "tracked 30 frames (30 with a silhouette)" in stdout
     assert sorted(path.name for path in out.iterdir()) == ["overlay.mp4", "track.json"]
     overlay = read_video(out / "overlay.mp4")
-    assert overlay.frames.shape == (30, 60, 80, 3)
+    assert overlay.frames.shape == (30, 120, 160, 3)  # the video's own size, not the tracked
     record = json.loads((out / "track.json").read_text())
     assert record["size"] == [160, 120] and record["tracked_size"] == [80, 60]
     assert record["particles"] == 64 and record["num_bins"] == 16
@@ -153,7 +153,11 @@ def test_track_takes_the_silhouettes_from_masks_the_user_brings(trained, walk, t
     record = json.loads((out / "track.json").read_text())
     assert record["silhouettes"] == f"masks {path}"
     statuses = [frame["status"] for frame in record["frames"]]
-    assert statuses == ["ok"] * 10 + ["empty silhouette"] * 5 + ["ok"] * 15
+    assert statuses == ["ok"] * 10 + ["no person"] * 5 + ["ok"] * 15
+    silhouettes = [frame["silhouette"] for frame in record["frames"]]
+    assert silhouettes == ["ok"] * 10 + ["empty silhouette"] * 5 + ["ok"] * 15
+    assert record["method"] == "mixed-state" and record["options"]["seed"] == 3
+    assert record["status_counts"] == {"ok": 25, "degenerate": 0, "no person": 5, "lost": 0}
     # masks for fewer frames than the video: refused in one line, nothing written
     write_masks(tmp_path / "short.npz", masks[:12])
     code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
@@ -268,7 +272,7 @@ def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, cas
     (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--size", "10x10"],
      "--size must be WIDTHxHEIGHT with each side from 32 to 4096 pixels, got '10x10'"),
     (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--azimuths", "nan"],
-     "--azimuths must be degrees from -180 to 180, got nan"),
+     "--azimuths must be between -180 and 180 degrees, got nan"),
     (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--max-frames", "1"],
      "--max-frames must be at least 2, got 1"),
     (["train", "--clips", "cmu_amc/07_01", "--out", "{tmp}/m.npz", "--views", "3"],

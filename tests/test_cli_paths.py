@@ -134,7 +134,7 @@ def test_train_command_trains_one_gplvm_per_part_with_parts(tmp_path, own_files,
     assert main(bad) == 2
     error = capsys.readouterr().err.strip()
     assert error == ("jaxtrack train: error: --back-constraint must be a positive width, "
-                     "got -1.0"), error
+                     "got -1 (see jaxtrack train --help)"), error
     assert not (tmp_path / "bad.npz").exists()
 
 

@@ -91,7 +91,7 @@ def real(minimum: float | None = None, maximum: float | None = None, *,
             if minimum is not None and maximum is not None:
                 bounds = f"between {minimum:g} and {maximum:g}{unit}"
             elif positive:
-                bounds = f"a positive number{unit}"
+                bounds = f"a positive{unit or ' number'}"
             elif minimum is not None:
                 bounds = f"a number of at least {minimum:g}{unit}"
             else:

@@ -9,10 +9,15 @@ parts, ``jaxtrack.cli._mixed_state``.) The latent tracker:
    pixels) or automatically (``--init face``: face and foreground-blob head boxes, then a search
    of the prior's training poses against a median-background foreground;
    ``jaxtrack.trackers.autoinit``), or from a detector's keypoints (``--init keypoints``),
-3. track every frame, and write ``DIR/overlay.mp4`` (the estimate drawn on the video) and
-   ``DIR/track.json`` (per-frame markers in the video's own pixels, ESS, log-likelihood, the
+3. track every frame, and write ``DIR/overlay.mp4`` (the estimate drawn on the video's own
+   frames, at its own size) and ``DIR/track.json`` (what ran: the method and every option; per
+   frame the markers in the video's own pixels, ESS, log-likelihood and a status, ok,
+   degenerate, no person or lost, by the rules of ``jaxtrack.cli._status``; the
    initialisation and timings). Both are written atomically, the JSON last, and nothing is
-   written when anything fails.
+   left when anything fails or Ctrl-C interrupts.
+
+Every argument, output folder included (a probe file is created and removed in it), is checked
+before the first frame is decoded.
 
 A run on a real video, and the memory estimate's measurements: ``docs/real-video.md``,
 ``docs/tracking.md`` (section "Memory").

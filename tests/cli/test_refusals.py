@@ -122,7 +122,7 @@ def test_seeds_are_range_checked_at_parse_time(tmp_path, capsys, arguments, seed
     (["train", "--method", "mixed-state", "--out", "{tmp}/m.npz", "--azimuths", "400"],
      "--azimuths must be between -180 and 180 degrees, got 400"),
     (["train", "--clips", WAVE, "--out", "{tmp}/m.npz", "--back-constraint", "inf"],
-     "--back-constraint must be a positive number width, got inf"),
+     "--back-constraint must be a positive width, got inf"),
     (["evaluate", "--method", "mixed-state", "--json", "{tmp}/e.json", "--lag", "-3"],
      "--lag must be at least 0, got -3"),
     (["render", "--mocap", WAVE, "--out", "{tmp}/r.npz", "--blur", "-1"],

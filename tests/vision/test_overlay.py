@@ -302,3 +302,30 @@ def test_overlay_video_takes_a_label_per_frame(tmp_path):
                                    tmp_path / "labelled.mp4", fps=10, marker_names=UPPER_BODY_12,
                                    labels=["sitting  1/1"])
     assert read_video(labelled).num_frames == 1
+
+
+def test_overlay_from_a_file_is_drawn_on_its_own_frames_at_its_own_size(tmp_path):
+    """A tracker that ran on frames downscaled by 4 gives its markers scaled back: they are
+    drawn on the file's own 384x288 frames, where the marker lies, frames 2 to 5 of it."""
+    from jaxtrack.vision import write_frames
+    from jaxtrack.vision.overlay import write_overlay_video_from_file
+
+    source = np.full((7, 4 * HEIGHT, 4 * WIDTH, 3), 40, np.uint8)
+    video = write_frames(source, tmp_path / "source.mp4", 10.0, (4 * WIDTH, 4 * HEIGHT))
+    tracked = np.tile(np.full((len(UPPER_BODY_12), 2), np.nan), (4, 1, 1))
+    tracked[:, 0] = [[60.0, 40.0]]  # the head alone, tracking pixels (a quarter size)
+    path = write_overlay_video_from_file(video, [2, 3, 4, 5], {"latent": tracked * 4},
+                                         tmp_path / "overlay.mp4", fps=10.0,
+                                         marker_names=UPPER_BODY_12)
+    written = read_video(path)
+    assert written.image_size == (4 * WIDTH, 4 * HEIGHT) and written.num_frames == 4
+    colour = np.asarray(written.frames[0, 160, 240], int)  # the head, in the file's pixels
+    assert np.abs(colour - METHOD_COLOURS[0]).max() < 60, colour
+    assert np.abs(np.asarray(written.frames[0, 40, 300], int) - 40).max() < 20  # elsewhere
+    with pytest.raises(ValueError, match="consecutive"):
+        write_overlay_video_from_file(video, [2, 4], {"latent": tracked[:2] * 4},
+                                      tmp_path / "gap.mp4", fps=10.0, marker_names=UPPER_BODY_12)
+    with pytest.raises(Exception, match="2 frames from frame 5, but 4 were tracked"):
+        write_overlay_video_from_file(video, [5, 6, 7, 8], {"latent": tracked * 4},
+                                      tmp_path / "late.mp4", fps=10.0, marker_names=UPPER_BODY_12)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["overlay.mp4", "source.mp4"]
