@@ -40,12 +40,22 @@ particle cloud of a real tracking state (after a few tracked frames), jitted and
     track() from grey
                 (``limbs+edges``) ``track`` given grey frames, building the edge maps chunk by
                 chunk itself: what ``jaxtrack evaluate`` and ``jaxtrack track`` pay per frame
+    pipeline    ``jaxtrack.experiments.track_video`` on the same frames written to a video
+                file (mp4v, at their own size): decoding chunk by chunk, grey conversion and
+                ``track`` (the ``pipeline_seconds_per_frame`` it records: compilation and
+                frame 0's set-up excluded, as ``track()``'s), median of a few calls; beside it
+                ``track()`` of the same calls (its own ``seconds_per_frame``), and the ratio
+                to ``track()`` given the grey frames in memory (the row above)
+    pipeline + overlay + JSON
+                the whole call, the second decoding pass that draws the overlay and the JSON
+                included (compilation excluded), per frame
 
 Wall times on this shared machine move with other jobs: the load average is printed, and CPU
 seconds (all threads of the process) are reported beside the wall times.
 
     python -m benchmarks.tracker_step                    # 200 and 1 000 particles, both likelihoods
     python -m benchmarks.tracker_step --particles 200 --likelihood markers --repeats 50
+    python -m benchmarks.tracker_step --particles 200 --likelihood limbs+edges --track-only
 """
 
 from __future__ import annotations
@@ -79,10 +89,10 @@ def _load_average() -> float:
 
 
 def build(num_particles: int, frames: int | None = None, seed: int = 0,
-          likelihood: str = "limbs"):
+          likelihood: str = "limbs", images: list | None = None):
     """(tracker, observations, grey frames, frame 0's pose) for the demo's held-out wave,
     ``frames`` frames of it; the observations are grey frames, or grey frames with edge maps
-    for ``"limbs+edges"``."""
+    for ``"limbs+edges"``. ``images``: a list that receives the RGB frames."""
     from jaxtrack import trackers
     from jaxtrack.experiments import render_test_sequences
     from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
@@ -94,6 +104,8 @@ def build(num_particles: int, frames: int | None = None, seed: int = 0,
                         progress=False)
     sequence = render_test_sequences(HELD_OUT_CLIP, views=1, backgrounds=("photo",),
                                      max_frames=frames, seed=seed)[0]
+    if images is not None:
+        images.append(np.asarray(sequence.images))
     # the compiled scan is timed on observations made beforehand (edge maps are OpenCV
     # preprocessing that track() does on the host; the "edge maps" row times them)
     observations = (edge_observations(sequence.frames) if needs_edges(likelihood)
@@ -152,10 +164,44 @@ def _scan_timing(tracker, state, frames, repeats: int) -> dict:
             "cpu_ms": 1e3 * statistics.median(cpu_times) / CHUNK}
 
 
-def components(tracker, frames, initial_pose, repeats: int, grey=None) -> dict[str, dict]:
-    """Compile and time each component on the same tracked state; ``{name: timings}``.
-    ``grey``: the grey frames, when ``frames`` are observations built from them."""
-    from jaxtrack.trackers import Refinement, search_arms, track
+def pipeline_rows(tracker, images: np.ndarray, initial_pose, baseline_ms: float
+                  ) -> dict[str, dict]:
+    """The video pipeline on ``images`` written to a video file, beside ``track()``: rows
+    ``pipeline``, ``pipeline + overlay + JSON`` (median of TRACK_CALLS calls after a first that
+    compiles); ``ratio`` is the pipeline's ms per frame over ``baseline_ms``."""
+    import tempfile
+
+    from jaxtrack.experiments import track_video
+    from jaxtrack.vision import write_frames
+
+    with tempfile.TemporaryDirectory(prefix="jaxtrack-pipeline-") as folder:
+        video = write_frames(images, Path(folder) / "clip.mp4", 30.0,
+                             (images.shape[2], images.shape[1]))
+        records, walls = [], []
+        for seed in range(TRACK_CALLS + 1):
+            tick = time.perf_counter()
+            records.append(track_video(tracker, video, Path(folder) / "out",
+                                       key=jr.PRNGKey(seed), initial_pose=initial_pose,
+                                       scale=1.0, chunk_frames=CHUNK, progress=False))
+            walls.append(time.perf_counter() - tick - records[-1]["timings"]["compile_seconds"])
+    frames = len(images)
+    timed = records[1:]
+    pipeline_ms = 1e3 * statistics.median(r["timings"]["pipeline_seconds_per_frame"]
+                                          for r in timed)
+    own_ms = 1e3 * statistics.median(r["timings"]["seconds_per_frame"] for r in timed)
+    return {
+        "pipeline": {"compile_s": records[0]["timings"]["compile_seconds"], "cpu_ms": None,
+                     "ms": pipeline_ms, "track_ms": own_ms, "ratio": pipeline_ms / baseline_ms},
+        "pipeline + overlay + JSON": {"compile_s": None, "cpu_ms": None,
+                                      "ms": 1e3 * statistics.median(walls[1:]) / frames,
+                                      "ratio": statistics.median(walls[1:]) / frames * 1e3
+                                      / baseline_ms},
+    }
+
+
+def components(tracker, frames, initial_pose, repeats: int) -> dict[str, dict]:
+    """Compile and time each component on the same tracked state; ``{name: timings}``."""
+    from jaxtrack.trackers import Refinement, search_arms
     from jaxtrack.trackers._refinement import _predicted
 
     paper = dataclasses.replace(tracker, refinement=None)
@@ -253,6 +299,16 @@ def components(tracker, frames, initial_pose, repeats: int, grey=None) -> dict[s
     blind = eqx.tree_at(lambda s: s.model.templates, paper_state, _NoImage())
     rows["track, no image"] = _scan_timing(paper, blind, frames, repeats)
 
+    return rows
+
+
+def track_rows(tracker, frames, initial_pose, grey=None, images: np.ndarray | None = None
+               ) -> dict[str, dict]:
+    """``track()`` on the whole clip (from observations made beforehand, and from grey frames
+    where those differ) and the pipeline's rows beside it; ``{name: timings}``."""
+    from jaxtrack.trackers import track
+
+    rows = {}
     # the whole clip through track() itself: a first call (which compiles the chunk shape),
     # then the median of the timed ones
     results = [track(tracker, jr.PRNGKey(seed), frames, initial_pose, chunk_size=CHUNK,
@@ -275,6 +331,9 @@ def components(tracker, frames, initial_pose, repeats: int, grey=None) -> dict[s
         rows["track() from grey"] = {
             "compile_s": None, "cpu_ms": None,
             "ms": 1e3 * statistics.median(r.seconds_per_frame for r in results)}
+    if images is not None:  # beside track() given the same grey frames in memory
+        baseline = rows["track() from grey" if "track() from grey" in rows else "track()"]
+        rows.update(pipeline_rows(tracker, images, initial_pose, baseline["ms"]))
     return rows
 
 
@@ -285,25 +344,34 @@ def main() -> None:
     parser.add_argument("--likelihood", nargs="+",
                         choices=("limbs+edges", "limbs", "markers"),
                         default=["limbs+edges", "limbs", "markers"])
+    parser.add_argument("--track-only", action="store_true",
+                        help="only the track() and pipeline rows (no component timings)")
+    parser.add_argument("--frames", type=int, default=None,
+                        help="frames of the clip (default: all 138)")
     parser.add_argument("--output", default=str(RESULTS / "tracker_step.json"))
     args = parser.parse_args()
 
     device = device_description()
     cores = len(os.sched_getaffinity(0))
     print(f"device: {device}; this process may run on {cores} core(s)")
-    frames_needed = None  # the whole clip (138 frames at 30 fps)
+    frames_needed = args.frames  # None: the whole clip (138 frames at 30 fps)
     results = {}
     for likelihood, num_particles in itertools.product(args.likelihood, args.particles):
+        images = []
         tracker, frames, grey, initial_pose = build(num_particles, frames_needed,
-                                                    likelihood=likelihood)
+                                                    likelihood=likelihood, images=images)
         load_before = _load_average()
-        rows = components(tracker, frames, initial_pose, args.repeats, grey)
+        rows = {} if args.track_only else components(tracker, frames, initial_pose,
+                                                     args.repeats)
+        rows.update(track_rows(tracker, frames, initial_pose, grey, images[0]))
         load_after = _load_average()
         print(f"\nlatent tracker, {likelihood}, {num_particles} particles, {grey.shape[2]}x"
               f"{grey.shape[1]} frames (load average {load_before:.2f} → {load_after:.2f})")
         table = [{"component": name, **row} for name, row in rows.items()]
         print_table(table, [("component", "component", "s"), ("ms", "wall ms", ".3f"),
-                            ("cpu_ms", "cpu ms", ".3f"), ("compile_s", "compile s", ".2f")])
+                            ("cpu_ms", "cpu ms", ".3f"), ("compile_s", "compile s", ".2f"),
+                            ("track_ms", "its track() ms", ".3f"),
+                            ("ratio", "÷ track() from grey", ".3f")])
         results[f"{likelihood}/{num_particles}"] = {"load_average": [load_before, load_after],
                                                     "components": rows}
     write_json(args.output, {"device": device, "cores": cores, "repeats": args.repeats,

@@ -149,15 +149,6 @@ def video_background(video: str | os.PathLike, *, scale: float = 1.0, start: int
     return median_background(np.stack(kept), max_samples=max_samples)
 
 
-def _resized(image: np.ndarray, size: tuple[int, int], nearest: bool) -> np.ndarray:
-    import cv2
-
-    if image.shape[1::-1] == tuple(size):
-        return image
-    interpolation = cv2.INTER_NEAREST if nearest else cv2.INTER_AREA
-    return cv2.resize(image, tuple(size), interpolation=interpolation)
-
-
 def _check_keypoints(keypoints, name: str = "keypoints") -> tuple[np.ndarray, np.ndarray]:
     """``(points (frames, 12, 2), confidence (frames, 12))`` of the given keypoints."""
     if isinstance(keypoints, tuple) and len(keypoints) == 2:
@@ -232,9 +223,10 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
         keypoints: a detector's ``(points (video frames, markers, 2), confidence (video
             frames, markers))`` in the video's own pixels, one row per video frame from its
             first (NaN where not found), or the points alone.
-        background: ``(height, width, 3)`` uint8 RGB empty scene (any size of the video's
-            aspect ratio); None: the median of the video (:func:`video_background`) where
-            needed (the tracker reads it, and no masks are given; or foreground masks).
+        background: ``(height, width, 3)`` uint8 RGB empty scene at the video's size (or
+            already at the tracking size); None: the median of the video
+            (:func:`video_background`) where needed (the tracker reads it and no masks are
+            given, or foreground masks are made).
         marker_names: names of the tracker's markers (:func:`default_marker_names`).
         seed: the seed ``key`` was made from, for the record.
         detector_seconds: time a detector took to make ``keypoints``, for the record.
@@ -300,7 +292,14 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
         if scene.ndim != 3 or scene.shape[-1] != 3 or scene.dtype != np.uint8:
             raise ValueError(f"background must be (height, width, 3) uint8 RGB, got shape "
                              f"{scene.shape} dtype {scene.dtype}")
-        scene = _resized(scene, tracked_size, nearest=False)
+        if scene.shape[1::-1] == video_size and resize != 1.0:
+            from jaxtrack.vision.video import _resize
+
+            # as the decoder resizes the frames, so that the scene matches them pixel for pixel
+            scene = _resize(scene, resize)
+        if scene.shape[1::-1] != tracked_size:
+            raise ValueError(f"background is {scene.shape[1]}x{scene.shape[0]}; give the empty "
+                             f"scene at the video's size {width}x{height}")
     elif needs_masks or needs_background:
         tick = time.perf_counter()
         scene = video_background(video, scale=resize, start=start, max_frames=max_frames,
@@ -308,12 +307,16 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
         timings["background_seconds"] = time.perf_counter() - tick
     frame_indices: list[np.ndarray] = []
     no_person: list[np.ndarray] = []
-    prepare = [0.0]
+    prepare = []  # seconds each chunk took to decode and prepare
 
     def chunks() -> Iterator[VideoChunk]:
-        for decoded in iter_video_chunks(video, chunk_frames, start=start,
-                                         max_frames=max_frames, scale=resize):
+        decoder = iter_video_chunks(video, chunk_frames, start=start, max_frames=max_frames,
+                                    scale=resize)
+        while True:
             tick = time.perf_counter()
+            decoded = next(decoder, None)
+            if decoded is None:
+                return
             rgb, indices = decoded.frames, decoded.frame_indices
             frame_indices.append(indices)
             person = None
@@ -343,7 +346,7 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
                 grey=to_grey(rgb) if "grey" in reads else None,
                 colour=rgb if "colour" in reads else None, masks=person, keypoints=points,
                 background=scene if ("background" in reads and scene is not None) else None)
-            prepare[0] += time.perf_counter() - tick
+            prepare.append(time.perf_counter() - tick)
             yield chunk
 
     tick = time.perf_counter()
@@ -385,14 +388,20 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
             marker_names=names, chunk_size=min(chunk_frames, 32),
             labels=[f"{t + 1}/{count} {status.value}" for t, status in enumerate(statuses)]))
         overlay_seconds = time.perf_counter() - tick
-        run_seconds = tracking_seconds - result.compile_seconds
+        # track()'s run time counts the chunks after the first as they are pulled from the
+        # decoder; the first chunk's decoding and preparing come before it and count here
+        # (its frames after frame 0's share: frame 0 is set-up, as in track())
+        head = len(frame_indices[0])
+        pipeline_seconds = (result.seconds_per_frame * max(count - 1, 1)
+                            + prepare[0] * (head - 1) / head)
         timings.update({
             "compile_seconds": result.compile_seconds,
             "seconds_per_frame": result.seconds_per_frame,
             "observe_seconds": result.observe_seconds,
-            "decode_and_prepare_seconds": prepare[0],
-            # as track()'s: frames after the first, compilation excluded
-            "pipeline_seconds_per_frame": run_seconds / max(count - 1, 1),
+            "decode_and_prepare_seconds": sum(prepare),
+            # as track()'s: frames after the first, compilation and frame 0's start excluded
+            "pipeline_seconds_per_frame": pipeline_seconds / max(count - 1, 1),
+            "tracking_pass_seconds": tracking_seconds,
             "overlay_seconds": overlay_seconds,
             "detector_seconds": detector_seconds})
         per_frame = []
