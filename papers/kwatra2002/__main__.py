@@ -279,6 +279,7 @@ def _write_json(path: Path, contents: dict) -> None:
     try:
         with os.fdopen(handle, "w") as file:
             json.dump(contents, file, indent=1)
+        os.chmod(temporary, 0o644)  # mkstemp's 0600 would hide the results from other users
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
