@@ -162,12 +162,10 @@ def run_tracker(prior, view: View, method: str, estimate: str, init: str,
     foreground term's per-frame mask, with ``view.keypoints`` the detector's keypoints for
     the keypoint term."""
     from jaxtrack.trackers import track
-    from jaxtrack.vision import edge_observations
 
     tracker = make_tracker(method, estimate, prior, view, options)
-    frames = (view.frames if view.masks is None and view.keypoints is None
-              else edge_observations(view.frames, masks=view.masks, keypoints=view.keypoints))
-    result = track(tracker, jr.PRNGKey(seed), frames, initial_pose, progress=False)
+    result = track(tracker, jr.PRNGKey(seed), view.frames, initial_pose, progress=False,
+                   masks=view.masks, keypoints=view.keypoints)
     if not np.all(np.isfinite(result.markers)):
         return {"method": method, "estimate": estimate, "init": init, "view": view.name,
                 "seed": seed, "skipped": "non-finite markers"}

@@ -46,7 +46,7 @@ def observe_images(likelihood: Likelihood, chunk: VideoChunk, out=None) -> Image
                          f"and coverage terms), not by {likelihood.kind!r}")
     if grey.ndim == 4:  # edge observations made beforehand
         if not likelihood.needs_edges or grey.shape[1] not in (3, 4):
-            raise ValueError(f"frames must be (time, height, width) grey frames"
+            raise ValueError(f"frames must be (time, height, width) grey images"
                              f"{', or (time, 3 or 4, height, width) edge observations' if likelihood.needs_edges else ''}"  # noqa: E501
                              f" for the {likelihood.kind!r} likelihood, got shape {grey.shape}")
         if chunk.masks is not None:
@@ -67,7 +67,7 @@ def observe_images(likelihood: Likelihood, chunk: VideoChunk, out=None) -> Image
         observation = image_observations(grey, edges=likelihood.needs_edges, masks=chunk.masks,
                                          keypoints=chunk.keypoints, out=images)
     else:
-        raise ValueError(f"frames must be (time, height, width) grey frames, got shape "
+        raise ValueError(f"frames must be (time, height, width) grey images, got shape "
                          f"{grey.shape}")
     if likelihood.has_coverage and not with_mask:
         raise ValueError("the likelihood's coverage term (coverage_weight) reads the person's "

@@ -485,12 +485,12 @@ def _keypoint_term_numpy(markers, points, confidence, weight, factor=1.0):
 
 
 def test_the_keypoint_term_is_the_documented_formula_and_ignores_a_left_right_swap():
-    """η > 0 with a keypoint channel adds −η min_π Σ w log(1 + q²) (written out with NumPy);
+    """η > 0 with keypoints adds −η min_π Σ w log(1 + q²) (written out with NumPy);
     the detections with left and right exchanged score the same; a keypoint of confidence 0
     counts for nothing; the residuals give the cost, the parts leave it out; a pose on the
     keypoints beats one a spine away, and the pull has a gradient however far."""
     from jaxtrack.likelihoods.edges import MIRRORED_MARKERS
-    from jaxtrack.vision.keypoints import pack_keypoints
+    from jaxtrack.vision.observations import ImageObservation, Keypoints
 
     observations, markers, templates = wave()
     pose = np.asarray(markers[5], np.float32)
@@ -499,9 +499,7 @@ def test_the_keypoint_term_is_the_documented_formula_and_ignores_a_left_right_sw
     confidence = rng.uniform(0.3, 1.0, 12).astype(np.float32)
 
     def observation_with(points, confidence):
-        channel = np.zeros((1, *observations.shape[2:]), np.float32)
-        pack_keypoints(points[None], confidence[None], channel)
-        return np.concatenate([np.asarray(observations[5]), channel])
+        return ImageObservation(np.asarray(observations[5]), Keypoints(points, confidence))
 
     keyed = make_edge_limb_templates(observations[0], markers[0], keypoint_weight=1.5)
     assert keyed.has_whole_pose_terms and keyed.reads_keypoints
@@ -544,5 +542,6 @@ def test_the_keypoint_term_is_the_documented_formula_and_ignores_a_left_right_sw
     with pytest.raises(ValueError, match="keypoint_scale must be a positive factor"):
         make_edge_limb_templates(observations[0], markers[0], keypoint_weight=1.0,
                                  keypoint_scale=0.0)
-    with pytest.raises(ValueError, match="then the keypoint channel"):
-        keyed.log_likelihood(pose, np.asarray(observations[5])[:2], 4.0)
+    with pytest.raises(ValueError, match="reads a detector's keypoints: give an "
+                                         "ImageObservation with keypoints"):
+        keyed.log_likelihood(pose, np.asarray(observations[5]), 4.0)

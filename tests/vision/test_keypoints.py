@@ -1,19 +1,17 @@
-"""A detector's keypoints: checked, carried in the observations' last channel, read from and
-written to files."""
+"""A detector's keypoints: checked, carried beside the image channels of an observation (never
+inside one), read from and written to files."""
 
 import numpy as np
 import pytest
 
 from jaxtrack.vision import edge_observations
 from jaxtrack.vision.keypoints import (
-    KEYPOINT_VALUES,
     KeypointFileError,
     check_keypoints,
-    pack_keypoints,
     read_keypoints,
-    unpack_keypoints,
     write_keypoints,
 )
+from jaxtrack.vision.observations import ImageObservation, image_observations
 
 
 def _keypoints(frames=3, seed=0):
@@ -23,28 +21,30 @@ def _keypoints(frames=3, seed=0):
     return points, confidence
 
 
-def test_keypoints_ride_in_the_last_channel_and_leave_the_others_alone():
+def test_keypoints_travel_beside_the_image_channels_and_leave_them_alone():
     rng = np.random.default_rng(1)
     frames = rng.random((3, 40, 50)).astype(np.float32)
     points, confidence = _keypoints()
     points[1, 4] = np.nan  # not found in frame 1
     masks = rng.random((3, 40, 50)) > 0.5
     plain = edge_observations(frames, masks=masks)
-    keyed = edge_observations(frames, masks=masks, keypoints=(points, confidence))
-    assert keyed.shape == (3, 5, 40, 50)
-    np.testing.assert_array_equal(keyed[:, :4], plain)
-    for index in range(3):
-        read, sure = unpack_keypoints(keyed[index, -1])
-        found = np.isfinite(points[index]).all(-1)
-        np.testing.assert_allclose(read[found], points[index][found], rtol=1e-6)
-        np.testing.assert_allclose(sure[found], confidence[index][found], rtol=1e-6)
-        assert np.all(sure[~found] == 0) and np.all(read[~found] == 0)
-    assert np.count_nonzero(keyed[:, -1].reshape(3, -1)[:, KEYPOINT_VALUES:]) == 0
+    keyed = image_observations(frames, masks=masks, keypoints=(points, confidence))
+    assert isinstance(keyed, ImageObservation)
+    np.testing.assert_array_equal(keyed.images, plain)  # the image channels are unchanged
+    assert keyed.keypoints.points.shape == (3, 12, 2)
+    found = np.isfinite(points).all(-1)
+    np.testing.assert_allclose(keyed.keypoints.points[found], points[found], rtol=1e-6)
+    np.testing.assert_allclose(keyed.keypoints.confidence[found], confidence[found], rtol=1e-6)
+    assert np.all(keyed.keypoints.confidence[~found] == 0)
+    assert np.all(keyed.keypoints.points[~found] == 0)
     # positions alone: confidence 1 where found
-    alone = edge_observations(frames, keypoints=points)
-    assert alone.shape == (3, 4, 40, 50)
-    np.testing.assert_array_equal(unpack_keypoints(alone[1, -1])[1],
-                                  np.isfinite(points[1]).all(-1).astype(np.float32))
+    alone = image_observations(frames, keypoints=points)
+    assert alone.images.shape == (3, 3, 40, 50)
+    np.testing.assert_array_equal(alone.keypoints.confidence[1], found[1].astype(np.float32))
+    grey = image_observations(frames, edges=False)
+    assert grey.keypoints is None and grey.images.shape == (3, 40, 50)
+    with pytest.raises(ValueError, match=r"masks are read by the 'limbs\+edges' likelihood"):
+        image_observations(frames, edges=False, masks=masks)
 
 
 def test_bad_keypoints_are_refused_in_one_line(tmp_path):
@@ -57,8 +57,6 @@ def test_bad_keypoints_are_refused_in_one_line(tmp_path):
             check_keypoints(*arguments)
     with pytest.raises(ValueError, match="hold 3 frames, the frames tracked are 4"):
         check_keypoints(points, num_frames=4)
-    with pytest.raises(ValueError, match="too small to carry 12 keypoints"):
-        pack_keypoints(*check_keypoints(points, confidence), np.zeros((3, 5, 5), np.float32))
     missing = tmp_path / "none.npz"
     with pytest.raises(KeypointFileError, match="none.npz: no such keypoints file"):
         read_keypoints(missing)
