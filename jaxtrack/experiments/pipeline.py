@@ -111,7 +111,7 @@ def tracking_scale(video_size: tuple[int, int], *, scale: float | None = None,
 
 def video_background(video: str | os.PathLike, *, scale: float = 1.0, start: int = 0,
                      max_frames: int | None = None, max_samples: int = BACKGROUND_SAMPLES,
-                     chunk_frames: int = 32) -> np.ndarray:
+                     chunk_frames: int = 32, grey: bool = False) -> np.ndarray:
     """The per-pixel median of frames spread evenly over a video file (the static scene):
     one decoding pass, at most ``2 max_samples`` frames kept (every ``stride``-th frame is
     kept, and the stride doubles whenever that would pass ``2 max_samples``) besides the
@@ -123,14 +123,23 @@ def video_background(video: str | os.PathLike, *, scale: float = 1.0, start: int
         start, max_frames: the frames tracked (:func:`jaxtrack.vision.read_video`).
         max_samples: frames the median is taken over (at least 3).
         chunk_frames: frames decoded at a time.
+        grey: the median of the frames' grey levels instead (as
+            :func:`jaxtrack.vision.median_grey_background`: the background the image
+            trackers' foreground term compares grey frames with).
 
     Returns:
-        ``(height, width, 3)`` uint8 RGB background.
+        ``(height, width, 3)`` uint8 RGB background, or with ``grey`` ``(height, width)``
+        float32 grey levels in [0, 1].
 
     Raises:
         ValueError: fewer than 3 frames (the person would be background).
     """
-    from jaxtrack.vision import iter_video_chunks, median_background
+    from jaxtrack.vision import (
+        iter_video_chunks,
+        median_background,
+        median_grey_background,
+        to_grey,
+    )
 
     if int(max_samples) != max_samples or max_samples < 3:
         raise ValueError(f"max_samples must be an integer of at least 3, got {max_samples}")
@@ -146,6 +155,8 @@ def video_background(video: str | os.PathLike, *, scale: float = 1.0, start: int
     if len(kept) < 3:
         raise ValueError(f"{video}: a median background needs at least 3 frames, got "
                          f"{seen}; give the empty scene as background=...")
+    if grey:
+        return median_grey_background(to_grey(np.stack(kept)), max_samples=max_samples)
     return median_background(np.stack(kept), max_samples=max_samples)
 
 

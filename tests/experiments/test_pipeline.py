@@ -292,3 +292,18 @@ def test_marker_names_follow_the_tracker():
     assert pipeline.default_marker_names(5) == ("head", "hand_1", "hand_2", "foot_1", "foot_2")
     assert len(pipeline.default_marker_names(12)) == 12
     assert pipeline.default_marker_names(2) == ("marker_0", "marker_1")
+
+
+def test_the_median_background_of_a_streamed_video_is_that_of_its_frames(figure_video):
+    from jaxtrack.vision import (
+        median_background,
+        median_grey_background,
+        read_video,
+        to_grey,
+    )
+
+    frames = read_video(figure_video, scale=SCALE).frames
+    np.testing.assert_array_equal(video_background(figure_video, scale=SCALE, chunk_frames=3),
+                                  median_background(frames))
+    np.testing.assert_allclose(video_background(figure_video, scale=SCALE, grey=True),
+                               median_grey_background(to_grey(frames)), atol=1e-6)
