@@ -271,9 +271,14 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
     video = Path(video)
     reads = tuple(tracker.reads)
     given_keypoints = None if keypoints is None else _check_keypoints(keypoints)
+    method = str(tracker.options().get("method", type(tracker).__name__))
     if "keypoints" in reads and given_keypoints is None:
-        raise ValueError(f"the {tracker.options()['method']} tracker reads a detector's "
-                         f"keypoints: give keypoints=...")
+        raise ValueError(f"the {method} tracker reads a detector's keypoints: give "
+                         f"keypoints=...")
+    if "keypoints" not in reads and given_keypoints is not None:
+        raise ValueError(f"the {method} tracker does not read keypoints (an image tracker "
+                         f"reads them with its likelihood's keypoint term): leave keypoints "
+                         f"out")
     if masks is not None and (np.ndim(masks) != 3):
         raise ValueError(f"masks must be (video frames, height, width) bool, got shape "
                          f"{np.shape(masks)}")
@@ -381,7 +386,6 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
                               no_person=nobody, log_likelihood=result.log_likelihood)
     markers = result.markers / factors
     best_markers = result.best_markers / factors
-    method = str(result.options.get("method", type(tracker).__name__))
     fps = first.fps if math.isfinite(first.fps) else None
 
     created = []  # the folders made here, removed again (when empty) on failure

@@ -102,6 +102,37 @@ class Centroid(Tracker):
         return {"method": "centroid"}
 
 
+class Detected(Tracker):
+    """A tracker that reports a detector's keypoints as they are given (12 markers)."""
+
+    likelihood: None = None
+
+    @property
+    def reads(self):
+        return ("keypoints",)
+
+    def observe(self, chunk, out=None):
+        return np.asarray(chunk.keypoints[0], np.float64)
+
+    @property
+    def num_particles(self):
+        return 1
+
+    def start(self, key, first_frame, initial_pose):
+        return jnp.asarray(first_frame)
+
+    def first_estimate(self, state):
+        return FrameEstimate(state, state, jnp.asarray(1.0), jnp.asarray(0.0),
+                             jnp.asarray(False))
+
+    def update(self, key, state, frame):
+        points = frame_at(frame)
+        return points, self.first_estimate(points)
+
+    def options(self):
+        return {"method": "detected"}
+
+
 def _figure_postures():
     from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
     from jaxtrack.vision.histograms import projection_histograms
@@ -307,3 +338,24 @@ def test_the_median_background_of_a_streamed_video_is_that_of_its_frames(figure_
                                   median_background(frames))
     np.testing.assert_allclose(video_background(figure_video, scale=SCALE, grey=True),
                                median_grey_background(to_grey(frames)), atol=1e-6)
+
+
+def test_keypoints_are_given_in_video_pixels_and_read_in_tracking_pixels(figure_video,
+                                                                        tmp_path):
+    """A detector's keypoints (video pixels) reach the tracker in tracking pixels and come
+    back in video pixels; a tracker that does not read them refuses them in one line."""
+    points = np.random.default_rng(0).uniform(10, 190, (FRAMES + 2, 12, 2))
+    confidence = np.ones((FRAMES + 2, 12))
+    record = track_video(Detected(), figure_video, tmp_path / "out", key=KEY, scale=SCALE,
+                         keypoints=(points, confidence), chunk_frames=3, progress=False)
+    np.testing.assert_allclose(record["result"].markers, points[:FRAMES] * SCALE)
+    names = record["marker_names"]
+    written = np.array([[frame["markers"][n] for n in names] for frame in record["frames"]])
+    np.testing.assert_allclose(written, points[:FRAMES], atol=0.006)
+    with pytest.raises(ValueError, match="does not read keypoints") as error:
+        track_video(Centroid(), figure_video, tmp_path / "other", key=KEY,
+                    keypoints=(points, confidence), progress=False)
+    assert "\n" not in str(error.value) and not (tmp_path / "other").exists()
+    with pytest.raises(ValueError, match="keypoints hold 3 frames"):
+        track_video(Detected(), figure_video, tmp_path / "short", key=KEY,
+                    keypoints=(points[:3], confidence[:3]), progress=False)
