@@ -224,7 +224,8 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
         scale, max_size: the frames are tracked at ``scale`` times their size, or with their
             longer side at most ``max_size`` pixels (:func:`tracking_scale`).
         start, max_frames: the video frames tracked (from ``start``, at most ``max_frames``).
-        chunk_frames: frames decoded, prepared and tracked at a time: the memory bound.
+        chunk_frames: frames decoded, prepared and tracked at a time (the first chunk one
+            more): the memory bound.
         masks: ``(video frames, height, width)`` bool masks of the person, one per video frame
             from its first, at any size of the video's aspect ratio (a ``np.memmap`` keeps them
             on disk: only the chunk's frames are read); None: where the tracker reads masks,
@@ -325,15 +326,32 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
     no_person: list[np.ndarray] = []
     prepare = []  # seconds each chunk took to decode and prepare
 
+    def groups() -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        """``(frames, file indices)``: chunk_frames + 1 frames first, then chunk_frames at a
+        time, so that track()'s compiled chunks (frame 0 is its set-up) line up with the
+        chunks given to it and it never joins one chunk's observations to the next's."""
+        pending: list[tuple[np.ndarray, int]] = []
+        target = chunk_frames + 1
+        for decoded in iter_video_chunks(video, chunk_frames, start=start,
+                                         max_frames=max_frames, scale=resize):
+            pending.extend(zip(decoded.frames, decoded.frame_indices.tolist(), strict=True))
+            if len(pending) >= target:
+                group, pending = pending[:target], pending[target:]
+                yield (np.stack([frame for frame, _ in group]),
+                       np.array([index for _, index in group], np.int64))
+                target = chunk_frames
+        if pending:
+            yield (np.stack([frame for frame, _ in pending]),
+                   np.array([index for _, index in pending], np.int64))
+
     def chunks() -> Iterator[VideoChunk]:
-        decoder = iter_video_chunks(video, chunk_frames, start=start, max_frames=max_frames,
-                                    scale=resize)
+        decoder = groups()
         while True:
             tick = time.perf_counter()
-            decoded = next(decoder, None)
-            if decoded is None:
+            group = next(decoder, None)
+            if group is None:
                 return
-            rgb, indices = decoded.frames, decoded.frame_indices
+            rgb, indices = group
             frame_indices.append(indices)
             person = None
             if masks is not None:
@@ -358,8 +376,16 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
                                      f"video frame, from its first)")
                 points = (given_keypoints[0][indices] * factors,
                           given_keypoints[1][indices])
+            grey = None
+            if "grey" in reads:
+                # frame by frame: the same values as to_grey(rgb), without its chunk-sized
+                # temporaries (two float copies of the chunk, page faults that cost several
+                # times the arithmetic)
+                grey = np.empty(rgb.shape[:3], np.float32)
+                for index, image in enumerate(rgb):
+                    grey[index] = to_grey(image)
             chunk = VideoChunk(
-                grey=to_grey(rgb) if "grey" in reads else None,
+                grey=grey,
                 colour=rgb if "colour" in reads else None, masks=person, keypoints=points,
                 background=scene if ("background" in reads and scene is not None) else None)
             prepare.append(time.perf_counter() - tick)
