@@ -32,6 +32,8 @@ LAYERS = {
     "evaluation": 6,
     "experiments": 7,
     "cli": 8,
+    "_defaults": 8,  # the registry of defaults reads every layer (docs/defaults.md)
+    "__main__": 9,  # python -m jaxtrack: the command line
 }
 
 

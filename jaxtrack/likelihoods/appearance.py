@@ -13,7 +13,7 @@ trackers call: ``log_likelihood`` and ``residuals``, and, part by part, ``part_m
   frame's edges (:mod:`jaxtrack.likelihoods.edges`), which do not drift as limbs turn in depth.
   Its observations are ``(3, height, width)``, the grey frame, its edge distance map and the
   nearest edge's orientation;
-  ``jaxtrack.trackers.track`` builds them from grey frames (:func:`check_observations`).
+  the image trackers build them from grey frames (``Tracker.observe``).
 * ``"limbs"``: strips along the body's segments (:mod:`jaxtrack.likelihoods.limbs`); grey
   frames.
 * ``"markers"``: square patches at the body's markers, the paper's eq. 7
@@ -30,7 +30,7 @@ from jaxtrack.likelihoods.ncc import DEFAULT_NCC_SHARPNESS, NCCTemplates, make_t
 from jaxtrack.vision.observations import images_of
 
 __all__ = ["DEFAULT_LIKELIHOOD", "LIKELIHOODS", "AppearanceTemplates", "default_sharpness",
-           "check_observations", "make_appearance_templates", "needs_edges"]
+           "make_appearance_templates", "needs_edges"]
 
 LIKELIHOODS = ("limbs", "limbs+edges", "markers")
 DEFAULT_LIKELIHOOD = "limbs+edges"
@@ -86,30 +86,3 @@ def make_appearance_templates(
     if likelihood == "limbs":
         return make_limb_templates(image, markers_2d)
     return make_templates(image, markers_2d)
-
-
-def check_observations(templates: AppearanceTemplates | str, shape: tuple[int, ...]) -> bool:
-    """Check that a sequence of observations of ``shape`` suits ``templates`` (or the
-    likelihood named so, one of :data:`LIKELIHOODS`); say whether edge distance maps must still
-    be added to it.
-
-    Grey frames ``(time, height, width)`` suit every likelihood; the edge-limb templates also
-    take ``(time, 3, height, width)`` grey frames with their edge maps
-    (``jaxtrack.vision.edge_observations``), and ``(time, 4 or 5, height, width)`` with the
-    person's mask or a detector's keypoints or both. Anything else raises a ValueError.
-
-    Returns:
-        True when ``templates`` need edge maps and the frames are grey.
-    """
-    shape = tuple(shape)
-    edges = (needs_edges(templates) if isinstance(templates, str)
-             else isinstance(templates, EdgeLimbTemplates))
-    if len(shape) == 3:
-        return edges
-    if edges and len(shape) == 4 and shape[1] in (3, 4, 5):  # 5: mask and keypoints
-        return False
-    expected = ("(time, height, width) grey images, or (time, 3, height, width) grey frames "
-                "with their edge maps, or (time, 4 or 5, height, width) with the person's mask "
-                "or a detector's keypoints or both (jaxtrack.vision.edge_observations)" if edges
-                else "(time, height, width) grey images")
-    raise ValueError(f"frames must be {expected}, got shape {shape}")

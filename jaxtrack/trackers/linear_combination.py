@@ -18,8 +18,11 @@ the 3-D skeleton of each is read off its reconstruction.
 ``constrained=False`` gives the first baseline of ``docs/linear-combination.md``: the same filter
 in the global coefficient space without clusters, a Brownian step of ``step`` training standard
 deviations per coefficient and no clamp. The tracker follows the contract of
-:mod:`jaxtrack.trackers._tracker`; its frames are :class:`ContourObservation` pytrees, run by
-:func:`track_observations` (one compiled scan).
+:mod:`jaxtrack.trackers._tracker`: it observes colour frames against the static scene
+(:meth:`LinearCombinationTracker.observe`, :func:`observe_contours`) into
+:class:`ContourObservation` pytrees, and :func:`jaxtrack.trackers.track` runs it like every other
+tracker (:func:`track_observations` keeps every field of its estimate); its five cycles per frame
+are the engine's (``Engine(iterations_per_frame=5)``).
 """
 
 from __future__ import annotations
