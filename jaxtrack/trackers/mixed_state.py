@@ -1,6 +1,9 @@
 """Mixed-state temporal integration of silhouette body-part hypotheses (Kwatra, Bobick & Johnson
 2002, §3.2–3.3): a particle filter over (posture, part positions, part velocities), smoothed
-over the whole sequence by ancestry tracing.
+over the whole sequence by ancestry tracing. The filter is the SMC engine
+(:mod:`jaxtrack.smc`) running :class:`MixedStateModel`, whose proposal hooks
+(``init_propose``, ``propose``) carry steps 1 and 3–5 below and whose log-weight correction is
+the posture evidence of step 6.
 
 A particle is ``{"posture": int, "parts": (5, 2), "velocities": (5, 2)}`` (head, two hands, two
 feet, pixels). Per frame t, with the posture likelihoods p(h_t | q) of
@@ -27,7 +30,9 @@ feet, pixels). Per frame t, with the posture likelihoods p(h_t | q) of
    (:func:`jaxtrack.vision.parts.nearest_silhouette_points`); the velocity becomes the
    displacement actually made.
 6. Weight: log w = log p(Z_t | x, q) (eq. 4–7,
-   :class:`jaxtrack.likelihoods.part_distances.PartDistances`) + log Σ_j p(h_t | j) T_{q_parent j}.
+   :class:`jaxtrack.likelihoods.part_distances.PartDistances`) + log Σ_j p(h_t | j) T_{q_parent j}
+   (at t = 1: + log Σ_q π(q) p(h_1 | q), the same for every particle, so that the log evidence
+   is the model's).
 
 A frame whose silhouette is empty or fills the image (status ≠ ok) carries no evidence: postures
 follow T alone, parts are not projected, weights are unchanged, and the frame's status is
