@@ -200,6 +200,53 @@ def _per_frame_extras(estimates) -> dict[str, np.ndarray]:
     return extras
 
 
+def _ahead(items: Iterator, depth: int = 1) -> Iterator:
+    """``items``, each made in a thread ``depth`` items ahead of the one taken (decoding and
+    preparing the next chunk while the current one is observed and tracked: OpenCV and NumPy
+    release the GIL). An error in the thread is raised where the item would have been taken;
+    closing the iterator (an error or Ctrl-C in the consumer) stops the thread."""
+    import queue
+    import threading
+
+    done = object()
+    ready: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+
+    def put(item) -> bool:
+        while not stop.is_set():
+            try:
+                ready.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def work() -> None:
+        try:
+            for item in items:
+                if not put((item, None)):
+                    return
+            put((done, None))
+        except BaseException as error:  # handed to the consumer, raised there
+            put((done, error))
+        finally:
+            items.close()
+
+    thread = threading.Thread(target=work, name="jaxtrack-decoder", daemon=True)
+    thread.start()
+    try:
+        while True:
+            item, error = ready.get()
+            if error is not None:
+                raise error
+            if item is done:
+                return
+            yield item
+    finally:
+        stop.set()
+        thread.join()
+
+
 def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.PathLike, *,
                 key: PRNGKeyArray, initial_pose: Float[ArrayLike, "markers 2"] | None = None,
                 scale: float | None = None, max_size: int | None = None, start: int = 0,
@@ -392,8 +439,8 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
             yield chunk
 
     tick = time.perf_counter()
-    result = track(tracker, key, chunks(), pose, chunk_size=chunk_frames, progress=progress,
-                   description=f"tracking {video.name}")
+    result = track(tracker, key, _ahead(chunks()), pose, chunk_size=chunk_frames,
+                   progress=progress, description=f"tracking {video.name}")
     tracking_seconds = time.perf_counter() - tick
     indices = np.concatenate(frame_indices)
     count = len(indices)
