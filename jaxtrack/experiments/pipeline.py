@@ -230,7 +230,9 @@ def _ahead(items: Iterator, depth: int = 1) -> Iterator:
         except BaseException as error:  # handed to the consumer, raised there
             put((done, error))
         finally:
-            items.close()
+            close = getattr(items, "close", None)  # a generator: let it release its video
+            if close is not None:
+                close()
 
     thread = threading.Thread(target=work, name="jaxtrack-decoder", daemon=True)
     thread.start()

@@ -359,3 +359,26 @@ def test_keypoints_are_given_in_video_pixels_and_read_in_tracking_pixels(figure_
     with pytest.raises(ValueError, match="keypoints hold 3 frames"):
         track_video(Detected(), figure_video, tmp_path / "short", key=KEY,
                     keypoints=(points[:3], confidence[:3]), progress=False)
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
+def test_chunks_made_ahead_come_in_order_and_carry_their_errors():
+    import threading
+
+    from jaxtrack.experiments.pipeline import _ahead
+
+    assert list(_ahead(iter(range(5)))) == list(range(5))
+
+    def failing():
+        yield 1
+        raise ValueError("frame 2 is damaged")
+
+    stream = _ahead(failing())
+    assert next(stream) == 1
+    with pytest.raises(ValueError, match="frame 2 is damaged"):
+        next(stream)
+    # a consumer that stops early (an error, Ctrl-C) stops the thread
+    endless = _ahead(iter(int, 1))
+    next(endless)
+    endless.close()
+    assert not any(thread.name == "jaxtrack-decoder" for thread in threading.enumerate())
