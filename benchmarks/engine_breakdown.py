@@ -7,7 +7,7 @@ engine (``smc.run_batch``) in one process, variants alternating, medians of ``--
 
 * noise: ``jax.random.normal`` (threefry), ``smc.fast_normal`` on the whole array (and with
   XLA's ``lax.erf_inv`` in place of its written-out erf⁻¹), per-particle
-  keys (``jax.random.split`` or ``smc._random.particle_keys``) with ``fast_normal`` per particle,
+  keys (``jax.random.split`` or ``smc.particle_keys``) with ``fast_normal`` per particle,
   the hash bits alone, or none;
 * resampling: ``searchsorted`` (the default ``scan`` method, ``sort``, ``compare_all``), the
   histogram search of ``smc.systematic_ancestors``, or none (no gather either);
@@ -39,8 +39,7 @@ from tqdm import tqdm
 from benchmarks._common import device_description, print_table, write_json
 from benchmarks.particle_counts import pydpf_benchmark_model
 from jaxtrack import smc
-from jaxtrack.smc._random import fast_uniform_bits, particle_keys, split, uniform
-from jaxtrack.smc._resampling import _sorted_search
+from jaxtrack.smc import evenly_spaced_ancestors, fast_uniform_bits, particle_keys, split, uniform
 
 VARIANTS = {
     # name: (noise, search, matmul, record)
@@ -91,7 +90,7 @@ def plain_filter(model, num_particles, noise, search, matmul, record):
         cumulative = jnp.cumsum(weights)
         offset = uniform(key)
         if search == "histogram":
-            ancestors = _sorted_search(weights, cumulative, offset)
+            ancestors = evenly_spaced_ancestors(weights, cumulative, offset)
         else:
             positions = (jnp.arange(n) + offset) / n * cumulative[-1]
             ancestors = jnp.minimum(jnp.searchsorted(cumulative, positions, side="right",

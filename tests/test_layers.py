@@ -207,3 +207,51 @@ def test_the_checks_catch_a_violation(tmp_path):
         "(layer 1) may not import experiments (layer 7)",
         "jaxtrack.smc._filter imports jaxtrack.body (line 1, at module level): smc (layer 0) "
         "may not import body (layer 1)"]
+
+
+def private_smc_uses(root: Path) -> list[str]:
+    """Every place under ``root`` (outside ``jaxtrack/smc/`` itself) that imports a private
+    module or name of ``jaxtrack.smc`` or reads a private attribute of ``smc``."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if "smc" in path.relative_to(root).parts[:2] and path.parent.name == "smc" and \
+                path.parent.parent.name == "jaxtrack":
+            continue
+        tree = ast.parse(path.read_text(), filename=str(path))
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and \
+                    node.value.id == "smc" and node.attr.startswith("_"):
+                names = [f"smc.{node.attr}"]
+            for name in names:
+                parts = name.split(".")
+                if "smc" in parts and any(part.startswith("_") and not part.startswith("__")
+                                          for part in parts[parts.index("smc") + 1:]):
+                    found.append(f"{path.relative_to(root)}:{node.lineno} uses {name}")
+    return found
+
+
+def test_nothing_outside_smc_uses_its_private_names(tmp_path):
+    """The engine's private modules are its own: the library and its benchmarks use
+    ``jaxtrack.smc``'s public names only (the tests of ``smc`` itself may look inside)."""
+    root = PACKAGE.parent
+    assert [use for folder in ("jaxtrack", "benchmarks", "papers")
+            for use in private_smc_uses(root / folder)] == []
+    (tmp_path / "a.py").write_text("from jaxtrack.smc._resampling import x\nfrom jaxtrack import "
+                                   "smc\nsmc._random.split\n")
+    assert private_smc_uses(tmp_path) == ["a.py:1 uses jaxtrack.smc._resampling",
+                                          "a.py:1 uses jaxtrack.smc._resampling.x",
+                                          "a.py:3 uses smc._random"]
+
+
+def test_the_published_trackers_run_on_the_engine_and_the_runner():
+    """Neither the linear-combination nor the mixed-state tracker scans frames itself (the
+    engine and ``track()`` do), and keypoints are never packed into an image channel."""
+    trackers = PACKAGE / "trackers"
+    for name in ("linear_combination.py", "mixed_state.py"):
+        assert "lax.scan" not in (trackers / name).read_text(), name
+    assert not [path for path in PACKAGE.rglob("*.py") if "pack_keypoints" in path.read_text()]

@@ -24,7 +24,7 @@ from jaxtrack.smc._linear_gaussian import (
     rts_smoother,
 )
 from jaxtrack.smc._model import StateSpaceModel
-from jaxtrack.smc._random import fast_normal
+from jaxtrack.smc._random import fast_normal, fast_uniform_bits, particle_keys, split, uniform
 from jaxtrack.smc._resampling import (
     Multinomial,
     Resampler,
@@ -34,6 +34,7 @@ from jaxtrack.smc._resampling import (
     Stratified,
     Systematic,
     effective_sample_size,
+    evenly_spaced_ancestors,
     multinomial_ancestors,
     residual_ancestors,
     stratified_ancestors,
@@ -45,8 +46,9 @@ __all__ = [
     "FilterResult", "FilterState", "KalmanResult", "LinearGaussian", "Multinomial", "Resampler",
     "Residual", "SmoothedPaths", "SoftResampling", "StateSpaceModel", "StepInfo", "StopGradient",
     "Stratified", "Systematic", "auto_chunk_size", "best_particle", "discrete_marginals",
-    "effective_sample_size",
-    "fast_normal", "ffbsi", "filter_sequence", "initialize", "kalman_filter",
+    "effective_sample_size", "evenly_spaced_ancestors",
+    "fast_normal", "fast_uniform_bits", "ffbsi", "filter_sequence", "initialize",
+    "kalman_filter", "particle_keys", "split", "uniform",
     "multinomial_ancestors",
     "random_linear_gaussian", "residual_ancestors", "rts_smoother", "run", "run_batch", "step",
     "stratified_ancestors", "systematic_ancestors", "trace_ancestry", "weighted_mean",

@@ -96,6 +96,13 @@ def _sorted_search(weights: Array, cumulative: Array, offset: Array) -> Ancestor
     return _at_most_last_positive(jnp.cumsum(histogram[:num]), weights)
 
 
+
+evenly_spaced_ancestors = _sorted_search
+"""The ancestors of ``N`` evenly spaced positions ``(j + offset) / N × total`` on the
+cumulative weights, in O(N) (the search behind systematic and stratified selection), for
+benchmarks and custom resamplers: ``evenly_spaced_ancestors(weights, cumsum(weights),
+offset)``."""
+
 def draw_indices(key: PRNGKeyArray, log_weights: LogWeights, num_draws: int) -> Ancestors:
     """``num_draws`` independent indices from the categorical distribution of the weights."""
     weights, cumulative = _cumulative_weights(log_weights)

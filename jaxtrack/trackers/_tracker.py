@@ -129,16 +129,16 @@ class Tracker(eqx.Module):
     likelihood: eqx.AbstractVar[object]
 
     @property
+    @abc.abstractmethod
     def reads(self) -> tuple[str, ...]:
         """The fields of a :class:`VideoChunk` that :meth:`observe` needs (of
         :data:`VIDEO_FIELDS`)."""
-        raise NotImplementedError(f"{type(self).__name__} does not say what it reads")
 
+    @abc.abstractmethod
     def observe(self, chunk: VideoChunk, out=None):
         """The observations of ``chunk``'s frames: a pytree whose leaves have a leading
         ``time`` axis (NumPy; on the host). ``out``: an earlier result's structure of
         buffers, at least as long, that may be written into (or ignored)."""
-        raise NotImplementedError(f"{type(self).__name__} does not observe video")
 
     @property
     @abc.abstractmethod

@@ -64,7 +64,7 @@ from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
 from jaxtrack import smc
 from jaxtrack.likelihoods.part_distances import PartDistances
 from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
-from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker
+from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, VideoChunk
 
 __all__ = ["MixedStateFrame", "MixedStateModel", "MixedStateResult", "MixedStateTracker",
            "SmoothedPostures", "filter_sequence", "instantaneous_estimates",
@@ -315,7 +315,7 @@ def _ess(log_weights):
 def filter_sequence(key: PRNGKeyArray, model: MixedStateModel, observations: MixedStateFrame,
                     num_particles: int) -> MixedStateResult:
     """Filter a whole sequence with the engine (:func:`jaxtrack.smc.filter_sequence`, one
-    ``lax.scan``, systematic resampling every frame) and keep the particle history.
+    compiled scan, systematic resampling every frame) and keep the particle history.
 
     Args:
         key: PRNG key.
@@ -521,10 +521,25 @@ class MixedStateTracker(Tracker):
 
     model: MixedStateModel
     particles: int = eqx.field(static=True)
+    num_bins: int = eqx.field(static=True, default=16)
 
     @property
     def likelihood(self) -> PartDistances:
         return self.model.part_likelihood
+
+    @property
+    def reads(self) -> tuple[str, ...]:
+        return ("masks",)
+
+    def observe(self, chunk: VideoChunk, out=None) -> MixedStateFrame:
+        """The chunk's :class:`MixedStateFrame` from the person's masks (silhouettes), with
+        ``num_bins`` projection-histogram bins (the posture model's)
+        (:func:`observations_from_silhouettes`)."""
+        if chunk.masks is None:
+            raise ValueError("the mixed-state tracker reads the person's silhouettes: give "
+                             "masks=... (time, height, width) bool")
+        observations = observations_from_silhouettes(chunk.masks, num_bins=self.num_bins)
+        return jax.tree.map(np.asarray, observations)
 
     def __check_init__(self):
         if self.particles < 1:
