@@ -133,16 +133,18 @@ __all__ = ["COVERAGE_DEPTH", "COVERAGE_GRID", "COVERAGE_SCALE", "DEFAULT_BORDER_
 
 DEFAULT_EDGE_WEIGHT = 1.0
 """κ: nats per strip whose border lies on no edge at all (the penalty saturates at 4κ · 9).
-Chosen against 0.5 and 2 on held-out takes (see docs/likelihoods.md, "Edges"), and kept against
-them on the validation subjects (docs/trackers.md, "Why the defaults are what they are")."""
+First chosen against 0.5 and 2 on the test subject's takes (cmu_1006; see docs/likelihoods.md,
+"Edges"), then kept against them on the validation subjects (docs/trackers.md, "Why the
+defaults are what they are")."""
 
 DEFAULT_EDGE_SCALE = 0.025
 """σ as a fraction of the spine (neck–pelvis) length: ~3 px for a 130-px spine."""
 
 DEFAULT_EDGE_TOLERANCE = 45.0
 """Largest angle in degrees between a strip's axis and the nearest edge's tangent for a border
-point to count as on the limb's outline (90: any edge); ±45° lost the fewest runs against ±30°
-and 90° (see docs/likelihoods.md, "Edges"); kept against both on the validation subjects
+point to count as on the limb's outline (90: any edge); first chosen on the test subject's takes
+(cmu_1006), where ±45° lost the fewest runs against ±30° and 90° (see docs/likelihoods.md,
+"Edges"); kept against both on the validation subjects
 (docs/trackers.md, "Why the defaults are what they are")."""
 
 DEFAULT_BORDER_SCALES = (0.5, 0.6, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.4, 1.5)

@@ -29,8 +29,8 @@ __all__ = ["DEFAULT_ARM_GRID", "DEFAULT_ARM_MARGIN", "DEFAULT_ARM_MOMENTUM", "DE
 
 DEFAULT_REFINE_STEPS = 10
 """Gauss–Newton trial steps per candidate and frame of the refinement (the MHT baseline's
-default). Chosen on the protocol's held-out take before the subject splits existed, and kept
-against 5 and 20 on the validation subjects; see ``docs/trackers.md``, "Why the defaults are
+default). First chosen on the test subject's take (cmu_1006) before the subject splits existed, and
+kept against 5 and 20 on the validation subjects; see ``docs/trackers.md``, "Why the defaults are
 what they are"."""
 
 DEFAULT_ARM_GRID = 7
