@@ -441,8 +441,12 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
             yield chunk
 
     tick = time.perf_counter()
-    result = track(tracker, key, _ahead(chunks()), pose, chunk_size=chunk_frames,
-                   progress=progress, description=f"tracking {video.name}")
+    stream = _ahead(chunks())
+    try:
+        result = track(tracker, key, stream, pose, chunk_size=chunk_frames,
+                       progress=progress, description=f"tracking {video.name}")
+    finally:  # on an error too: stop the decoding thread and release the video
+        stream.close()
     tracking_seconds = time.perf_counter() - tick
     indices = np.concatenate(frame_indices)
     count = len(indices)
