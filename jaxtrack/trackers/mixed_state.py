@@ -553,6 +553,7 @@ class MixedStateTracker(Tracker):
         return {"method": "mixed-state", "particles": self.particles, **self.model.options()}
 
     def start(self, key, first_frame: MixedStateFrame, initial_pose=None) -> MixedStateState:
+        first_frame = jax.tree.map(jnp.asarray, first_frame)  # NumPy from track()
         state, info = smc.initialize(key, self.model, first_frame, self.particles)
         return MixedStateState(state, info.degenerate)
 
