@@ -318,7 +318,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, model
 def test_the_overlay_draws_the_selected_views_skeleton_in_one_frame_of_axes():
     from types import SimpleNamespace
 
-    from jaxtrack.cli._linear_combination import _shown_skeletons
+    from jaxtrack.experiments.linear_combination import shown_skeletons as _shown_skeletons
 
     skeletons = [np.arange(12, dtype=float).reshape(2, 2, 3) + 100 * v for v in range(2)]
     turn = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
@@ -334,7 +334,7 @@ def test_the_overlay_draws_the_selected_views_skeleton_in_one_frame_of_axes():
 def test_the_skeleton_option_picks_the_weighted_mean_or_the_best_particle():
     from types import SimpleNamespace
 
-    from jaxtrack.cli._linear_combination import _skeletons
+    from jaxtrack.cli._track_linear_combination import _skeletons
 
     estimates = SimpleNamespace(skeleton_3d=np.zeros((2, 12, 3)),
                                 best_skeleton_3d=np.ones((2, 12, 3)))

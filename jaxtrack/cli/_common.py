@@ -7,19 +7,17 @@ a :class:`UserError` that names the argument and what is wrong, before any work 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
-import os
 import re
-import tempfile
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
-__all__ = ["MAX_SEED", "OneLineParser", "UserError", "add_asf_option", "available_memory",
+__all__ = ["ArgumentsError", "MAX_SEED", "OneLineParser", "TRAINING_FPS", "UserError",
+           "add_asf_option", "at_least", "available_memory", "check_asf", "check_clip_frames",
            "check_clips", "check_held_out", "check_json_and_plots", "check_memory",
-           "check_prior_file", "check_seed", "fit_mask_file", "format_bytes", "integer",
-           "load_clip_sources", "output_directory", "output_folder", "outputs_or_nothing",
-           "pose2sim_cameras", "read_mask_files", "real", "seed"]
+           "check_prior_file", "check_seed", "finite_json", "fit_mask_file", "format_bytes",
+           "integer", "load_clip_sources", "one_line", "output_directory", "output_folder",
+           "outputs_or_nothing", "pose2sim_cameras", "read_mask_files", "real", "seed"]
 
 MAX_SEED = 2**32 - 1
 """The largest seed. ``jax.random.key`` keeps only a seed's low 32 bits without 64-bit mode
@@ -195,122 +193,6 @@ def check_seed(value: int) -> None:
                         f"keeps only the low 32 bits), got {value}")
 
 
-def _looks_like_path(spec: str) -> bool:
-    # a name with a file's extension or a path's start: say the file is missing, not the name
-    return (Path(spec).suffix.lower() in (".bvh", ".amc", ".asf")
-            or spec.startswith((".", "~", os.sep)))
-
-
-def check_clips(names: Iterable[str], option: str, asf: Path | None = None) -> list:
-    """Resolve clips given as catalogue names or as paths to ``.bvh``/``.amc`` files.
-
-    Returns:
-        the :class:`jaxtrack.data.ClipSource` of each, in order.
-
-    Raises:
-        UserError: naming ``option`` and every unknown name (with the known ones), or the first
-            path that is missing, not a motion file, or an ``.amc`` whose skeleton is neither
-            beside it nor given with ``--asf``.
-    """
-    from jaxtrack.body.motion import MissingSkeletonError
-    from jaxtrack.data import list_clips, resolve_clip
-
-    if asf is not None and not asf.is_file():
-        raise UserError(f"--asf {asf}: no such file")
-    sources, unknown = [], []
-    for name in names:
-        try:
-            sources.append(resolve_clip(name, asf=asf))
-        except MissingSkeletonError as error:
-            looked = ", ".join(path.name for path in error.tried)
-            raise UserError(f"{option} {name}: no ASF skeleton beside it (looked for {looked} "
-                            f"and for a single .asf in its folder); give the skeleton with "
-                            f"--asf FILE.asf") from None
-        except FileNotFoundError as error:
-            if not _looks_like_path(name):
-                unknown.append(name)
-                continue
-            raise UserError(f"{option} {name}: {one_line(error)}") from None
-        except ValueError as error:  # a file that is not a motion, or a name without a folder
-            if "/" not in name and not Path(name).is_file():
-                unknown.append(name)
-                continue
-            raise UserError(f"{option} {name}: {one_line(error)}") from None
-    if unknown:
-        raise UserError(f"{option}: unknown clip(s) {', '.join(unknown)} (neither a file nor a "
-                        f"catalogue name); known clips: {', '.join(list_clips())}")
-    return sources
-
-
-def check_held_out(train_sources: Sequence, test_sources: Sequence) -> None:
-    """No ``--test`` clip may be one of the ``--train`` clips (the same file)."""
-    trained = {source.file.resolve() for source in train_sources}
-    overlap = [source.spec for source in test_sources if source.file.resolve() in trained]
-    if overlap:
-        raise UserError(f"--test clips must be held out, but {', '.join(overlap)} is also in "
-                        f"--train")
-
-
-def check_json_and_plots(args: argparse.Namespace) -> Path:
-    """``--json`` must be a ``.json`` file that can be written, ``--plots`` (if given) a folder
-    or nothing yet. Returns the folder of ``--json``."""
-    if args.json.suffix != ".json":
-        raise UserError(f"--json {args.json}: must be a .json path")
-    folder = output_folder(args.json, "--json")
-    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
-        raise UserError(f"--plots {args.plots} is a file, not a folder")
-    if args.plots is not None:
-        output_directory(args.plots, "--plots")
-    return folder
-
-
-def check_asf(asf: Path | None, sources: Sequence) -> None:
-    """``--asf`` must be a file, and there must be an ``.amc`` path for it to apply to."""
-    if asf is None:
-        return
-    if not any(not source.from_catalogue and source.file.suffix.lower() == ".amc"
-               for source in sources):
-        raise UserError(f"--asf {asf}: no .amc file is given by path for it to apply to "
-                        f"(catalogue clips keep their own skeleton)")
-
-
-TRAINING_FPS = 30.0
-"""The rate training takes a clip's frames at (``jaxtrack.priors.train.train_prior``'s and the
-experiments' default)."""
-
-
-def check_clip_frames(motion, spec: str, option: str, fps: float = TRAINING_FPS) -> None:
-    """A training clip must give at least two frames at ``fps`` (the prior's dynamics are
-    learned from consecutive frames): refused in one line naming the file and how many frames
-    it needs."""
-    step = max(motion.fps / fps, 1.0)
-    taken = len(range(0, math.ceil(max(motion.num_frames - 0.5, 0) / step)))
-    if taken < 2:
-        needed = math.floor(step + 0.5) + 1
-        raise UserError(f"{option} {spec}: {motion.num_frames} frame(s) at {motion.fps:g} fps "
-                        f"give {taken} at {fps:g} fps, the rate clips are trained on; the "
-                        f"motion's dynamics need two consecutive frames: give at least "
-                        f"{needed} frames")
-
-
-def load_clip_sources(sources: Sequence, option: str) -> None:
-    """Read every clip given by path and check that its rig supplies the upper-body markers
-    and that it has frames enough to train on (:func:`check_clip_frames`); catalogue clips are
-    the tested ones and are read when used."""
-    from jaxtrack.body.markers import UPPER_BODY_12, MarkerMapError, marker_joint_indices
-    from jaxtrack.body.motion import MocapFormatError
-
-    for source in sources:
-        if source.from_catalogue:
-            continue
-        try:
-            motion = source.load()
-            marker_joint_indices(motion, UPPER_BODY_12)
-        except (MocapFormatError, MarkerMapError, OSError) as error:
-            raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
-        check_clip_frames(motion, source.spec, option)
-
-
 def check_prior_file(path: Path, what: str, remedy: str) -> None:
     """An existing model file that the command would read must be a readable trained prior."""
     from jaxtrack.priors.gplvm import GPLVMFormatError
@@ -329,116 +211,21 @@ def check_prior_file(path: Path, what: str, remedy: str) -> None:
                         f"{remedy}") from None
 
 
-def _probe(folder: Path) -> str | None:
-    """Why no file can be created in ``folder`` (None when one can): a probe file is created
-    and removed, which sees what ``os.access`` does not (``/proc``, a read-only mount, a root
-    user's view of a folder without write permission)."""
-    try:
-        handle, name = tempfile.mkstemp(dir=folder, prefix=".jaxtrack-probe-")
-    except OSError as error:
-        return error.strerror or type(error).__name__
-    os.close(handle)
-    os.unlink(name)
-    return None
-
-
-def _writable(folder: Path, path: Path, option: str) -> None:
-    """``folder`` may not exist yet (it is created after every check), but what exists of it
-    must be a folder in which a file can be created."""
-    existing = folder
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        raise UserError(f"{option} {path}: cannot create folder {folder}, {existing} is a file")
-    reason = _probe(existing)
-    if reason is not None:
-        raise UserError(f"{option} {path}: cannot write into folder {existing} ({reason})")
-
-
-def output_folder(path: Path, option: str) -> Path:
-    """The folder an output file goes in: it may not exist yet (it is created after every
-    check), but what exists of it must be a folder a file can be created in (a probe file is
-    created and removed there). Returns the folder."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    _writable(folder, path, option)
-    if path.is_dir():
-        raise UserError(f"{option} {path} is a folder; give a file name")
-    return folder
-
-
-def output_directory(folder: Path, option: str) -> Path:
-    """An output folder (``--out DIR``): a folder, or nothing yet below a folder that files can
-    be created in (probed). Returns the folder."""
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise UserError(f"{option} {folder} is a file; give a folder")
-    _writable(folder, folder, option)
-    return folder
-
-
-@contextlib.contextmanager
-def outputs_or_nothing(*folders: Path) -> Iterator[list]:
-    """Create ``folders``; yield a list to which the body adds each file it writes. If the body
-    fails or is interrupted (Ctrl-C), those files and the folders created here (when left
-    empty) are removed, so that a command leaves all its outputs or none. (A file being written
-    atomically, ``jaxtrack._files.write_atomically``, removes its own temporary file.)"""
-    created, written = [], []
-    for folder in folders:
-        missing, existing = [], Path(folder)
-        while not existing.exists():
-            missing.append(existing)
-            existing = existing.parent
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        created.extend(missing)
-    created.sort(key=lambda folder: len(folder.parts), reverse=True)  # deepest first
-    try:
-        yield written
-    except BaseException:
-        for path in written:
-            Path(path).unlink(missing_ok=True)
-        for folder in created:
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
-
-
-def format_bytes(count: float) -> str:
-    """``1.5 GB``-style sizes (powers of 1000)."""
-    for unit in ("B", "kB", "MB", "GB", "TB"):
-        if abs(count) < 1000 or unit == "TB":
-            return f"{count:.0f} {unit}" if unit == "B" else f"{count:.1f} {unit}"
-        count /= 1000
-    raise AssertionError("unreachable")
-
-
-def available_memory() -> int | None:
-    """Bytes the run can still allocate: the accelerator's free memory when JAX runs on one,
-    else the machine's available memory (``MemAvailable`` of /proc/meminfo, or ``sysconf``);
-    None when neither can be read."""
-    import jax
-
-    device = jax.devices()[0]
-    if device.platform != "cpu":
-        stats = device.memory_stats() or {}
-        if "bytes_limit" in stats:
-            return int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def check_memory(needed: int, what: str, option: str) -> None:
-    """Refuse a run whose estimated memory ``needed`` (bytes) exceeds what is available."""
-    available = available_memory()
-    if available is not None and needed > available:
-        raise UserError(f"{option}: {what} needs about {format_bytes(needed)} of memory but "
-                        f"this machine has {format_bytes(available)} available; use fewer")
+# at the end: these modules import UserError from here
+from jaxtrack.cli._clip_checks import (  # noqa: E402
+    TRAINING_FPS,
+    check_asf,
+    check_clip_frames,
+    check_clips,
+    check_held_out,
+    check_json_and_plots,
+    load_clip_sources,
+)
+from jaxtrack.cli._outputs import (  # noqa: E402
+    available_memory,
+    check_memory,
+    format_bytes,
+    output_directory,
+    output_folder,
+    outputs_or_nothing,
+)

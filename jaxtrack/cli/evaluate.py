@@ -1,7 +1,8 @@
 """``jaxtrack evaluate``: train a model, render held-out clips, track, score, write JSON/plots.
 
 ``--method latent|condensation|mht`` here; ``linear-combination`` in
-``jaxtrack.cli._linear_combination`` and ``mixed-state`` in ``jaxtrack.cli._mixed_state``."""
+``jaxtrack.cli._train_linear_combination`` and ``mixed-state`` in
+``jaxtrack.cli._evaluate_mixed_state``."""
 
 from __future__ import annotations
 
@@ -144,13 +145,13 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.method == "linear-combination":
-        from jaxtrack.cli import _linear_combination
+        from jaxtrack.cli import _train_linear_combination
 
-        return _linear_combination.evaluate(args)
+        return _train_linear_combination.evaluate(args)
     if args.method == "mixed-state":
-        from jaxtrack.cli import _mixed_state
+        from jaxtrack.cli import _evaluate_mixed_state
 
-        return _mixed_state.evaluate(args)
+        return _evaluate_mixed_state.evaluate(args)
     for option in ("train", "test"):
         if getattr(args, option) is None:
             raise UserError(f"--{option} is required for --method {args.method}")

@@ -1,7 +1,7 @@
 """``jaxtrack train``: learn a model from clips: the latent tracker's GPLVM pose prior
 (``jaxtrack.priors.train``), the linear-combination model (``--method linear-combination``:
-``jaxtrack.cli._linear_combination``) or the mixed-state posture model (``--method mixed-state``:
-``jaxtrack.cli._mixed_state``)."""
+``jaxtrack.cli._train_linear_combination``) or the mixed-state posture model (``--method
+mixed-state``: ``jaxtrack.cli._train_mixed_state``)."""
 
 from __future__ import annotations
 
@@ -98,13 +98,13 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.method == "linear-combination":
-        from jaxtrack.cli import _linear_combination
+        from jaxtrack.cli import _train_linear_combination
 
-        return _linear_combination.train(args)
+        return _train_linear_combination.train(args)
     if args.method == "mixed-state":
-        from jaxtrack.cli import _mixed_state
+        from jaxtrack.cli import _train_mixed_state
 
-        return _mixed_state.train(args)
+        return _train_mixed_state.train(args)
     from jaxtrack.priors.train import train_prior
 
     if args.clips is None:

@@ -21,6 +21,7 @@ skeleton vertices (neck-relative, camera frame), in metres.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -47,8 +48,8 @@ __all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_SKELETON_ESTIMATE", "DEFAULT_VI
            "VIEW_SELECTION",
            "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
            "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
-           "aligned_skeleton_error", "select_tracked_views", "skeleton_error", "subject_centre",
-           "track", "train"]
+           "aligned_skeleton_error", "select_tracked_views", "shown_skeletons", "skeleton_error",
+           "subject_centre", "to_video_pixels", "track", "track_record", "train"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -692,3 +693,144 @@ def track(trained: TrainedLinearCombinations, images: np.ndarray, background: np
     run = _track_run(trained, observations, particles=particles, iterations=iterations,
                      seed=seed, fitness=fitness, step=step, jump_spread=jump_spread)
     return run | {"status": status}
+
+
+# ``jaxtrack track --method linear-combination``'s record and overlay
+
+
+def to_video_pixels(points: np.ndarray, view: dict) -> np.ndarray:
+    """Tracking pixels (inside the crop) -> the video's own pixels (pixel centres at
+    integers, as ``scale_camera``)."""
+    return (points + view["origin"] + 0.5) / view["scale"] - 0.5
+
+
+def _rounded(values, digits: int):
+    values = np.asarray(values, np.float64)
+    if not np.all(np.isfinite(values)):
+        return None
+    return np.round(values, digits).tolist()
+
+
+def _view_statuses(view: dict) -> list:
+    """Each frame's :class:`jaxtrack.trackers.status.FrameStatus` in one view: its head and hands
+    in the video's own pixels against the video's size, its best particle's log-fitness."""
+    from jaxtrack.trackers.status import frame_statuses
+
+    estimate = view["run"].estimates
+    points = to_video_pixels(np.asarray(estimate.best_markers, np.float64), view)
+    return frame_statuses(points, tuple(view["size"]),
+                          degenerate=~(np.asarray(estimate.ess) > 0),
+                          no_person=~np.asarray(estimate.found, bool),
+                          log_likelihood=np.asarray(estimate.log_fitness, np.float64))
+
+
+def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker, *,
+                 model: str, calibration: str | None, masks: list | None, skin, seed: int,
+                 view_selection: str, skeleton_estimate: str) -> dict:
+    """``track.json`` of a linear-combination run (``jaxtrack track --method
+    linear-combination``): per frame the selected view and its status, and per view the head
+    and hands in the video's own pixels and the 3-D skeleton.
+
+    Args:
+        trained: the model (:class:`TrainedLinearCombinations`).
+        cameras: the calibrated cameras, one per view, or None.
+        views: per view a dict with ``run`` (its ``TrackResult``), ``status`` (per frame why it
+            was not observed, or None), ``origin``, ``scale``, ``size``, ``video``, ``name``,
+            ``stride``, ``people`` and ``frames``.
+        skeletons: per view ``(time, joints, 3)`` the skeleton reported.
+        chosen, ambiguity: :func:`select_tracked_views`' selected view per frame and
+            ``(time, views)`` ambiguities (None with one view).
+        tracker: the linear-combination tracker.
+        model, calibration, masks, skin, seed: what the command was given, for the record.
+        view_selection, skeleton_estimate: the rules used.
+    """
+    from jaxtrack.trackers.status import (
+        LOST_RULE,
+        FrameStatus,
+        status_counts,
+        status_legend,
+    )
+
+    joints = list(trained.description["skeleton"])
+    view_statuses = [_view_statuses(view) for view in views]
+    frame_statuses = [FrameStatus.NO_PERSON if chosen[t] is None
+                      else view_statuses[chosen[t]][t] for t in range(len(chosen))]
+    frames = []
+    for t in range(len(chosen)):
+        entries = []
+        for index, view in enumerate(views):
+            estimate = view["run"].estimates
+            found = bool(estimate.found[t])
+            markers = np.asarray(estimate.best_markers[t], np.float64)
+            video_markers = to_video_pixels(markers, view) if found else None
+            skeleton = np.asarray(skeletons[index][t], np.float64)
+            entry = {
+                "status": view["status"][t] or "observed", "observed": found,
+                "frame_status": view_statuses[index][t].value,
+                "log_fitness": round(float(estimate.log_fitness[t]), 4),
+                "ambiguity": None if ambiguity is None else _rounded(ambiguity[t, index], 5),
+                "cluster": int(estimate.cluster[t]), "ess": round(float(estimate.ess[t]), 2),
+                "head": None if video_markers is None else _rounded(video_markers[0], 2),
+                "hands": None if video_markers is None else _rounded(video_markers[1:], 2),
+                "skeleton_m": dict(zip(joints, np.round(skeleton, 4).tolist(), strict=True))}
+            if cameras is not None:  # neck-relative in the calibration's world axes (Y up)
+                world = skeleton @ np.asarray(cameras[index].rotation, np.float64)
+                entry["skeleton_world_m"] = dict(zip(joints, np.round(world, 4).tolist(),
+                                                     strict=True))
+            entries.append(entry)
+        video = views[0]["video"]
+        index = int(video.frame_indices[t])
+        frames.append({"frame": index, "time_s": (round(index / video.source_fps, 4)
+                                                  if math.isfinite(video.source_fps) else None),
+                       "status": frame_statuses[t].value,
+                       "views": entries, "selected_view": chosen[t],
+                       "selected": None if chosen[t] is None else views[chosen[t]]["name"]})
+    return {
+        "method": "linear-combination", "model": model,
+        "statuses": status_legend(), "lost_rule": LOST_RULE,
+        "status_of_a_frame": "the selected view's (each view's is its frame_status)",
+        "status_counts": status_counts(frame_statuses),
+        "trained_on": {key: trained.description.get(key) for key in
+                       ("clips", "views", "fps", "num_clusters", "frames")},
+        "calibration": calibration,
+        "views": [{"video": str(view["video"].path), "camera": view["name"],
+                   "size": list(view["size"]), "fps": _rounded(view["video"].source_fps, 3),
+                   "stride": view["stride"],
+                   "scale": np.round(view["scale"], 5).tolist(),
+                   "crop_origin": np.round(view["origin"], 1).tolist(),
+                   "crop_from_silhouettes": view["people"],
+                   "silhouettes": ("background subtraction against the median of the "
+                                   "video's frames" if masks is None
+                                   else f"masks {masks[index]}")}
+                  for index, view in enumerate(views)],
+        "tracked_size": list(views[0]["frames"].shape[2:0:-1]),
+        "skin": "fixed chroma box" if skin is None else list(skin),
+        "particles": tracker.num_particles, "iterations": tracker.iterations,
+        "view_selection": view_selection if len(views) > 1 else None,
+        "skeleton_estimate": skeleton_estimate,
+        "seed": seed, "tracker": views[0]["run"].options, "joints": joints,
+        "coordinates": "head and hands in the video's own pixels (hands ordered left to right "
+                       "in the image); skeleton_m (the skeleton_estimate) in the camera's "
+                       "frame, metres, relative to the neck",
+        "frames": frames}
+
+
+def shown_skeletons(skeletons: list[np.ndarray], chosen: list[int | None],
+                     cameras) -> np.ndarray:
+    """``(time, joints, 3)`` the 3-D skeleton the overlay draws each frame: the selected view's
+    (the only view's) of each view's ``skeletons`` ``(time, joints, 3)``, x right, y up,
+    metres from the neck; in the calibration's world axes when there is one (the same axes
+    whichever view is selected), else the camera's axes with y and z turned to point up and
+    toward the viewer. NaN in a frame no view observed."""
+    count = len(chosen)
+    joints = np.asarray(skeletons[0]).shape[1]
+    shown = np.full((count, joints, 3), np.nan)
+    for t, index in enumerate(chosen):
+        if index is None:
+            continue
+        skeleton = np.asarray(skeletons[index][t], np.float64)
+        if cameras is not None:
+            shown[t] = skeleton @ np.asarray(cameras[index].rotation, np.float64)
+        else:
+            shown[t] = skeleton * np.array([1.0, -1.0, -1.0])
+    return shown

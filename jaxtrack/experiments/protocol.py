@@ -34,7 +34,7 @@ from jaxtrack.trackers import Likelihood, Refinement
 
 __all__ = ["AR_TRAINING_FRAMES", "BASELINE_DYNAMICS", "DEFAULT_PARTICLES", "METHODS",
            "TestSequence", "baseline_training_states", "build_tracker", "render_test_sequences",
-           "run_method"]
+           "run_method", "video_tracker"]
 
 METHODS = ("latent", "condensation", "mht")
 DEFAULT_PARTICLES = {"latent": 200, "condensation": 1000, "mht": 10}
@@ -172,3 +172,47 @@ def run_method(method: str, prior: TrainedPrior, sequence: TestSequence, *,
                             background, baseline_dynamics)
     return track(tracker, jr.PRNGKey(seed), sequence.frames, sequence.truth[0],
                  progress=progress, description=f"{method} N={particles}")
+
+
+def video_tracker(method: str, prior: TrainedPrior, particles: int, *, fps: float | None,
+                  likelihood: Likelihood = Likelihood(),
+                  refinement: Refinement | None | str = "default",
+                  background: np.ndarray | None = None):
+    """The tracker ``method`` (:data:`METHODS`) for a video, as :func:`build_tracker` builds it
+    for a test sequence: CONDENSATION's AR(2) and MHT's step learned from the prior's training
+    poses (``baseline_dynamics="training"``).
+
+    Args:
+        method: ``"latent"``, ``"condensation"`` or ``"mht"``.
+        prior: a prior from :func:`jaxtrack.priors.train.train_prior` (``jaxtrack train``);
+            CONDENSATION and MHT need its training poses.
+        particles: the particles (MHT: the modes).
+        fps: the video's frame rate (the latent tracker's dynamics), None when unknown.
+        likelihood, refinement: as :func:`build_tracker`'s.
+        background: ``(height, width)`` grey empty scene at the tracking size for the
+            foreground term, or None.
+    """
+    from jaxtrack import trackers
+
+    if method == "latent":
+        return trackers.latent_tracker(prior.model, prior.template,
+                                       engine=trackers.Engine(particles), fps=fps,
+                                       likelihood=likelihood, refinement=refinement,
+                                       background=background)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if refinement == "default":
+        refinement = None
+    if prior.training_states is None:
+        raise ValueError("this prior was saved without its training poses, which "
+                         f"{method}'s dynamics are learned from: train it again "
+                         "(jaxtrack train)")
+    ids = prior.training_sequence_ids
+    if method == "condensation":
+        return trackers.condensation_tracker(prior.template, prior.training_states,
+                                             engine=trackers.Engine(particles),
+                                             likelihood=likelihood, refinement=refinement,
+                                             background=background, sequence_ids=ids)
+    return trackers.mht_tracker(prior.template, prior.training_states, num_modes=particles,
+                                likelihood=likelihood, refinement=refinement,
+                                background=background, sequence_ids=ids)
