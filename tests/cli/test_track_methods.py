@@ -1,7 +1,7 @@
-"""``jaxtrack track --method condensation|mht``: the latent tracker's baselines run on the
-bundled Pose2Sim clip from a tiny ``jaxtrack train`` prior (their dynamics learned from its
-training poses) and write ``overlay.mp4`` and ``track.json`` with a status per frame; and
-every module of ``jaxtrack/cli`` stays short."""
+"""``jaxtrack track --method condensation|mht|latent``: the latent tracker and its baselines run
+on the bundled Pose2Sim clip from a tiny ``jaxtrack train`` prior (the baselines' dynamics
+learned from its training poses) and write ``overlay.mp4`` and ``track.json`` with a status
+per frame; and every module of ``jaxtrack/cli`` stays short."""
 
 import json
 from pathlib import Path
@@ -34,8 +34,8 @@ def model(tmp_path_factory):
 
 
 @pytest.mark.slow  # about 30 s of CPU each (the prior's training and the tracker's compile)
-@pytest.mark.parametrize("method, particles", [("condensation", 16), ("mht", 2)])
-def test_the_baselines_track_a_video_and_write_a_status_per_frame(model, tmp_path, capsys,
+@pytest.mark.parametrize("method, particles", [("condensation", 16), ("mht", 2), ("latent", 16)])
+def test_the_image_trackers_track_a_video_and_write_a_status_per_frame(model, tmp_path, capsys,
                                                                   method, particles):
     out = tmp_path / "out"
     code = main(["track", "--method", method, "--model", str(model), "--video", str(VIDEO),
