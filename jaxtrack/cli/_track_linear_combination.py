@@ -132,7 +132,7 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers import Engine
     from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
-    from jaxtrack.vision import VideoError, median_background, read_video, write_views_video
+    from jaxtrack.vision import VideoError, read_video, write_views_video
 
     started = time.perf_counter()
     record_options = options_record(args)
@@ -188,17 +188,8 @@ def track(args: argparse.Namespace) -> int:
         if given_masks[index] is not None:
             masks = fit_mask_file(given_masks[index], args.masks[index],
                                   video.frame_indices[:count], video.image_size)
-        background = median_background(frames) if masks is None else None
-        origin, people = np.zeros(2), count
-        if cameras is not None:
-            centre, people = lc.subject_centre(frames, background, masks=masks)
-            origin = np.round(centre - np.asarray(lc.CROP_SIZE) / 2)
-            frames = lc.cut_window(frames, origin, lc.CROP_SIZE)
-            if masks is None:
-                background = lc.cut_window(background, origin, lc.CROP_SIZE)
-            else:
-                masks = lc.cut_window(masks[..., None], origin, lc.CROP_SIZE,
-                                      mode="constant")[..., 0]
+        frames, background, masks, origin, people = lc.video_view(frames, masks,
+                                                                  cameras is not None)
         observations, status = lc.observe(frames, background, skin_reference=skin, masks=masks)
         height, width = video.frames.shape[1:3]
         size = probes[index][1]

@@ -49,7 +49,7 @@ __all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_SKELETON_ESTIMATE", "DEFAULT_VI
            "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
            "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
            "aligned_skeleton_error", "select_tracked_views", "shown_skeletons", "skeleton_error",
-           "subject_centre", "to_video_pixels", "track", "track_record", "train"]
+           "subject_centre", "to_video_pixels", "track", "track_record", "train", "video_view"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -834,3 +834,34 @@ def shown_skeletons(skeletons: list[np.ndarray], chosen: list[int | None],
         else:
             shown[t] = skeleton * np.array([1.0, -1.0, -1.0])
     return shown
+
+
+def video_view(frames: np.ndarray, masks: np.ndarray | None, calibrated: bool):
+    """One video's frames as the tracker sees them (``jaxtrack track --method
+    linear-combination``): its empty scene is the median of its frames (a static camera)
+    unless the person's masks are given, and a calibrated view is cut to :data:`CROP_SIZE`
+    around the subject (:func:`subject_centre`).
+
+    Args:
+        frames: ``(time, height, width, 3)`` uint8 at the model's scale.
+        masks: ``(time, height, width)`` bool person masks of those frames, or None.
+        calibrated: cut the frames to :data:`CROP_SIZE` around the subject (a calibrated
+            camera's whole image; an uncalibrated video is already such a crop).
+
+    Returns:
+        ``(frames, background or None, masks or None, origin (2,) of the crop in the frames'
+        pixels, frames the crop's centre was found from)``.
+    """
+    from jaxtrack.vision import median_background
+
+    background = median_background(frames) if masks is None else None
+    origin, people = np.zeros(2), len(frames)
+    if calibrated:
+        centre, people = subject_centre(frames, background, masks=masks)
+        origin = np.round(centre - np.asarray(CROP_SIZE) / 2)
+        frames = cut_window(frames, origin, CROP_SIZE)
+        if masks is None:
+            background = cut_window(background, origin, CROP_SIZE)
+        else:
+            masks = cut_window(masks[..., None], origin, CROP_SIZE, mode="constant")[..., 0]
+    return frames, background, masks, origin, people
