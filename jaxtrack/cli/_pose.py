@@ -111,7 +111,7 @@ def initialise(args, model, template, size: tuple[int, int], first_frame=None,
         return np.asarray(points, np.float64), {"method": "keypoints",
                                                 "file": str(args.keypoints)}
     mask, source = foreground
-    if not mask.any():
+    if source == "masks" and not mask.any():
         raise UserError(f"--init face: the first frame's mask in {args.masks[0]} is empty; "
                         f"give masks that hold the person there, or {manual_instead()}")
     try:

@@ -233,7 +233,9 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise UserError(f"--model {args.model}: {one_line(error)}") from None
     print(f"{args.video}: {size[0]}x{size[1]}" + (f" at {fps:.0f} fps" if fps else "")
-          + f", tracked at {tracked[0]}x{tracked[1]}; initialised ({init['method']})", flush=True)
+          + f", tracked at {tracked[0]}x{tracked[1]}; initialised ({init['method']}"
+          + (f", {init['source']} box, overlap {init['score']:.2f} against the "
+             f"{init['foreground']}" if "score" in init else "") + ")", flush=True)
     init["markers"] = {name: [round(float(x), 2), round(float(y), 2)]
                        for name, (x, y) in zip(UPPER_BODY_12, pose, strict=True)}
     try:
@@ -241,7 +243,8 @@ def run(args: argparse.Namespace) -> int:
             tracker, args.video, args.out, key=jr.PRNGKey(args.seed), initial_pose=pose,
             scale=scale, start=start, max_frames=count, masks=masks, keypoints=keypoints,
             marker_names=UPPER_BODY_12, seed=args.seed,
-            extra_record={"options": record_options, "model": str(args.model), "init": init})
+            extra_record={"options": record_options, "model": str(args.model), "init": init,
+                          "masks_file": None if args.masks is None else str(args.masks[0])})
     except VideoError as error:
         raise UserError(f"--video: {one_line(error)}") from None
     except MaskFileError as error:

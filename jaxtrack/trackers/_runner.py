@@ -78,6 +78,12 @@ def _frame_bytes(observations) -> int:
                for leaf in jax.tree.leaves(observations))
 
 
+def _frames_per_chunk(chunk_size: int, frame_bytes: int) -> int:
+    """``chunk_size`` capped so that a chunk of frames of ``frame_bytes`` each fits
+    :data:`CHUNK_BYTES` (never below one frame)."""
+    return max(1, min(int(chunk_size), CHUNK_BYTES // max(int(frame_bytes), 1)))
+
+
 def _num_frames(observations) -> int:
     leaves = jax.tree.leaves(observations)
     if not leaves:
@@ -123,7 +129,8 @@ def _check_video(video: VideoChunk) -> None:
     for name in ("grey", "colour", "masks"):
         value = getattr(video, name)
         if value is not None and np.shape(value)[0] != count:
-            raise ValueError(f"{name} hold {np.shape(value)[0]} frames, the video {count}")
+            raise ValueError(f"{name} must be one per frame of the video: they hold "
+                             f"{np.shape(value)[0]} frames, the video {count}")
     if video.keypoints is not None:
         from jaxtrack.vision.keypoints import check_keypoint_input
 
@@ -266,7 +273,7 @@ def track(tracker: Tracker, key: PRNGKeyArray,
     state = tracker.start(key_start, jax.tree.map(lambda leaf: leaf[0], head), initial_pose)
     first = _start_estimate(tracker, state)
     outputs = [jax.tree.map(lambda leaf: np.asarray(leaf)[None], first)]
-    chunk_size = max(1, min(chunk_size, CHUNK_BYTES // max(_frame_bytes(head), 1)))
+    chunk_size = _frames_per_chunk(chunk_size, _frame_bytes(head))
     if num_frames is not None:  # equal chunks, so that little of the last one is padding
         num_chunks = max(1, math.ceil((num_frames - 1) / chunk_size))
         chunk_size = max(1, math.ceil((num_frames - 1) / num_chunks))

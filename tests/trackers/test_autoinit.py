@@ -128,7 +128,7 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
                  f"manual:{numbers}", "--out", str(tmp_path / "masked"), "--particles", "50",
                  "--max-size", "160", "--masks", str(masks), "--coverage-weight", "5"]) == 0
     masked = json.loads((tmp_path / "masked" / "track.json").read_text())
-    assert masked["masks"] == str(masks) and len(masked["frames"]) == 10
+    assert masked["masks_file"] == str(masks) and len(masked["frames"]) == 10
     assert masked["tracker"]["likelihood"]["coverage_weight"] == 5.0
     assert main(["track", "--model", str(model_file), "--video", str(video), "--init",
                  f"manual:{numbers}", "--out", str(tmp_path / "bad"), "--likelihood", "limbs",

@@ -29,6 +29,7 @@ from jaxtrack.trackers import (
 )
 from jaxtrack.trackers.mht import _surviving
 from jaxtrack.vision import edge_observations, to_grey
+from jaxtrack.vision.observations import image_observations
 
 CLIP = "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2"
 SIZE = (320, 240)
@@ -376,13 +377,13 @@ def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
         masks[:, 40:-40, 200:-200] = True
         keypoints = (truth + np.random.default_rng(0).normal(0, 4, truth.shape),
                      np.full(truth.shape[:2], 0.9))
-        frames = edge_observations(grey, masks=masks if whole else None,
-                                   keypoints=keypoints if whole else None)
+        frames = image_observations(grey, masks=masks if whole else None,
+                                    keypoints=keypoints if whole else None)
         options = {"coverage_weight": 2.0, "keypoint_weight": 1.5} if whole else {}
-        templates = make_appearance_templates("limbs+edges", frames[0], wave["truth"][0],
+        templates = make_appearance_templates("limbs+edges", frames.images[0], wave["truth"][0],
                                               **options)
         assert templates.has_whole_pose_terms == whole
-        frame = jnp.asarray(frames[1], jnp.float64)
+        frame = jax.tree.map(lambda leaf: jnp.asarray(leaf[1], jnp.float64), frames)
     std = jnp.full(25, 0.3, jnp.float64).at[1:3].set(5.0)
 
     def refined(solver):

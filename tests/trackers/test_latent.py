@@ -334,7 +334,7 @@ def test_evaluate_cli_rejects_unknown_and_overlapping_clips(tmp_path, capsys):
     assert "must be held out" in capsys.readouterr().err
     assert main(["evaluate", "--method", "latent", "--train", "animateddrawings/fair1_wave_hello",
                  "--test", HELD_OUT, "--json", out, "--refine-steps", "-2"]) == 2
-    assert "--refine-steps must be 0 or more" in capsys.readouterr().err
+    assert "--refine-steps must be at least 0" in capsys.readouterr().err
     for grid in ("4", "-3"):
         assert main(["evaluate", "--method", "latent", "--train",
                      "animateddrawings/fair1_wave_hello", "--test", HELD_OUT, "--json", out,
@@ -396,11 +396,11 @@ def test_jumps_redraw_a_fraction_of_particles_at_training_latents(prior, sequenc
 def test_chunks_are_capped_by_bytes_not_only_by_frame_count():
     from jaxtrack.trackers._runner import CHUNK_BYTES, _frames_per_chunk
 
-    assert _frames_per_chunk(64, (3, 480, 640), np.float32) == 64
+    assert _frames_per_chunk(64, 3 * 480 * 640 * 4) == 64
     per_frame = 3 * 544 * 960 * 4
-    assert _frames_per_chunk(64, (3, 544, 960), np.float32) == CHUNK_BYTES // per_frame < 64
-    assert _frames_per_chunk(64, (3, 20_000, 20_000), np.float32) == 1  # never below one
-    assert _frames_per_chunk(8, (240, 320), np.float32) == 8
+    assert _frames_per_chunk(64, per_frame) == CHUNK_BYTES // per_frame < 64
+    assert _frames_per_chunk(64, 3 * 20_000 * 20_000 * 4) == 1  # never below one
+    assert _frames_per_chunk(8, 240 * 320 * 4) == 8
 
 
 def _person_masks(truth, shape):
