@@ -244,7 +244,9 @@ def run(args: argparse.Namespace) -> int:
             scale=scale, start=start, max_frames=count, masks=masks, keypoints=keypoints,
             marker_names=UPPER_BODY_12, seed=args.seed,
             extra_record={"options": record_options, "model": str(args.model), "init": init,
-                          "masks_file": None if args.masks is None else str(args.masks[0])})
+                          "masks_file": None if args.masks is None else str(args.masks[0]),
+                          "keypoints_file": None if args.keypoints is None
+                          else str(args.keypoints)})
     except VideoError as error:
         raise UserError(f"--video: {one_line(error)}") from None
     except MaskFileError as error:

@@ -47,7 +47,7 @@ def observe_images(likelihood: Likelihood, chunk: VideoChunk, out=None) -> Image
     if grey.ndim == 4:  # edge observations made beforehand
         if not likelihood.needs_edges or grey.shape[1] not in (3, 4):
             raise ValueError(f"frames must be (time, height, width) grey images"
-                             f"{', or (time, 3 or 4, height, width) edge observations' if likelihood.needs_edges else ''}"  # noqa: E501
+                             f"{', or (time, 3 or 4, height, width) grey frames with their edge maps' if likelihood.needs_edges else ''}"  # noqa: E501
                              f" for the {likelihood.kind!r} likelihood, got shape {grey.shape}")
         if chunk.masks is not None:
             raise ValueError("edge observations made beforehand carry their own mask channel: "

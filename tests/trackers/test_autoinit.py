@@ -144,7 +144,7 @@ def test_track_cli_with_manual_init_writes_overlay_and_json(model_file, sequence
                  "keypoints", "--out", str(tmp_path / "keyed"), "--particles", "50",
                  "--max-size", "160", "--keypoints", str(keypoints)]) == 0
     keyed = json.loads((tmp_path / "keyed" / "track.json").read_text())
-    assert keyed["keypoints"] == str(keypoints) and keyed["init"]["method"] == "keypoints"
+    assert keyed["keypoints_file"] == str(keypoints) and keyed["init"]["method"] == "keypoints"
     assert keyed["tracker"]["likelihood"]["keypoint_weight"] == 1.5
     keyed_markers = np.array([[frame["markers"][name] for name in UPPER_BODY_12]
                               for frame in keyed["frames"]])

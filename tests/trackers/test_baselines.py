@@ -395,7 +395,7 @@ def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
     assert parts_result == reference_result
     # the frame given as a FrameInChunk, read in place inside the loop: the same iterate (to
     # rounding: XLA fuses the reads differently)
-    frames = jnp.stack([jnp.zeros_like(frame), frame])
+    frames = jax.tree.map(lambda leaf: jnp.stack([jnp.zeros_like(leaf), leaf]), frame)
     in_place, _ = jax.jit(lambda s, i: refine_pose(s, FrameInChunk(frames, i), templates,
                                                    template, s, std, 4.0, max_steps=8,
                                                    solver="parts"))(start, 1)
