@@ -196,6 +196,18 @@ def run(args: argparse.Namespace) -> int:
     if keypoints is not None and len(keypoints[0]) <= start:
         raise UserError(f"--keypoints: {args.keypoints} holds {len(keypoints[0])} frames; the "
                         f"video frames tracked start at frame {start}")
+    if keypoints is not None:  # every frame tracked needs its row, checked before any work
+        from jaxtrack.vision.video import VideoError as _VideoError
+        from jaxtrack.vision.video import frame_count
+
+        try:
+            total = frame_count(args.video)
+        except _VideoError as error:
+            raise UserError(f"--video: {one_line(error)}") from None
+        last = None if total is None else (total if stop is None else min(stop, total)) - 1
+        if last is not None and len(keypoints[0]) <= last:
+            raise UserError(f"--keypoints: {args.keypoints} holds {len(keypoints[0])} frames; "
+                            f"the video frames tracked run to frame {last}")
     try:
         probe = read_video(args.video, start=start, max_frames=1)
         size = probe.image_size

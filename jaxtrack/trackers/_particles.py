@@ -46,9 +46,10 @@ def observe_images(likelihood: Likelihood, chunk: VideoChunk, out=None) -> Image
                          f"and coverage terms), not by {likelihood.kind!r}")
     if grey.ndim == 4:  # edge observations made beforehand
         if not likelihood.needs_edges or grey.shape[1] not in (3, 4):
-            raise ValueError(f"frames must be (time, height, width) grey images"
-                             f"{', or (time, 3 or 4, height, width) grey frames with their edge maps' if likelihood.needs_edges else ''}"  # noqa: E501
-                             f" for the {likelihood.kind!r} likelihood, got shape {grey.shape}")
+            edges = (" (or (time, 3 or 4, height, width) grey frames with their edge maps)"
+                     if likelihood.needs_edges else "")
+            raise ValueError(f"frames for the {likelihood.kind!r} likelihood must be (time, "
+                             f"height, width) grey images, got shape {grey.shape}{edges}")
         if chunk.masks is not None:
             raise ValueError("edge observations made beforehand carry their own mask channel: "
                              "leave masks out")

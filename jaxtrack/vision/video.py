@@ -133,6 +133,20 @@ def _open(path: Path):
     return capture, fps if fps > 0 and math.isfinite(fps) else math.nan
 
 
+def frame_count(path: str | os.PathLike) -> int | None:
+    """The number of frames the video's container states (None where it states none): what
+    a command checks per-frame inputs against before decoding. Containers may round it; the
+    frames decoded are the truth."""
+    import cv2
+
+    capture, _ = _open(Path(path))
+    try:
+        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+    finally:
+        capture.release()
+    return count if count > 0 else None
+
+
 def _resize(frame: np.ndarray, scale: float) -> np.ndarray:
     import cv2
 
