@@ -295,9 +295,11 @@ class MissingSkeletonError(FileNotFoundError):
 
 
 def find_asf(amc_path: str | os.PathLike) -> Path:
-    """The `.asf` skeleton beside an `.amc` file: the one named by the subject prefix
+    """The `.asf` skeleton of an `.amc` file: beside it, the one named by the subject prefix
     (`07_01.amc` -> `07.asf`, the CMU convention), or by the same stem (`walk.amc` ->
-    `walk.asf`), or else the only `.asf` in the folder.
+    `walk.asf`), or else the only `.asf` in the folder; failing those, HDM05's convention, the
+    actor's skeleton `HDM_<actor>.asf` of `HDM_<actor>_<class>_<take>.amc`, beside it or in an
+    `asf` folder beside the clip's class folder (the `hdm05_cut` layout).
 
     Raises:
         MissingSkeletonError: none of these exists (or the folder holds several other `.asf`).
@@ -314,6 +316,12 @@ def find_asf(amc_path: str | os.PathLike) -> Path:
                     if file.suffix.lower() == ".asf" and file.is_file())
     if len(others) == 1:
         return others[0]
+    actor = "_".join(amc_path.stem.split("_")[:2])  # HDM_bd_lieDownFloor_001_120 -> HDM_bd
+    if actor != amc_path.stem:
+        for candidate in (folder / f"{actor}.asf", folder.parent / "asf" / f"{actor}.asf"):
+            tried.append(candidate)
+            if candidate.is_file():
+                return candidate
     raise MissingSkeletonError(amc_path, [t for t in tried if t.suffix == ".asf"])
 
 

@@ -16,7 +16,7 @@ from jaxtrack.experiments.pipeline import track_video, video_background
 from jaxtrack.trackers import Engine, FrameEstimate, Tracker, VideoChunk, frame_at, track
 from jaxtrack.trackers.status import FrameStatus
 
-from ..mixed_state._figures import draw
+from ..mixed_state._figures import draw, figure_postures
 
 cv2 = pytest.importorskip("cv2")
 
@@ -133,21 +133,6 @@ class Detected(Tracker):
         return {"method": "detected"}
 
 
-def _figure_postures():
-    from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
-    from jaxtrack.vision.histograms import projection_histograms
-
-    figures = [draw("standing")[0], draw("sitting")[0], draw("crawling_bending")[0],
-               draw("lying_left")[0], draw("lying_left", mirror=True)[0]]
-    means = np.stack([projection_histograms(mask, 16) for mask in figures])
-    dimension = means.shape[1]
-    transition = np.full((NUM_POSTURES, NUM_POSTURES), 0.025) + np.eye(NUM_POSTURES) * 0.875
-    return PostureModel(jnp.asarray(means), jnp.broadcast_to(
-        jnp.eye(dimension) / 0.1 ** 2, (NUM_POSTURES, dimension, dimension)),
-        jnp.zeros(NUM_POSTURES), jnp.asarray(np.log(transition)),
-        jnp.full(NUM_POSTURES, -np.log(NUM_POSTURES)), jnp.asarray(1e9))
-
-
 def _case(name, rendered, figure_video):
     """``(tracker, video, initial pose in video pixels)``."""
     from jaxtrack.body import build_template, spm_initial_state
@@ -157,7 +142,7 @@ def _case(name, rendered, figure_video):
     if name == "centroid":
         return Centroid(), figure_video, None
     if name == "mixed-state":
-        tracker = MixedStateTracker(MixedStateModel(_figure_postures()), 16)
+        tracker = MixedStateTracker(MixedStateModel(figure_postures()), 16)
         try:
             assert tracker.reads
         except NotImplementedError:

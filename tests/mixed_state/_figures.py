@@ -38,3 +38,23 @@ def draw(name: str, *, mirror: bool = False) -> tuple[np.ndarray, np.ndarray]:
         image = image[:, ::-1]
         truth[:, 0] = IMAGE_SIZE[0] - 1 - truth[:, 0]
     return image.astype(bool), truth
+
+
+def figure_postures(num_bins: int = 16, cutoff: float = 1e9):
+    """A posture model whose means are the drawn figures' projection histograms (``num_bins``
+    bins; standing, sitting, crawling/bending, lying either way), unit-ish covariances and a
+    sticky transition matrix: a tiny model with known answers for the filter's tests."""
+    import jax.numpy as jnp
+
+    from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
+    from jaxtrack.vision.histograms import projection_histograms
+
+    figures = [draw("standing")[0], draw("sitting")[0], draw("crawling_bending")[0],
+               draw("lying_left")[0], draw("lying_left", mirror=True)[0]]
+    means = np.stack([projection_histograms(mask, num_bins) for mask in figures])
+    dimension = means.shape[1]
+    transition = np.full((NUM_POSTURES, NUM_POSTURES), 0.025) + np.eye(NUM_POSTURES) * 0.875
+    return PostureModel(jnp.asarray(means), jnp.broadcast_to(
+        jnp.eye(dimension) / 0.1 ** 2, (NUM_POSTURES, dimension, dimension)),
+        jnp.zeros(NUM_POSTURES), jnp.asarray(np.log(transition)),
+        jnp.full(NUM_POSTURES, -np.log(NUM_POSTURES)), jnp.asarray(cutoff))

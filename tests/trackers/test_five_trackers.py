@@ -15,7 +15,6 @@ import jaxtrack.trackers as trackers
 from jaxtrack.body import spm_initial_state
 from jaxtrack.body.hybrid import HybridLayout
 from jaxtrack.priors.linear_combinations import fit_linear_combinations
-from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
 from jaxtrack.trackers import (
     Engine,
     Tracker,
@@ -27,7 +26,7 @@ from jaxtrack.trackers import (
     track,
 )
 from jaxtrack.trackers._tracker import VIDEO_FIELDS
-from tests.mixed_state._figures import draw
+from tests.mixed_state._figures import draw, figure_postures
 
 FRAMES = 5
 NAMES = ("latent", "condensation", "mht", "linear-combination", "mixed-state")
@@ -47,20 +46,6 @@ def hybrid():
                                   HybridLayout(num_contour=40, num_skeleton=12),
                                   variance_fraction=0.95, num_clusters=2)
     return sequence, fit.model
-
-
-def _figure_postures():
-    from jaxtrack.vision.histograms import projection_histograms
-
-    figures = [draw("standing")[0], draw("sitting")[0], draw("crawling_bending")[0],
-               draw("lying_left")[0], draw("lying_left", mirror=True)[0]]
-    means = np.stack([projection_histograms(mask, 16) for mask in figures])
-    dimension = means.shape[1]
-    transition = np.full((NUM_POSTURES, NUM_POSTURES), 0.025) + np.eye(NUM_POSTURES) * 0.875
-    return PostureModel(jnp.asarray(means), jnp.broadcast_to(
-        jnp.eye(dimension) / 0.1 ** 2, (NUM_POSTURES, dimension, dimension)),
-        jnp.zeros(NUM_POSTURES), jnp.asarray(np.log(transition)),
-        jnp.full(NUM_POSTURES, -np.log(NUM_POSTURES)), jnp.asarray(1e9))
 
 
 def _case(name, prior, sequence, hybrid):
@@ -84,7 +69,7 @@ def _case(name, prior, sequence, hybrid):
 
     mask = draw("standing")[0]
     masks = np.stack([np.roll(mask, 2 * t, axis=1) for t in range(FRAMES)])
-    return MixedStateTracker(MixedStateModel(_figure_postures()), 32), VideoChunk(masks=masks), None
+    return MixedStateTracker(MixedStateModel(figure_postures()), 32), VideoChunk(masks=masks), None
 
 
 @pytest.mark.parametrize("name", NAMES)
