@@ -15,12 +15,13 @@ split          subjects
 training       AnimatedDrawings fair1 (wave, dab, jumping, zombie), cmu1 (jumping jacks), the
                8-year-old (wave), cmu_new (walks with point, clap, raise the roof, side punch);
                CMU 07 (walks); CMU 75 (sit at three heights) and 64 (stoop); DeepMimic's humanoid
-               (get-up, crawl, roll)
+               (get-up, crawl, roll); HDM05 actors bd, bk, dg (lie down, squat, crouch, reach,
+               arm circles, elbow to knee)
 validation     Bandai-Namco dataset-2 (professional actors: waves, raise-ups, walks, styles);
-               CMU 02 (walk); CMU 77 (half-crouch)
+               CMU 02 (walk); CMU 77 (half-crouch); HDM05 actor mm
 test           AnimatedDrawings cmu_1006 (two waves); CMU 131 (stylised walk, stop, hop); CMU 139
                (lying face down → all fours → kneel → stand); the man of the Pose2Sim demo videos
-               (real video, four cameras; single- and multi-person takes)
+               (real video, four cameras; single- and multi-person takes); HDM05 actor tr
 =============  ===================================================================================
 
 Real video has no validation subject: the only real videos with a reference show the test
@@ -49,6 +50,37 @@ SPLITS = ("training", "validation", "test")
 
 _AD = "animateddrawings/"
 _HISTORY = _AD + "history_c119d6b/"
+
+_HDM05_TAKES = {  # actor: {class: takes} of ../shared/data/hdm05_cut (its SOURCE.txt)
+    "bd": {"depositFloorR": "001-003", "elbowToKnee1RepsLelbowStart": "001-006",
+           "grabHighR": "001-004", "lieDownFloor": "001-004",
+           "rotateArmsBothBackward1Reps": "001-004", "squat1Reps": "001-004"},
+    "bk": {"depositFloorR": "007-009", "elbowToKnee1RepsLelbowStart": "007-012",
+           "grabHighR": "005-010", "lieDownFloor": "005-010",
+           "rotateArmsBothBackward1Reps": "005-008", "squat1Reps": "013-016"},
+    "dg": {"depositFloorR": "013-015", "elbowToKnee1RepsLelbowStart": "013-018",
+           "grabHighR": "011-016", "lieDownFloor": "011-014",
+           "rotateArmsBothBackward1Reps": "009-010", "squat1Reps": "025-028"},
+    "mm": {"depositFloorR": "019-021", "elbowToKnee1RepsLelbowStart": "019-020",
+           "grabHighR": "017-022", "lieDownFloor": "015-018",
+           "rotateArmsBothBackward1Reps": "011-013", "squat1Reps": "037-040"},
+    "tr": {"depositFloorR": "027-029", "elbowToKnee1RepsLelbowStart": "021-027",
+           "grabHighR": "023-029", "lieDownFloor": "019-020",
+           "rotateArmsBothBackward1Reps": "014-016", "squat1Reps": "041-044"},
+}
+_HDM05_SPLIT = {"bd": "training", "bk": "training", "dg": "training", "mm": "validation",
+                "tr": "test"}  # hdm05_cut's SOURCE.txt's split by actor
+
+
+def _hdm05_clips(actor: str) -> tuple[str, ...]:
+    """Catalogue names of one HDM05 actor's takes."""
+    clips = []
+    for kind, takes in _HDM05_TAKES[actor].items():
+        first, last = (int(value) for value in takes.split("-"))
+        clips += [f"hdm05_cut/{kind}/HDM_{actor}_{kind}_{take:03d}_120"
+                  for take in range(first, last + 1)]
+    return tuple(clips)
+
 
 SUBJECTS: dict[str, tuple[str, tuple[str, ...]]] = {
     # subject: (split, catalogue clips)
@@ -82,6 +114,7 @@ SUBJECTS: dict[str, tuple[str, tuple[str, ...]]] = {
     "cmu:139": ("test", ("cmu_posture_bvh/139_16",)),
     "pose2sim:man": ("test", ("pose2sim/videos/cam01", "pose2sim/videos/cam02",
                               "pose2sim/videos/cam03", "pose2sim/videos/cam04")),
+    **{f"hdm05:{actor}": (split, _hdm05_clips(actor)) for actor, split in _HDM05_SPLIT.items()},
 }
 """Every known subject: its split and its clips (catalogue names; the Pose2Sim entries name the
 real videos, whose reference keypoints are the ground truth)."""
