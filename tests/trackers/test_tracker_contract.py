@@ -223,6 +223,11 @@ def test_no_tracker_module_imports_another():
 
 def test_a_tracker_must_declare_the_whole_contract():
     class NoLikelihood(Tracker):
+        reads = ("grey",)
+
+        def observe(self, chunk, out=None):
+            return chunk.grey
+
         @property
         def num_particles(self):
             return 1
@@ -244,6 +249,10 @@ def test_a_tracker_must_declare_the_whole_contract():
 
     class NoUpdate(Tracker):
         likelihood: Likelihood = Likelihood()
+        reads = ("grey",)
+
+        def observe(self, chunk, out=None):
+            return chunk.grey
 
         @property
         def num_particles(self):
