@@ -115,19 +115,21 @@ def check_clip_frames(motion, spec: str, option: str, fps: float = TRAINING_FPS)
                         f"{needed} frames")
 
 
-def load_clip_sources(sources: Sequence, option: str) -> None:
-    """Read every clip given by path and check that its rig supplies the upper-body markers
-    and that it has frames enough to train on (:func:`check_clip_frames`); catalogue clips are
-    the tested ones and are read when used."""
+def load_clip_sources(sources: Sequence, option: str, markers: Sequence[str] | None = None
+                      ) -> None:
+    """Read every clip given by path and check that its rig supplies ``markers`` (default the
+    upper-body markers) and that it has frames enough to train on (:func:`check_clip_frames`);
+    catalogue clips are the tested ones and are read when used."""
     from jaxtrack.body.markers import UPPER_BODY_12, MarkerMapError, marker_joint_indices
     from jaxtrack.body.motion import MocapFormatError
 
+    markers = UPPER_BODY_12 if markers is None else markers
     for source in sources:
         if source.from_catalogue:
             continue
         try:
             motion = source.load()
-            marker_joint_indices(motion, UPPER_BODY_12)
+            marker_joint_indices(motion, markers)
         except (MocapFormatError, MarkerMapError, OSError) as error:
             raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
         check_clip_frames(motion, source.spec, option)

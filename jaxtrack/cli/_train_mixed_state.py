@@ -17,10 +17,10 @@ import math
 import time
 from pathlib import Path
 
+from jaxtrack.cli._clip_checks import load_clip_sources
 from jaxtrack.cli._common import (
     UserError,
     at_least,
-    check_clip_frames,
     check_clips,
     check_seed,
     one_line,
@@ -86,18 +86,9 @@ def refuse_test_subjects(clips: list[str], sources: list, option: str) -> None:
 def check_clip_files(sources: list, option: str) -> None:
     """Clips given by path must read and map onto the renderer's HumanEva-15 markers (the
     posture labels need the legs); catalogue clips are the tested ones."""
-    from jaxtrack.body.markers import HUMANEVA_15, MarkerMapError, marker_joint_indices
-    from jaxtrack.body.motion import MocapFormatError
+    from jaxtrack.body.markers import HUMANEVA_15
 
-    for source in sources:
-        if source.from_catalogue:
-            continue
-        try:
-            motion = source.load()
-            marker_joint_indices(motion, HUMANEVA_15)
-        except (MocapFormatError, MarkerMapError, OSError) as error:
-            raise UserError(f"{option} {source.spec}: {one_line(error)}") from None
-        check_clip_frames(motion, source.spec, option)
+    load_clip_sources(sources, option, HUMANEVA_15)
 
 
 def _file_digest(path: Path) -> str:
