@@ -97,19 +97,19 @@ _KEPT_NOTE = ("Compared one at a time with its neighbours on the validation subj
               "runs (docs/trackers.md, \"Why the defaults are what they are\").")
 _PROTOCOL_TAKE = (" First chosen on the earlier protocol's held-out take, "
                   "cmu_1006_wave_hello_2, a clip of a test subject.")
-_MIXED_STATE = "python -m benchmarks.mixed_state_evaluation"
+_MIXED_STATE = "python -m papers.kwatra2002.mixed_state_evaluation"
 _MIXED_STATE_NOTE = ("Smoothed MSE over all parts on the validation clips (docs/mixed-state.md; "
                      "the docstring of the code quotes the numbers).")
 _ARM_NOTE = ("On the Bandai validation splits, prior trained on other Bandai takes "
              "(docs/trackers.md, \"Why the defaults are what they are\"; "
              "docs/measurement-log.md); the record gives no command line, the date is that "
              "of the commit that set the value.")
-_LC_VALIDATED = ("python -m benchmarks.linear_combination_evaluation --frames 60 --multi-view "
+_LC_VALIDATED = ("python -m papers.ong2002.evaluation --frames 60 --multi-view "
                  "--surface")
 _LC_NOTE = ("The validation run ({command}, 2026-11-26/27, docs/linear-combination.md) chose "
             "{value} for both filters; the shipped default was not changed to it and no record "
             "says where {shipped} comes from. To be set from the validation run.")
-_VIEWS = ("python -m benchmarks.view_selection")
+_VIEWS = ("python -m papers.ong2002.view_selection")
 _GPLVM = ("python -m benchmarks.gplvm --validation")
 
 _LATENT = "jaxtrack.trackers.latent:latent_tracker"

@@ -6,14 +6,14 @@ For each cluster count a model is trained on the training subjects (``jaxtrack.e
 linear_combination.TRAIN_CLIPS``, through the Pose2Sim cameras of ``--views``); the tracker then
 runs at each sample count (5 iterations per frame) on the first training clip (the paper's
 "training sequences") and on the test subject's two waves, every view. Eq. 9's tolerances P, Q
-and the step ω are the ones ``python -m benchmarks.linear_combination_evaluation`` chose on the
+and the step ω are the ones ``python -m papers.ong2002.evaluation`` chose on the
 validation subject (2026-11-26: P = 64, Q = 16, ω = 0.03); ``--P``, ``--Q`` and ``--step`` give
 others. The paper's grid is clusters {10, 20, …, 100} × samples {10, 20, …, 90, 100, 150, …,
 300}; ``--clusters`` and ``--samples`` take a coarser one.
 
-    python -m benchmarks.linear_combination_surface [--frames 60] [--clusters 10 40 100] ...
+    python -m papers.ong2002.surface [--frames 60] [--clusters 10 40 100] ...
 
-Prints the grid, writes ``benchmarks/results/linear_combination_surface.json`` (after every
+Prints the grid, writes ``papers/ong2002/results/linear_combination_surface.json`` (after every
 grid point, ``"complete": false`` until the last) and the plot ``linear_combination_surface.png``
 beside it.
 """

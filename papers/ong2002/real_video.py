@@ -24,9 +24,9 @@ give another). Its ``track.json`` is then scored against the reference
 - a baseline that never looks at the video: the mean of the model's training skeletons, held
   constant, scored as the tracker is.
 
-    python -m benchmarks.linear_combination_real_video [--particles 300] [--iterations 5]
-    python -m benchmarks.linear_combination_real_video --silhouettes mediapipe
-    python -m benchmarks.linear_combination_real_video --demo multiperson
+    python -m papers.ong2002.real_video [--particles 300] [--iterations 5]
+    python -m papers.ong2002.real_video --silhouettes mediapipe
+    python -m papers.ong2002.real_video --demo multiperson
 
 ``--silhouettes``: ``background`` (the default) takes each view's silhouettes against the
 video's median background, as ``jaxtrack track`` does by default; the man barely leaves his
@@ -57,7 +57,9 @@ import numpy as np
 
 from benchmarks._common import device_description, print_table, write_json
 
-RESULTS = Path(__file__).parent / "results"
+RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results"
+"""The model cache, the overlays and the JSON: kept out of git beside the other benchmarks'
+results (the MediaPipe masks there are shared with ``benchmarks.mixed_state_real_video``)."""
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 
 

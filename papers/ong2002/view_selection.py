@@ -1,14 +1,14 @@
 """View selection (Ong & Gong §5.5–5.7) measured: which per-frame rule picks the view whose 3-D
 skeleton is best, and whether fitness and ambiguity can tell at all.
 
-    python -m benchmarks.view_selection                 # 3 validation clips, then the test clips
-    python -m benchmarks.view_selection --frames 30     # a shorter run
-    python -m benchmarks.view_selection --train-clips CLIP ... --clusters 40 --out other.json
+    python -m papers.ong2002.view_selection              # 3 validation clips, then the test clips
+    python -m papers.ong2002.view_selection --frames 30  # a shorter run
+    python -m papers.ong2002.view_selection --train-clips CLIP ... --clusters 40 --out other.json
 
 Each clip is rendered through the four Pose2Sim cameras over the real-photo background and
 tracked in each view on its own (``jaxtrack.experiments.linear_combination.multi_view``: the
 model of ``jaxtrack train --method linear-combination``'s training subjects, eq. 9's P = 64,
-Q = 16 and ω = 0.03 as ``benchmarks.linear_combination_evaluation`` chose them on validation).
+Q = 16 and ω = 0.03 as ``papers.ong2002.evaluation`` chose them on validation).
 Per frame a rule picks one view; its 3-D skeleton error is compared with the best view of the
 frame (an oracle) and the worst. The rules:
 
@@ -44,7 +44,7 @@ view's 3-D error and its fitness (a good predictor: strongly negative), its ambi
 spread (each: strongly positive).
 
 The paper's targets: the selected view ≥ 30 % below the worst and within 10 % of the oracle.
-Writes ``benchmarks/results/view_selection.json`` and prints the markdown tables.
+Writes ``papers/ong2002/results/view_selection.json`` and prints the markdown tables.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ import numpy as np
 from benchmarks._common import device_description, run_header
 from jaxtrack._files import write_json_atomically
 
-RESULTS = Path("benchmarks/results")
+RESULTS = Path(__file__).parent / "results"
 VALIDATION = ("bandai/dataset-2_wave-right-hand_normal_001",
               "bandai/dataset-2_wave-left-hand_normal_001",
               "bandai/dataset-2_raise-up-right-hand_normal_001")
@@ -330,7 +330,7 @@ def _millimetres(metres) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.view_selection",
+    parser = argparse.ArgumentParser(prog="python -m papers.ong2002.view_selection",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=90, help="frames per clip (30 fps)")
     parser.add_argument("--out", type=Path, default=RESULTS / "view_selection.json")
@@ -431,7 +431,7 @@ def main(argv=None) -> int:
                   f"worst {_millimetres(row['worst_m'])}), "
                   f"{100 * (1 - row['selected_m'] / row['worst_m']):.0f} % below the worst, "
                   f"{100 * (row['selected_m'] / row['oracle_m'] - 1):.0f} % above the oracle")
-    header = run_header("benchmarks.view_selection", argv, started)
+    header = run_header("papers.ong2002.view_selection", argv, started)
     write_json_atomically(args.out, {
         **header, "frames": args.frames,
         "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": args.clusters,

@@ -1,11 +1,11 @@
-"""``python -m benchmarks.view_selection``: its rules, their errors against the oracle and the
+"""``python -m papers.ong2002.view_selection``: its rules, their errors against the oracle and the
 worst view, the predictors' correlations and the table (the benchmark itself tracks five clips
 in four views, minutes on 2 cores, so it is not a test)."""
 
 import numpy as np
 import pytest
 
-from benchmarks import view_selection as vs
+from papers.ong2002 import view_selection as vs
 
 
 def _result():

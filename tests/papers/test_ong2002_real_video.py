@@ -3,9 +3,9 @@ itself tracks four videos and is a script, not a test)."""
 
 import numpy as np
 
-from benchmarks.linear_combination_real_video import hands_error, score_track
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.evaluation.reference import CameraReference
+from papers.ong2002.real_video import hands_error, score_track
 
 
 def test_hands_are_scored_under_the_better_assignment():
@@ -76,7 +76,7 @@ def test_a_track_is_scored_in_2d_and_3d_and_its_view_selection_against_best_and_
 
 
 def test_a_take_without_reference_is_summarised_per_view():
-    from benchmarks.linear_combination_real_video import unscored_summary
+    from papers.ong2002.real_video import unscored_summary
 
     def view(observed, ambiguity):
         return {"observed": observed, "ambiguity": ambiguity}

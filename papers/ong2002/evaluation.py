@@ -10,10 +10,10 @@ Pose2Sim cameras (``--views``) over the real-photo background. The error surface
 (``--surface``) repeats the test (and a training clip) over a grid of cluster counts and sample
 counts, as the paper's Fig. 10 and 12; ``--multi-view`` tracks each test clip in every view and
 selects a view per frame (§5.5–5.7) by the library's rule and skeleton estimate
-(``DEFAULT_VIEW_SELECTION``, ``DEFAULT_SKELETON_ESTIMATE``; ``benchmarks.view_selection``
+(``DEFAULT_VIEW_SELECTION``, ``DEFAULT_SKELETON_ESTIMATE``; ``papers.ong2002.view_selection``
 compares them with the paper's).
 
-    python -m benchmarks.linear_combination_evaluation [--frames 90] [--surface] [--multi-view]
+    python -m papers.ong2002.evaluation [--frames 90] [--surface] [--multi-view]
 """
 
 from __future__ import annotations
@@ -161,8 +161,8 @@ def main() -> None:
             print(json.dumps(selection[-1]), flush=True)
 
     surface = []
-    if arguments.surface:  # a 3 x 3 corner; benchmarks.linear_combination_surface: the grid
-        from benchmarks.linear_combination_surface import surface as error_surface
+    if arguments.surface:  # a 3 x 3 corner; papers.ong2002.surface: the grid
+        from papers.ong2002.surface import surface as error_surface
 
         surface = error_surface((10, 40, 100), (20, 100, 300), views=views,
                                 frames=arguments.frames, fitness=fitness,
