@@ -5,8 +5,8 @@ that alone shows a posture reported as unfit rather than raised."""
 import numpy as np
 import pytest
 
-from benchmarks import posture_classifier as pc
 from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES
+from papers.kwatra2002 import posture_classifier as pc
 
 
 def _clip(name, postures, rng, frames=30, shift=0.0):

@@ -3,22 +3,22 @@ silhouette projection histograms, Kwatra et al. §3.1) across clips: does it car
 never saw, which model of each posture's silhouettes (one Gaussian, or a mixture) and which
 training clips serve it best?
 
-    python -m benchmarks.posture_classifier                  # renders once, then cached
-    python -m benchmarks.posture_classifier --components 1 --covariances per-posture
+    python -m papers.kwatra2002.posture_classifier                  # renders once, then cached
+    python -m papers.kwatra2002.posture_classifier --components 1 --covariances per-posture
 
 Silhouette features (16 bins per axis and the box's log aspect,
 ``jaxtrack.vision.histograms``) of rendered clips, each labelled by the rule of
 ``jaxtrack.priors.postures.posture_labels``, cached in
-``benchmarks/results/posture_features.npz``:
+``papers/kwatra2002/results/posture_features.npz``:
 
 - ``training``: ``experiments.mixed_state.TRAINING_CLIPS`` as ``jaxtrack train --method
   mixed-state`` renders them (real-photo background, the five azimuths, every frame, seed 0);
 - ``arms_out_training``: :data:`ARMS_OUT_TRAINING`, gestures of training subjects that stand
   with the arms held away from the body, a candidate addition to the training clips (no
   training clip stands like that, and on the real Pose2Sim videos a man standing with his arms
-  held out is called "crawling/bending": ``benchmarks.mixed_state_real_video``);
+  held out is called "crawling/bending": ``papers.kwatra2002.mixed_state_real_video``);
 - ``validation``: ``experiments.mixed_state.VALIDATION_CLIPS`` as
-  ``benchmarks.mixed_state_evaluation`` renders them (cluttered background, five azimuths,
+  ``papers.kwatra2002.mixed_state_evaluation`` renders them (cluttered background, five azimuths,
   150 frames, seed 1);
 - ``arms_out_validation``: :data:`ARMS_OUT_VALIDATION`, the validation subject's gestures with
   the arms held away, rendered as the validation clips;
@@ -42,9 +42,9 @@ instantaneous posture error (the classifier alone) over the three validation gro
 pooled; the lowest mean over seeds is the classifier's choice. The tracker's posture model
 (``experiments.mixed_state``: ``TRAINING_POSE2SIM_CAMERAS``, ``DEFAULT_COVARIANCE``,
 ``DEFAULT_COMPONENTS``, ``DEFAULT_REGULARISATION``) is then chosen between the library's and
-this one by what the tracker does with it (``benchmarks.mixed_state_evaluation``, whose
+this one by what the tracker does with it (``papers.kwatra2002.mixed_state_evaluation``, whose
 default candidates are these two); the script prints both. Earlier runs chose the ridge by
-the level validation clips alone (``benchmarks.mixed_state_evaluation``) and judged each
+the level validation clips alone (``papers.kwatra2002.mixed_state_evaluation``) and judged each
 addition and the pooled covariance by whether it lowered the error on *every* group; this one
 criterion replaced both once
 mixtures were tried, after a first exploratory look at validation numbers only, so that no
@@ -60,7 +60,7 @@ seed 0), and leave-one-clip-out over
 the default training clips with the chosen model (each held out in turn, the model fitted on
 the others and on the chosen addition): how the classifier carries to a clip it never saw,
 which the validation clips measure only for a few. Writes
-``benchmarks/results/posture_classifier.json`` and prints the tables.
+``papers/kwatra2002/results/posture_classifier.json`` and prints the tables.
 """
 
 from __future__ import annotations
@@ -267,7 +267,7 @@ def main(argv=None) -> int:
     from jaxtrack.experiments import mixed_state as ms
     from jaxtrack.priors.postures import COVARIANCES, POSTURE_NAMES
 
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.posture_classifier",
+    parser = argparse.ArgumentParser(prog="python -m papers.kwatra2002.posture_classifier",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--ridges", type=float, nargs="+", default=[0.2, 0.5, 1.0],
                         help="covariance ridges to choose among")
@@ -312,7 +312,7 @@ def main(argv=None) -> int:
                "components": ms.DEFAULT_COMPONENTS, "ridge": ms.DEFAULT_REGULARISATION}
     picked = {key: chosen[key] for key in library}
     print(f"the classifier's choice: {picked}; the library's posture model: {library} "
-          f"(chosen by the tracker's validation error: benchmarks.mixed_state_evaluation)")
+          f"(chosen by the tracker's validation error: papers.kwatra2002.mixed_state_evaluation)")
 
     # what integrating the postures over time could make of each: the exact HMM smoother
     smoothing = []
@@ -360,7 +360,7 @@ def main(argv=None) -> int:
                   "note": row.get("unfit", "")} for row in loco],
                 [("held_out", "held-out clip", "s"), ("frames", "frames", "d"),
                  ("error", "error %", ".1f"), ("note", "", "s")])
-    header = run_header("benchmarks.posture_classifier", argv, started)
+    header = run_header("papers.kwatra2002.posture_classifier", argv, started)
     write_json(args.out, {"benchmark": "posture_classifier", **header,
                           "arguments": {"ridges": args.ridges, "components": args.components,
                                         "covariances": args.covariances, "seeds": args.seeds},

@@ -4,8 +4,8 @@ clips, then the paper's Table 1 metrics on the test clips.
 1. A posture model is trained on ``experiments.mixed_state.TRAINING_CLIPS`` for each of
    ``--posture-models`` (cached beside ``--out``; by default two: the paper's one Gaussian per
    posture, as the library's defaults have it, and the mixture that
-   ``benchmarks.posture_classifier`` chose by the classifier alone), and each is scored on the
-   validation clips
+   ``papers.kwatra2002.posture_classifier`` chose by the classifier alone), and each is scored
+   on the validation clips
    (``experiments.mixed_state.VALIDATION_CLIPS``: subject 77's half-crouch and subject 02's
    walk, validation subjects of ``jaxtrack.data.splits``, and held-out clips of the training
    subjects who sit and lie down: 75_17 and DeepMimic's roll).
@@ -28,9 +28,9 @@ clips, then the paper's Table 1 metrics on the test clips.
    elevation and portrait frames at a third, 363 × 640:
    ``experiments.mixed_state.render_posture_sequence``), a second table.
 
-    python -m benchmarks.mixed_state_evaluation [--frames 150] [--particles 500]
+    python -m papers.kwatra2002.mixed_state_evaluation [--frames 150] [--particles 500]
 
-Prints the tables and writes ``benchmarks/results/mixed_state_evaluation.json``.
+Prints the tables and writes ``papers/kwatra2002/results/mixed_state_evaluation.json``.
 """
 
 from __future__ import annotations
@@ -145,7 +145,7 @@ def instantaneous_posture_error(model, features, labels) -> float:
 
 
 CLASSIFIERS_CHOICE = (2, "pooled", 1.0, "level+pose2sim")
-"""The posture model ``python -m benchmarks.posture_classifier`` chose by the instantaneous
+"""The posture model ``python -m papers.kwatra2002.posture_classifier`` chose by the instantaneous
 posture error alone (2026-11-27): a default candidate here beside the library's."""
 
 
@@ -156,7 +156,7 @@ def main(argv=None) -> int:
     parser.add_argument("--posture-models", nargs="+", default=None, metavar="K,COV,RIDGE,VIEWS",
                         help="posture models to choose among, e.g. 1,per-posture,0.2,level or "
                              "2,pooled,1,level+pose2sim (default: the library's and the one "
-                             "benchmarks.posture_classifier chose)")
+                             "papers.kwatra2002.posture_classifier chose)")
     parser.add_argument("--redetect", type=float, nargs="+", default=[0.0, 0.02])
     parser.add_argument("--cutoff", type=float, nargs="+", default=[9.0, 25.0, 100.0],
                         help="the part likelihood's cutoffs delta to choose among")

@@ -1,4 +1,4 @@
-"""``python -m benchmarks.mixed_state_evaluation``: its refusals and its posture error (the
+"""``python -m papers.kwatra2002.mixed_state_evaluation``: its refusals and its posture error (the
 benchmark itself renders and tracks for minutes, so it is a script, not a test)."""
 
 from pathlib import Path
@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks import mixed_state_evaluation as evaluation
+from papers.kwatra2002 import mixed_state_evaluation as evaluation
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -6,7 +6,11 @@ and is a script, not a test)."""
 import numpy as np
 import pytest
 
-from benchmarks.mixed_state_real_video import (
+from jaxtrack.data import shared_folder
+from jaxtrack.evaluation.reference import TRC_KEYPOINTS
+from jaxtrack.priors.postures import CRAWLING, STANDING
+from jaxtrack.vision.parts import PART_NAMES
+from papers.kwatra2002.mixed_state_real_video import (
     LABEL_KEYPOINTS,
     label_markers,
     posture_confusion,
@@ -14,10 +18,6 @@ from benchmarks.mixed_state_real_video import (
     truth_parts,
     truth_postures,
 )
-from jaxtrack.data import shared_folder
-from jaxtrack.evaluation.reference import TRC_KEYPOINTS
-from jaxtrack.priors.postures import CRAWLING, STANDING
-from jaxtrack.vision.parts import PART_NAMES
 
 SHARED = shared_folder()
 FOLDER = None if SHARED is None else SHARED / "pose2sim_demo_singleperson"
@@ -93,7 +93,7 @@ def test_the_confusion_counts_frames_by_true_and_estimated_posture():
 
 
 def test_a_bad_posture_model_is_refused_in_one_line(capsys):
-    from benchmarks import mixed_state_real_video as benchmark
+    from papers.kwatra2002 import mixed_state_real_video as benchmark
 
     with pytest.raises(SystemExit):
         benchmark.main(["--posture-model", "2,pooled"])

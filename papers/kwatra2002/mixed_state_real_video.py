@@ -6,7 +6,7 @@ Each camera's video (``shared/data/pose2sim_demo_singleperson/videos``, 100 fram
 man balancing on a beam) is downscaled so its longer side is at most ``--max-size`` pixels (640
 by default, the paper's resolution), its silhouettes are taken from each source of
 ``--silhouettes``, and the posture model of
-``benchmarks.mixed_state_evaluation`` (trained on the training clips, cached beside its JSON)
+``papers.kwatra2002.mixed_state_evaluation`` (trained on the training clips, cached beside its JSON)
 with the tracker's defaults filters and smooths them. The truth is the reference
 (``jaxtrack.evaluation.reference``) projected into each camera: the top of the head (BODY_25B
 ``Head``, where Ghost's head is, at the silhouette's top), the wrists and the ankles, as the
@@ -27,12 +27,12 @@ The silhouettes' sources:
   pixels on the longer side, cached in ``benchmarks/results/mediapipe_masks/`` and resized to
   the tracked frames.
 
-    python -m benchmarks.mixed_state_real_video [--particles 500] [--max-size 640]
+    python -m papers.kwatra2002.mixed_state_real_video [--particles 500] [--max-size 640]
         [--silhouettes background mediapipe]
 
 Prints a table per camera and source and overall per source (mean squared error per part in px²
 at the tracked size, the fraction of frames within 20 px, the posture error) and writes
-``benchmarks/results/mixed_state_real_video.json``.
+``papers/kwatra2002/results/mixed_state_real_video.json``.
 """
 
 from __future__ import annotations
@@ -88,10 +88,10 @@ def truth_postures(trc_keypoints: np.ndarray, image_keypoints: np.ndarray) -> np
 
 
 def posture_model(folder: Path, spec=None):
-    """The training clips' posture model of ``spec`` (``benchmarks.mixed_state_evaluation``'s
+    """The training clips' posture model of ``spec`` (``papers.kwatra2002.mixed_state_evaluation``'s
     ``K,COVARIANCE,RIDGE,VIEWS`` tuple; None: the library's), shared with that benchmark's
     cache in ``folder``."""
-    from benchmarks.mixed_state_evaluation import default_spec, trained_models
+    from papers.kwatra2002.mixed_state_evaluation import default_spec, trained_models
 
     spec = default_spec() if spec is None else spec
     return trained_models(folder, [spec])[spec]
@@ -247,12 +247,12 @@ def main(argv=None) -> int:
     parser.add_argument("--silhouettes", nargs="+", choices=SOURCES, default=list(SOURCES),
                         help="where the silhouettes come from (module docstring)")
     parser.add_argument("--posture-model", default=None, metavar="K,COV,RIDGE,VIEWS",
-                        help="the posture model (benchmarks.mixed_state_evaluation's "
+                        help="the posture model (papers.kwatra2002.mixed_state_evaluation's "
                              "--posture-models form; default: the library's)")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_real_video.json"))
     args = parser.parse_args(argv)
-    from benchmarks.mixed_state_evaluation import posture_model_spec
     from jaxtrack.evaluation.reference import default_folder
+    from papers.kwatra2002.mixed_state_evaluation import posture_model_spec
 
     try:
         spec = None if args.posture_model is None else posture_model_spec(args.posture_model)
