@@ -104,11 +104,12 @@ _ARM_NOTE = ("On the Bandai validation splits, prior trained on other Bandai tak
              "(docs/trackers.md, \"Why the defaults are what they are\"; "
              "docs/measurement-log.md); the record gives no command line, the date is that "
              "of the commit that set the value.")
-_LC_VALIDATED = ("python -m papers.ong2002.evaluation --frames 60 --multi-view "
-                 "--surface")
-_LC_NOTE = ("The validation run ({command}, 2026-11-26/27, docs/linear-combination.md) chose "
-            "{value} for both filters; the shipped default was not changed to it and no record "
-            "says where {shipped} comes from. To be set from the validation run.")
+_LC_VALIDATED = "python -m papers.ong2002.evaluation --frames 60 --multi-view"
+_LC_NOTE = ("Chosen on the validation subject's wave (Bandai-Namco, four Pose2Sim views, 60 "
+            "frames) over {grid} by the best particle's 3-D error, for both filters; the same "
+            "choice on 2026-11-27 (docs/linear-combination.md). Shipped since 2026-11-29 (before: "
+            "{shipped}, of no recorded origin). The experiments layer's DEFAULT_FITNESS and "
+            "DEFAULT_STEP hold the same values.")
 _VIEWS = ("python -m papers.ong2002.view_selection")
 _GPLVM = ("python -m benchmarks.gplvm --validation")
 
@@ -262,15 +263,17 @@ DEFAULTS: tuple[Default, ...] = (
     Default("MHT refill_spread", f"{_MHT}(refill_spread)", 2.0, NONE, group="MHT"),
     Default("MHT max_steps", f"{_MHT}(max_steps)", 10, NONE, group="MHT"),
     # ---- linear combinations ------------------------------------------------------------------
-    Default("P (contour tolerance, px²)", f"{_FITNESS}(contour_tolerance)", 16.0, NONE,
-            note=_LC_NOTE.format(command=f"`{_LC_VALIDATED}`", value="P = 64", shipped="16"),
-            group="Linear combinations"),
-    Default("Q (hands tolerance, px²)", f"{_FITNESS}(hands_tolerance)", 64.0, NONE,
-            note=_LC_NOTE.format(command=f"`{_LC_VALIDATED}`", value="Q = 16", shipped="64"),
-            group="Linear combinations"),
-    Default("ω (step inside a cluster)", f"{_LC}(step)", 0.1, NONE,
-            note=_LC_NOTE.format(command=f"`{_LC_VALIDATED}`", value="ω = 0.03",
-                                 shipped="0.1"), group="Linear combinations"),
+    Default("P (contour tolerance, px²)", f"{_LC}(fitness).contour_tolerance", 64.0,
+            "validation", _LC_VALIDATED, "2026-11-26",
+            _LC_NOTE.format(grid="P ∈ {4, 16, 64} × Q ∈ {16, 64, 256}", shipped="16"),
+            "Linear combinations"),
+    Default("Q (hands tolerance, px²)", f"{_LC}(fitness).hands_tolerance", 16.0,
+            "validation", _LC_VALIDATED, "2026-11-26",
+            _LC_NOTE.format(grid="P ∈ {4, 16, 64} × Q ∈ {16, 64, 256}", shipped="64"),
+            "Linear combinations"),
+    Default("ω (step inside a cluster)", f"{_LC}(step)", 0.03, "validation", _LC_VALIDATED,
+            "2026-11-26", _LC_NOTE.format(grid="ω ∈ {0.03, 0.1, 0.3} with P = 64, Q = 16",
+                                          shipped="0.1"), "Linear combinations"),
     Default("jump_spread", f"{_LC}(jump_spread)", 0.3, NONE, group="Linear combinations"),
     Default("iterations per frame", f"{_LC}(iterations)", 5, "paper",
             note="Ong & Gong 2002: 5 CONDENSATION cycles per frame.",

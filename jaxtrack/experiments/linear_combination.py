@@ -43,8 +43,9 @@ from jaxtrack.priors.linear_combinations import (
 from jaxtrack.trackers._options import Engine
 from jaxtrack.trackers.linear_combination import observe_contours
 
-__all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_SKELETON_ESTIMATE", "DEFAULT_VIEW_SELECTION",
-           "METHODS", "SKELETON_ESTIMATES", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
+__all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_FITNESS", "DEFAULT_SKELETON_ESTIMATE",
+           "DEFAULT_STEP", "DEFAULT_VIEW_SELECTION", "METHODS", "SKELETON_ESTIMATES", "TEST_CLIPS",
+           "TRAIN_CLIPS", "VALIDATION_CLIPS",
            "VIEW_SELECTION",
            "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
            "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
@@ -73,6 +74,18 @@ VALIDATION_CLIPS = ("bandai/dataset-2_wave-right-hand_normal_001",)
 TEST_CLIPS = (_HISTORY + "cmu_1006_wave_hello_1", _HISTORY + "cmu_1006_wave_hello_2")
 """The test subject's two waves: only ever scored."""
 
+DEFAULT_FITNESS = FitnessSettings(contour_tolerance=64.0, hands_tolerance=16.0)
+"""Eq. 9's settings every function here uses unless given others (the tracker's own default,
+``jaxtrack.trackers.linear_combination.linear_combination_tracker``): O = R = 0.5 (the paper's),
+P = 64 and Q = 16 px², chosen on the validation subject's wave (:data:`VALIDATION_CLIPS`) over
+P ∈ {4, 16, 64} × Q ∈ {16, 64, 256} by the best particle's 3-D error
+(``python -m papers.ong2002.evaluation --frames 60 --multi-view``, 2026-11-26, the same choice
+on 2026-11-27)."""
+
+DEFAULT_STEP = 0.03
+"""ω, the step inside a cluster (and the global-PCA baseline's Brownian step), chosen in the
+same run over {0.03, 0.1, 0.3} with :data:`DEFAULT_FITNESS`: 0.03 for both filters."""
+
 VIEW_SELECTION = {
     "paper": {"fitness_weight": 1.0, "ambiguity_weight": 1.0, "window": 0},
     "fitness": {"fitness_weight": 1.0, "ambiguity_weight": 0.0, "window": 5},
@@ -90,7 +103,7 @@ particle's (Ong & Gong's) and the particles' weighted mean."""
 DEFAULT_SKELETON_ESTIMATE = "mean"
 """The 3-D skeleton ``jaxtrack track --method linear-combination`` reports and
 :func:`multi_view` scores, chosen on validation together with :data:`DEFAULT_VIEW_SELECTION`
-(``python -m benchmarks.view_selection``, 2026-11-27: the validation subject's three
+(``python -m papers.ong2002.view_selection``, 2026-11-27: the validation subject's three
 Bandai-Namco gestures through the four Pose2Sim cameras, 90 frames each). With every rule the
 weighted mean was 22–42 mm closer than the best particle (by the least ambiguity over ±5
 frames 159 mm against 201; each view alone 175 against 206 mm on average). After a similarity
@@ -399,8 +412,8 @@ def aligned_skeleton_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarra
 
 def run_method(method: str, trained: TrainedLinearCombinations, observations: ContourObservation,
                *, particles: int = 300, iterations: int = 5, seed: int = 0,
-               fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
-               jump_spread: float = 0.3, brownian_step: float = 0.1) -> dict:
+               fitness: FitnessSettings = DEFAULT_FITNESS, step: float = DEFAULT_STEP,
+               jump_spread: float = 0.3, brownian_step: float = DEFAULT_STEP) -> dict:
     """One method on one observed sequence: ``{"skeleton": (time, 12, 3), "found": (time,),
     "seconds_per_frame", "compile_seconds", "options"}``."""
     from jaxtrack.trackers.linear_combination import (
@@ -446,7 +459,7 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
              methods: tuple[str, ...] = METHODS, views: tuple[int, ...] = (0, 1, 2, 3),
              particles: int = 300, iterations: int = 5, max_frames: int | None = None,
              background: str = "photo", seed: int = 0,
-             fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+             fitness: FitnessSettings = DEFAULT_FITNESS, step: float = DEFAULT_STEP,
              jump_spread: float = 0.3, output: str | os.PathLike | None = None,
              estimate: str = DEFAULT_SKELETON_ESTIMATE) -> dict:
     """3-D skeleton error of each method on held-out clips rendered through ``views``.
@@ -509,7 +522,7 @@ def evaluate(trained: TrainedLinearCombinations, clips: list[str], *,
 def multi_view(trained: TrainedLinearCombinations, clip: str, *,
                views: tuple[int, ...] = (0, 1, 2, 3), particles: int = 300, iterations: int = 5,
                max_frames: int | None = None, background: str = "photo", seed: int = 0,
-               fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+               fitness: FitnessSettings = DEFAULT_FITNESS, step: float = DEFAULT_STEP,
                jump_spread: float = 0.3, ambiguities: np.ndarray | None = None,
                sigma: float = 4.0, beta: float = 100.0, threshold: float = 0.05,
                selection: str = DEFAULT_VIEW_SELECTION,
@@ -682,7 +695,7 @@ def _track_run(trained, observations, *, particles, iterations, seed, fitness, s
 
 def track(trained: TrainedLinearCombinations, images: np.ndarray, background: np.ndarray, *,
           skin_reference=None, particles: int = 300, iterations: int = 5, seed: int = 0,
-          fitness: FitnessSettings = FitnessSettings(), step: float = 0.1,
+          fitness: FitnessSettings = DEFAULT_FITNESS, step: float = DEFAULT_STEP,
           jump_spread: float = 0.3) -> dict:
     """Track one view of a video: ``images`` ``(time, height, width, 3)`` uint8 RGB of a static
     camera whose empty scene is ``background``. Returns per frame the best particle's

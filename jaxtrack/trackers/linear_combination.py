@@ -410,9 +410,9 @@ def linear_combination_tracker(
     model: LinearCombinationModel,
     *,
     engine: Engine = Engine(300),
-    fitness: FitnessSettings = FitnessSettings(),
+    fitness: FitnessSettings = FitnessSettings(contour_tolerance=64.0, hands_tolerance=16.0),
     iterations: int = 5,
-    step: float = 0.1,
+    step: float = 0.03,
     jump_spread: float = 0.3,
     constrained: bool = True,
     skin_reference=None,
@@ -423,11 +423,13 @@ def linear_combination_tracker(
     Args:
         model: a trained :class:`LinearCombinationModel`.
         engine: N, resampler, ESS threshold (Ong & Gong: up to 300 samples).
-        fitness: eq. 9's weights and tolerances.
+        fitness: eq. 9's weights and tolerances (default P = 64, Q = 16 px², chosen on the
+            validation subject, ``python -m papers.ong2002.evaluation``, docs/defaults.md).
         iterations: CONDENSATION cycles per frame (Ong & Gong: 5), the engine's
             ``iterations_per_frame`` (``engine``'s own is replaced).
         step: ω inside a cluster, a fraction of its ±1 box (with ``constrained=False``: the
-            Brownian step in training standard deviations).
+            Brownian step in training standard deviations); default 0.03, chosen on the
+            validation subject for both filters (the same run).
         jump_spread: ω after a jump to a new cluster's mean.
         constrained: False for the global-PCA Brownian baseline.
         skin_reference: an RGB sample of the person's skin for :meth:`observe` (None: the
@@ -460,7 +462,9 @@ def _nearest(vectors, layout, observations, fitness):
 
 
 def nearest_neighbour(vectors: Float[Array, "examples vector"], layout,
-                      observations: ContourObservation, fitness: FitnessSettings = FitnessSettings()
+                      observations: ContourObservation,
+                      fitness: FitnessSettings = FitnessSettings(contour_tolerance=64.0,
+                                                                 hands_tolerance=16.0)
                       ) -> Int[Array, " time"]:
     """The second baseline: per frame, the training hybrid vector of greatest fitness (eq. 9),
     with no dynamics. Returns the index of the chosen vector per frame (its skeleton is the
