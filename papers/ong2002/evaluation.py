@@ -32,6 +32,8 @@ from jaxtrack.experiments.linear_combination import TRAIN_CLIPS as TRAIN
 from jaxtrack.experiments.linear_combination import VALIDATION_CLIPS as VALIDATION
 
 RESULTS = Path(__file__).parent / "results"
+TRAINING_CONSTANT = "mean training skeleton (a constant)"
+ORACLE_CONSTANT = "mean test skeleton (an oracle constant)"
 
 
 def _score(trained, sequences, method, **options) -> float:
@@ -44,41 +46,29 @@ def _score(trained, sequences, method, **options) -> float:
     return float(np.mean(errors))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=90, help="frames per clip (30 fps)")
-    parser.add_argument("--views", type=int, nargs="+", default=[0, 1, 2, 3])
-    parser.add_argument("--clusters", type=int, default=20)
-    parser.add_argument("--particles", type=int, default=300)
-    parser.add_argument("--iterations", type=int, default=5)
-    parser.add_argument("--surface", action="store_true", help="also the clusters × samples "
-                                                                "error surface")
-    parser.add_argument("--multi-view", action="store_true", help="also view selection over "
-                                                                   "the four cameras")
-    parser.add_argument("--out", default=str(RESULTS / "linear_combination_evaluation.json"))
-    arguments = parser.parse_args()
+P_GRID = (4.0, 16.0, 64.0)
+Q_GRID = (16.0, 64.0, 256.0)
+STEP_GRID = (0.03, 0.1, 0.3)
+"""Eq. 9's P and Q (px²) and the step ω tried on the validation subject."""
 
+
+def choose_on_validation(trained, validation: list, *, particles: int = 300,
+                         iterations: int = 5) -> tuple[list[dict], dict, dict]:
+    """Choose P and Q over :data:`P_GRID` × :data:`Q_GRID` (ω = 0.1), then ω over
+    :data:`STEP_GRID` per filter with the chosen P and Q, each by the best particle's mean 3-D
+    error on the validation sequences.
+
+    Returns:
+        ``(sweep, {"P": P, "Q": Q}, {"linear-combination": ω, "global-pca": ω})``; ``sweep``
+        holds one row per setting tried.
+    """
     import jax.numpy as jnp
 
-    from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.likelihoods.contour_normals import FitnessSettings
 
-    views = tuple(arguments.views)
-    tick = time.perf_counter()
-    trained = lc.train(list(TRAIN), views=views, num_clusters=arguments.clusters)
-    print(f"trained on {len(trained.vectors)} vectors in {time.perf_counter() - tick:.0f} s: "
-          f"{trained.model.num_components} components "
-          f"({trained.description['explained_variance']:.2f} of the variance), "
-          f"{trained.model.num_clusters} clusters", flush=True)
-    render = dict(views=views, max_frames=arguments.frames, keep_observations=True, seed=7)
-    validation = [s for clip in VALIDATION for s in lc.render_hybrid_sequences(clip, **render)]
-    test = [s for clip in TEST for s in lc.render_hybrid_sequences(clip, **render)]
-    engine = dict(particles=arguments.particles, iterations=arguments.iterations)
-
-    # validation: P, Q on a grid (JAX scalars: one compilation), then ω per filter
+    engine = dict(particles=particles, iterations=iterations)
     sweep = []
-    for contour_tolerance, hands_tolerance in itertools.product((4.0, 16.0, 64.0),
-                                                                (16.0, 64.0, 256.0)):
+    for contour_tolerance, hands_tolerance in itertools.product(P_GRID, Q_GRID):
         fitness = FitnessSettings(contour_tolerance=jnp.asarray(contour_tolerance),
                                   hands_tolerance=jnp.asarray(hands_tolerance))
         error = _score(trained, validation, "linear-combination", fitness=fitness,
@@ -93,7 +83,7 @@ def main() -> None:
     steps = {}
     for method in ("linear-combination", "global-pca"):
         scores = {}
-        for step in (0.03, 0.1, 0.3):
+        for step in STEP_GRID:
             scores[step] = _score(trained, validation, method, fitness=fitness,
                                   step=jnp.asarray(step), brownian_step=jnp.asarray(step),
                                   **engine)
@@ -101,8 +91,31 @@ def main() -> None:
         steps[method] = min(scores, key=scores.get)
         sweep += [{"method": method, "P": best["P"], "Q": best["Q"], "step": step,
                    "error_m": error} for step, error in scores.items()]
+    return sweep, {"P": best["P"], "Q": best["Q"]}, steps
 
-    # test subjects: the tracker and both baselines with the settings chosen above
+
+def test_rows(trained, test: list, *, fitness, steps: dict, particles: int = 300,
+              iterations: int = 5) -> list[dict]:
+    """The test table: each method (``lc.METHODS``) with each of its skeleton estimates, and two
+    constant skeletons, scored on the rendered test sequences.
+
+    Args:
+        trained: the trained model (``lc.train``).
+        test: the test subject's rendered sequences (``keep_observations=True``).
+        fitness: eq. 9's settings.
+        steps: ω per filter, ``{"linear-combination": ω, "global-pca": ω}``.
+        particles, iterations: samples per iteration and iterations per frame.
+
+    Returns:
+        One row per method and estimate: ``method``, ``estimate``, ``step``, ``error_m`` (the
+        mean over sequences of the mean 3-D error), ``worst_m``, ``aligned_m`` (after a
+        similarity alignment per frame), ``sequences``.
+    """
+    import jax.numpy as jnp
+
+    from jaxtrack.experiments import linear_combination as lc
+
+    engine = dict(particles=particles, iterations=iterations)
     # (the filters' two skeleton estimates: the best particle's and the weighted mean's)
     rows = []
     for method in lc.METHODS:
@@ -129,16 +142,64 @@ def main() -> None:
     training_mean = trained.vectors[:, layout.skeleton_slice].reshape(
         len(trained.vectors), -1, 3).mean(axis=0)
     test_mean = np.concatenate([s.skeleton for s in test]).mean(axis=0)
-    for name, constant in (("mean training skeleton (a constant)", training_mean),
-                           ("mean test skeleton (an oracle constant)", test_mean)):
+    for name, constant in ((TRAINING_CONSTANT, training_mean), (ORACLE_CONSTANT, test_mean)):
         held = [np.broadcast_to(constant, s.skeleton.shape) for s in test]
         errors = [lc.skeleton_error(h, s.skeleton).mean() for h, s in zip(held, test,
                                                                            strict=True)]
-        rows.append({"method": name, "error_m": float(np.mean(errors)),
+        rows.append({"method": name, "estimate": "-", "error_m": float(np.mean(errors)),
                      "worst_m": float(np.max(errors)), "aligned_m": float(np.mean(
                          [lc.aligned_skeleton_error(h, s.skeleton).mean()
                           for h, s in zip(held, test, strict=True)])),
                      "sequences": len(test)})
+    return rows
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m papers.ong2002.evaluation",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=90, help="frames per clip (30 fps)")
+    parser.add_argument("--views", type=int, nargs="+", default=[0, 1, 2, 3])
+    parser.add_argument("--clusters", type=int, default=20)
+    parser.add_argument("--particles", type=int, default=300)
+    parser.add_argument("--iterations", type=int, default=5)
+    parser.add_argument("--surface", action="store_true", help="also the clusters × samples "
+                                                                "error surface")
+    parser.add_argument("--multi-view", action="store_true", help="also view selection over "
+                                                                   "the four cameras")
+    parser.add_argument("--out", default=str(RESULTS / "linear_combination_evaluation.json"))
+    arguments = parser.parse_args(argv)
+
+    import jax.numpy as jnp
+
+    from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.likelihoods.contour_normals import FitnessSettings
+
+    views = tuple(arguments.views)
+    tick = time.perf_counter()
+    trained = lc.train(list(TRAIN), views=views, num_clusters=arguments.clusters)
+    print(f"trained on {len(trained.vectors)} vectors in {time.perf_counter() - tick:.0f} s: "
+          f"{trained.model.num_components} components "
+          f"({trained.description['explained_variance']:.2f} of the variance), "
+          f"{trained.model.num_clusters} clusters", flush=True)
+    render = dict(views=views, max_frames=arguments.frames, keep_observations=True, seed=7)
+    validation = [s for clip in VALIDATION for s in lc.render_hybrid_sequences(clip, **render)]
+    test = [s for clip in TEST for s in lc.render_hybrid_sequences(clip, **render)]
+    engine = dict(particles=arguments.particles, iterations=arguments.iterations)
+
+    # validation: P, Q on a grid (JAX scalars: one compilation), then ω per filter
+    sweep, best, steps = choose_on_validation(trained, validation, **engine)
+    fitness = FitnessSettings(contour_tolerance=jnp.asarray(best["P"]),
+                              hands_tolerance=jnp.asarray(best["Q"]))
+    shipped = {"P": float(lc.DEFAULT_FITNESS.contour_tolerance),
+               "Q": float(lc.DEFAULT_FITNESS.hands_tolerance), "step": lc.DEFAULT_STEP}
+    chosen_is_shipped = (best["P"] == shipped["P"] and best["Q"] == shipped["Q"]
+                         and steps["linear-combination"] == shipped["step"])
+    print(f"chosen on validation: P={best['P']:g} Q={best['Q']:g} ω={steps}; the library ships "
+          f"P={shipped['P']:g} Q={shipped['Q']:g} ω={shipped['step']:g} "
+          f"({'the same' if chosen_is_shipped else 'NOT the same'})", flush=True)
+
+    # test subjects: the tracker and both baselines with the settings chosen above
+    rows = test_rows(trained, test, fitness=fitness, steps=steps, **engine)
     print(f"device: {device_description()}")
     print(f"test subjects ({', '.join(TEST)}), views {views}, {arguments.frames} frames, "
           f"P={best['P']:g} Q={best['Q']:g}")
@@ -173,6 +234,7 @@ def main() -> None:
                                "frames": arguments.frames, "trained": trained.description,
                                "sweep": sweep, "chosen": {"P": best["P"], "Q": best["Q"],
                                                           "steps": steps},
+                               "shipped": shipped, "chosen_is_shipped": chosen_is_shipped,
                                "test_rows": rows, "view_selection": selection,
                                "surface": surface})
 

@@ -32,7 +32,7 @@ give another). Its ``track.json`` is then scored against the reference
 video's median background, as ``jaxtrack track`` does by default; the man barely leaves his
 place, so the median holds him and the silhouettes are fragments. ``mediapipe`` gives
 ``jaxtrack track --masks`` MediaPipe's person segmentation of each video instead
-(``benchmarks/_mediapipe.py``, in its own venv, ``make bench-mediapipe-env``; cached in
+(``jaxtrack/vision/mediapipe.py``, in its own venv, ``make detector``; cached in
 ``benchmarks/results/mediapipe_masks/``, shared with ``benchmarks.mixed_state_real_video``).
 
 ``--demo multiperson`` tracks the two-person take instead
@@ -252,7 +252,7 @@ def main(argv=None) -> int:
             raise SystemExit("training the model failed")
     masks = []
     if args.silhouettes == "mediapipe":
-        from benchmarks._mediapipe import demo_masks
+        from jaxtrack.vision.mediapipe import demo_masks
 
         for camera in CAMERAS:
             made = demo_masks(folder, camera)

@@ -24,6 +24,8 @@ import argparse
 import time
 from pathlib import Path
 
+import numpy as np
+
 from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).parent / "results"
@@ -33,7 +35,9 @@ PAPER_SAMPLES = (*range(10, 101, 10), *range(150, 301, 50))
 
 def surface(clusters, samples, *, views, frames: int, fitness, step, iterations: int = 5,
             progress: bool = True, on_row=None, done: list[dict] = ()) -> list[dict]:
-    """One row ``{clusters, samples, training_m, test_m, train_seconds}`` per grid point;
+    """One row ``{clusters, samples, training_m, test_m, training_mean_m, test_mean_m,
+    train_seconds}`` per grid point (``*_m``: the best particle's skeleton, the paper's estimate;
+    ``*_mean_m``: the particles' weighted mean, the library's);
     ``on_row(rows)`` is called after each (a long grid's partial results survive a stop), and
     the grid points of ``done`` (earlier rows) are kept, not run again.
 
@@ -44,18 +48,22 @@ def surface(clusters, samples, *, views, frames: int, fitness, step, iterations:
     """
     import jax
     import jax.numpy as jnp
-    import numpy as np
     from tqdm import tqdm
 
     from jaxtrack.experiments import linear_combination as lc
     from jaxtrack.trackers.linear_combination import release_compiled
 
     def score(model, sequences, particles):
-        errors = [lc.skeleton_error(lc.run_method(
-            "linear-combination", model, sequence.observations, fitness=fitness,
-            step=jnp.asarray(step), particles=particles, iterations=iterations)["skeleton"],
-            sequence.skeleton).mean() for sequence in sequences]
-        return float(np.mean(errors))
+        """Mean error of the best particle's skeleton (the paper's) and of the weighted mean."""
+        errors = []
+        for sequence in sequences:
+            run = lc.run_method("linear-combination", model, sequence.observations,
+                                fitness=fitness, step=jnp.asarray(step), particles=particles,
+                                iterations=iterations)
+            errors.append([lc.skeleton_error(run[key], sequence.skeleton).mean()
+                           for key in ("skeleton", "mean_skeleton")])
+        best, mean = np.mean(errors, axis=0)
+        return float(best), float(mean)
 
     render = dict(views=tuple(views), max_frames=frames, keep_observations=True, seed=7)
     training = lc.render_hybrid_sequences(lc.TRAIN_CLIPS[0], **render)
@@ -76,9 +84,11 @@ def surface(clusters, samples, *, views, frames: int, fitness, step, iterations:
                     model = lc.train(list(lc.TRAIN_CLIPS), views=tuple(views),
                                      num_clusters=count)
                     train_seconds = time.perf_counter() - tick
+                training_m, training_mean_m = score(model, training, particles)
+                test_m, test_mean_m = score(model, test, particles)
                 rows.append({"clusters": int(count), "samples": int(particles),
-                             "training_m": score(model, training, particles),
-                             "test_m": score(model, test, particles),
+                             "training_m": training_m, "test_m": test_m,
+                             "training_mean_m": training_mean_m, "test_mean_m": test_mean_m,
                              "train_seconds": train_seconds})
                 release_compiled()
                 jax.clear_caches()
@@ -86,6 +96,116 @@ def surface(clusters, samples, *, views, frames: int, fitness, step, iterations:
                 if on_row is not None:
                     on_row(rows)
     return rows
+
+
+SMALL_CLUSTERS = (10, 20, 40, 70, 100)
+SMALL_SAMPLES = (10, 20, 50, 100, 300)
+"""A 5 × 5 corner-to-corner subset of the paper's grid, for a run of about half an hour on two
+shared CPU cores (``python -m papers.ong2002``'s default; ``--full`` runs the paper's)."""
+
+
+def grid(rows: list[dict], key: str) -> tuple[list[int], list[int], np.ndarray]:
+    """The rows' ``key`` as a ``(clusters, samples)`` array in millimetres (NaN where no row).
+
+    Returns:
+        ``(cluster counts, sample counts, errors)``, the counts sorted.
+    """
+    clusters = sorted({int(row["clusters"]) for row in rows})
+    samples = sorted({int(row["samples"]) for row in rows})
+    errors = np.full((len(clusters), len(samples)), np.nan)
+    for row in rows:
+        errors[clusters.index(int(row["clusters"])), samples.index(int(row["samples"]))] = (
+            1e3 * float(row[key]))
+    return clusters, samples, errors
+
+
+def trends(rows: list[dict], key: str) -> dict:
+    """What the paper's Fig. 10 and 12 read off a surface, with the noise to judge it by.
+
+    The error is fitted by an additive model, error ≈ m + a(clusters) + b(samples); the
+    residuals' standard deviation ``noise_mm`` is what one grid point (one seed) scatters by,
+    so a mean over a row of S points is uncertain by about noise_mm / √S, and the difference of
+    two such means by √2 times that. A trend is said to hold only where the difference exceeds
+    two of its standard errors (``difference_margin_*_mm``).
+
+    Returns:
+        ``by_clusters_mm`` (the mean over sample counts per cluster count),
+        ``by_samples_mm`` (the mean over cluster counts per sample count), ``noise_mm``,
+        ``falls_with_samples`` (the fewest samples' mean exceeds the most samples' by the margin),
+        ``falls_with_clusters`` (the fewest clusters' mean exceeds the lowest cluster mean
+        by the margin), ``overfits_with_clusters`` (the most clusters' mean exceeds the lowest
+        by the margin), ``best_clusters`` and ``best_point``.
+    """
+    clusters, samples, errors = grid(rows, key)
+    if np.isnan(errors).any():
+        raise ValueError(f"the grid of {key!r} has holes; give every clusters × samples point")
+    by_clusters = errors.mean(axis=1)
+    by_samples = errors.mean(axis=0)
+    fitted = by_clusters[:, None] + by_samples[None, :] - errors.mean()
+    dof = max((len(clusters) - 1) * (len(samples) - 1), 1)
+    noise = float(np.sqrt(((errors - fitted) ** 2).sum() / dof))
+    se_clusters = noise / np.sqrt(len(samples))  # one cluster count's mean over samples
+    se_samples = noise / np.sqrt(len(clusters))
+    margin_clusters, margin_samples = 2 * np.sqrt(2) * se_clusters, 2 * np.sqrt(2) * se_samples
+    lowest = int(np.argmin(by_clusters))
+    best = np.unravel_index(int(np.argmin(errors)), errors.shape)
+    return {"clusters": clusters, "samples": samples,
+            "by_clusters_mm": [round(float(v), 1) for v in by_clusters],
+            "by_samples_mm": [round(float(v), 1) for v in by_samples],
+            "noise_mm": round(noise, 1),
+            "difference_margin_clusters_mm": round(float(margin_clusters), 1),
+            "difference_margin_samples_mm": round(float(margin_samples), 1),
+            "falls_with_samples": bool(by_samples[0] - by_samples[-1] > margin_samples),
+            "falls_with_clusters": bool(by_clusters[0] - by_clusters[lowest] > margin_clusters),
+            "overfits_with_clusters": bool(by_clusters[-1] - by_clusters[lowest]
+                                           > margin_clusters),
+            "best_clusters": clusters[lowest],
+            "best_point": {"clusters": clusters[best[0]], "samples": samples[best[1]],
+                           "error_mm": round(float(errors[best]), 1)}}
+
+
+def heat_map(rows: list[dict], key: str, path: str | Path, *, title: str,
+             reference_mm: float | None = None) -> Path:
+    """A clusters × samples heat map of ``key`` (mm), each cell labelled with its value.
+
+    Args:
+        rows: the surface's rows.
+        key: the error to draw (``training_m``, ``test_m``, ...).
+        path: the PNG to write (its folder must exist).
+        title: the figure's title.
+        reference_mm: a level to name in the colour bar's label (e.g. a constant skeleton's
+            error), or None.
+
+    Returns:
+        The path.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    clusters, samples, errors = grid(rows, key)
+    figure, axis = plt.subplots(figsize=(1.0 + 0.75 * len(samples), 1.2 + 0.5 * len(clusters)))
+    image = axis.imshow(errors, origin="lower", cmap="viridis", aspect="auto")
+    axis.set_xticks(range(len(samples)), [str(v) for v in samples])
+    axis.set_yticks(range(len(clusters)), [str(v) for v in clusters])
+    axis.set_xlabel("samples per iteration")
+    axis.set_ylabel("clusters")
+    middle = np.nanmean(errors)
+    for i in range(len(clusters)):
+        for j in range(len(samples)):
+            axis.text(j, i, f"{errors[i, j]:.0f}", ha="center", va="center", fontsize=8,
+                      color="white" if errors[i, j] < middle else "black")
+    label = "mean 3-D skeleton error (mm)"
+    if reference_mm is not None:
+        label += f"\n(a constant skeleton: {reference_mm:.0f} mm)"
+    figure.colorbar(image, ax=axis, label=label)
+    axis.set_title(title, fontsize=10)
+    figure.tight_layout()
+    path = Path(path)
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path
 
 
 def main(argv=None) -> int:
