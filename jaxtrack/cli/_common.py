@@ -16,8 +16,9 @@ __all__ = ["ArgumentsError", "MAX_SEED", "OneLineParser", "TRAINING_FPS", "UserE
            "add_asf_option", "at_least", "available_memory", "check_asf", "check_clip_frames",
            "check_clips", "check_held_out", "check_json_and_plots", "check_memory",
            "check_prior_file", "check_seed", "finite_json", "fit_mask_file", "format_bytes",
-           "integer", "load_clip_sources", "one_line", "output_directory", "output_folder",
-           "outputs_or_nothing", "pose2sim_cameras", "read_mask_files", "real", "seed"]
+           "integer", "load_clip_sources", "model_or_default", "one_line", "output_directory",
+           "output_folder", "outputs_or_nothing", "pose2sim_cameras", "read_mask_files", "real",
+           "seed"]
 
 MAX_SEED = 2**32 - 1
 """The largest seed. ``jax.random.key`` keeps only a seed's low 32 bits without 64-bit mode
@@ -191,6 +192,19 @@ def check_seed(value: int) -> None:
     if not 0 <= value <= MAX_SEED:
         raise UserError(f"--seed must be from 0 to {MAX_SEED} (a 32-bit seed: jax.random.key "
                         f"keeps only the low 32 bits), got {value}")
+
+
+def model_or_default(model: Path | None, method: str) -> Path:
+    """``--model``, or without it the model bundled with jaxtrack for ``method``
+    (:func:`jaxtrack.data.models.default_model`); a one-line error when the package has none."""
+    if model is not None:
+        return model
+    from jaxtrack.data.models import default_model
+
+    try:
+        return default_model(method)
+    except FileNotFoundError as error:
+        raise UserError(f"--model not given and {one_line(error)}") from None
 
 
 def check_prior_file(path: Path, what: str, remedy: str) -> None:

@@ -2,7 +2,8 @@
 
 The latent-space tracker (Tian, Li & Sclaroff 2005) and its two baselines, CONDENSATION and
 MHT, whose dynamics are learned from the ``--model`` prior's training poses
-(:func:`jaxtrack.experiments.protocol.video_tracker`, as ``jaxtrack evaluate`` builds them).
+(:func:`jaxtrack.experiments.protocol.video_tracker`, as ``jaxtrack evaluate`` builds them);
+without ``--model``, the bundled ``latent.npz`` (:func:`jaxtrack.data.models.default_model`).
 Every argument is checked, the first-frame pose found (``jaxtrack.cli._pose``) and the tracker
 built here; :func:`jaxtrack.experiments.pipeline.track_video` decodes the video in chunks,
 tracks it and writes ``overlay.mp4`` and ``track.json``.
@@ -20,6 +21,7 @@ import numpy as np
 from jaxtrack.cli._common import (
     UserError,
     check_seed,
+    model_or_default,
     one_line,
     output_directory,
     read_mask_files,
@@ -185,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
         read_video,
     )
 
+    args.model = model_or_default(args.model, args.method)  # the bundled latent.npz
     record_options = options_record(args)
     started = time.perf_counter()
     masks, keypoints, likelihood, options = _check(args)

@@ -2,7 +2,11 @@
 discrete posture and five body parts from silhouettes; ``docs/mixed-state.md``).
 
 :func:`train` renders the training clips from several azimuths, labels their postures and fits
-the posture model (:func:`jaxtrack.experiments.mixed_state.train`), saved atomically. The
+the posture model (:func:`jaxtrack.experiments.mixed_state.train`), saved atomically; the
+``--laid-down`` clips are also laid on their back and front as lying training data. Without
+``--clips`` it trains on the clips of the bundled posture model (``jaxtrack.data.models``, all
+bundled with the package; the experiment's own set,
+:data:`jaxtrack.experiments.mixed_state.TRAINING_CLIPS`, adds DeepMimic's LGPL clips). The
 options shared by ``evaluate`` (``jaxtrack.cli._evaluate_mixed_state``) and ``track``
 (``jaxtrack.cli._track_mixed_state``) are checked here. Every argument is checked first; a bad
 one is a one-line :class:`UserError` naming it, raised before anything is computed or written.
@@ -96,9 +100,11 @@ def _file_digest(path: Path) -> str:
 
 
 def training_settings(clips: list[str], sources: list, azimuths, size, bins, max_frames,
-                       seed) -> dict:
+                       seed, laid_down: list[str] | None = None,
+                       laid_down_sources: list | None = None) -> dict:
     """What a posture model is trained from, as its saved description holds it: a saved model
-    with these values is reused."""
+    with these values is reused (``laid_down``: clips also laid on their back and front, with
+    their sources, recorded only when given)."""
     from jaxtrack.experiments import mixed_state as ms
 
     settings = {"clips": list(clips), "azimuths": [float(value) for value in azimuths],
@@ -108,6 +114,10 @@ def training_settings(clips: list[str], sources: list, azimuths, size, bins, max
                 "components": ms.DEFAULT_COMPONENTS, "covariance": ms.DEFAULT_COVARIANCE,
                 "regularisation": ms.DEFAULT_REGULARISATION,
                 "clip_sha256": [_file_digest(source.file) for source in sources]}
+    if laid_down:
+        settings["laid_down"] = list(laid_down)
+        settings["laid_down_sha256"] = [_file_digest(source.file)
+                                        for source in laid_down_sources]
     return json.loads(json.dumps(settings))
 
 
@@ -136,6 +146,9 @@ def fit_posture_model(settings: dict, option: str, frames_option: str):
     from jaxtrack.experiments.mixed_state import train as train_model
 
     begin = time.perf_counter()
+    extra = {}
+    if settings.get("laid_down"):
+        train_model, extra = _train_with_laid_down, {"laid_down": settings["laid_down"]}
     try:
         model, description = train_model(
             settings["clips"], azimuths=settings["azimuths"],
@@ -143,13 +156,41 @@ def fit_posture_model(settings: dict, option: str, frames_option: str):
             num_bins=settings["num_bins"], max_frames=settings["max_frames"],
             seed=settings["seed"], pose2sim_cameras=settings["pose2sim_cameras"],
             components=settings["components"], covariance=settings["covariance"],
-            regularisation=settings["regularisation"])
+            regularisation=settings["regularisation"], **extra)
     except ValueError as error:
         if "training frames" not in str(error):
             raise
-        raise UserError(f"{option}: {one_line(error)}; or raise {frames_option}") from None
+        more = " (or lying: --laid-down)" if "lying" in str(error) else ""
+        raise UserError(f"{option}: {one_line(error)}{more}; or raise {frames_option}"
+                        ) from None
     description = description | settings | {"seconds": time.perf_counter() - begin}
     return model, description
+
+
+LAID_DOWN_SEEDS = {"up": 1000, "down": 2000}
+"""Render seeds added to ``--seed`` for the laid-down clips (other background crops than the
+standing clips')."""
+
+
+def _train_with_laid_down(clips, *, laid_down, azimuths, backgrounds, image_size, num_bins,
+                          max_frames, seed, pose2sim_cameras, **fitting):
+    """:func:`jaxtrack.experiments.mixed_state.train` with the ``laid_down`` clips also laid on
+    their back and on their front (:meth:`jaxtrack.body.motion.Motion.laid_down`), rendered
+    from the same views and labelled by the same rule: lying training data from people who
+    were filmed standing."""
+    from jaxtrack.experiments import mixed_state as ms
+
+    features, labels, rendered = ms.training_features(
+        clips, azimuths=azimuths, backgrounds=backgrounds, image_size=image_size,
+        num_bins=num_bins, max_frames=max_frames, seed=seed, pose2sim_cameras=pose2sim_cameras)
+    for face, offset in LAID_DOWN_SEEDS.items():
+        for sequence in ms.render_sequences(laid_down, azimuths, backgrounds, image_size,
+                                            max_frames, seed + offset, pose2sim_cameras,
+                                            laid_down=face):
+            values, names = ms.labelled_features(sequence, num_bins)
+            features.append(values)
+            labels.append(names)
+    return ms.fit(features, labels, **fitting, **rendered, laid_down=list(laid_down))
 
 
 def model_summary(description: dict) -> str:
@@ -163,12 +204,18 @@ def model_summary(description: dict) -> str:
 
 def train(args: argparse.Namespace) -> int:
     """``jaxtrack train --method mixed-state``: fit and save the posture model."""
-    from jaxtrack.experiments.mixed_state import TRAINING_CLIPS
+    from jaxtrack.data.models import RECIPES
 
     refuse_other_methods(args, "train")
-    clips = list(TRAINING_CLIPS) if args.clips is None else list(args.clips)
+    bundled = RECIPES["postures"]  # without --clips: what the bundled posture model learnt from
+    clips = list(bundled.clips) if args.clips is None else list(args.clips)
+    if args.clips is None and getattr(args, "laid_down", None) is None:
+        args.laid_down = list(bundled.laid_down)
     sources = check_clips(clips, "--clips")
     refuse_test_subjects(clips, sources, "--clips")
+    laid_down = list(getattr(args, "laid_down", None) or [])
+    laid_sources = check_clips(laid_down, "--laid-down") if laid_down else []
+    refuse_test_subjects(laid_down, laid_sources, "--laid-down")
     if args.out.suffix != ".npz":
         raise UserError(f"--out {args.out}: must be a .npz path")
     folder = output_folder(args.out, "--out")
@@ -179,7 +226,10 @@ def train(args: argparse.Namespace) -> int:
     size = parse_image_size(args.size)
     existing = read_saved_model(args.out, "--out", "delete it or choose another --out")
     check_clip_files(sources, "--clips")
-    settings = training_settings(clips, sources, azimuths, size, bins, max_frames, args.seed)
+    if laid_down:
+        check_clip_files(laid_sources, "--laid-down")
+    settings = training_settings(clips, sources, azimuths, size, bins, max_frames, args.seed,
+                                 laid_down, laid_sources)
     if existing is not None and matches(existing.description, settings):
         print(f"{model_summary(existing.description)}: {args.out} already holds it (reused)")
         return 0

@@ -2,7 +2,9 @@
 
 ``--method`` picks the tracker; ``--model`` is what ``jaxtrack train`` wrote for it (for
 CONDENSATION and MHT: the latent tracker's prior, whose training poses their dynamics are
-learned from). This module parses the arguments; the tracker and its first pose are built by
+learned from); without it, the model bundled with jaxtrack for the method
+(:func:`jaxtrack.data.models.default_model`). This module parses the arguments; the tracker
+and its first pose are built by
 
 - ``latent`` (Tian, Li & Sclaroff 2005), ``condensation``, ``mht``: ``jaxtrack.cli._track_image``
   (the first pose by hand, ``--init manual:x,y,...``, from a detector's keypoints, or found
@@ -27,7 +29,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jaxtrack.cli._common import integer, real, seed
+from jaxtrack.cli._common import integer, model_or_default, real, seed
 from jaxtrack.cli._options import add_tracker_options
 from jaxtrack.cli._track_image import BYTES_PER_PARTICLE
 
@@ -52,14 +54,20 @@ def add_parser(subparsers) -> None:
             "first frame's 12 markers in video pixels, in the order head, neck, thorax, pelvis, "
             "right shoulder, elbow, wrist, hip, left shoulder, elbow, wrist, hip. example, on "
             "the bundled Pose2Sim clip (jaxtrack.data.path('pose2sim/videos/cam03_half.mp4')): "
-            "jaxtrack track --model jaxtrack-demo/gplvm_waves.npz --video CLIP.mp4 --out p2s"),
+            "jaxtrack track --video CLIP.mp4 --out p2s (the bundled latent.npz; or --model "
+            "jaxtrack-demo/gplvm_waves.npz, the demo's)"),
     )
     parser.add_argument("--method", choices=METHODS, default="latent",
                         help="the tracker (default latent); --model must come from jaxtrack "
                         "train with the same --method (condensation and mht: with --method "
                         "latent, whose training poses their dynamics are learned from)")
-    parser.add_argument("--model", required=True, type=Path, metavar="MODEL.npz",
-                        help="a model from jaxtrack train (or jaxtrack-demo/gplvm_waves.npz)")
+    parser.add_argument("--model", default=None, type=Path, metavar="MODEL.npz",
+                        help="a model from jaxtrack train with the same --method (or "
+                        "jaxtrack-demo/gplvm_waves.npz); default: the one bundled with "
+                        "jaxtrack for --method, trained on training subjects only "
+                        "(jaxtrack.data.models: latent.npz for latent, condensation and mht, "
+                        "linear_combination.npz, postures.npz; python -m jaxtrack.data.models "
+                        "says what each was trained on)")
     parser.add_argument("--video", required=True, type=Path, nargs="+", metavar="FILE",
                         help="the video to track (anything OpenCV's FFmpeg reads: mp4, avi, "
                         "mov); linear-combination: one per calibrated camera")
@@ -126,6 +134,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``jaxtrack track``: the method's tracker over the video (module docstring)."""
+    args.model = model_or_default(args.model, args.method)
     if args.method == "linear-combination":
         from jaxtrack.cli import _track_linear_combination
 

@@ -37,7 +37,10 @@ def add_parser(subparsers) -> None:
         description=(
             "Project the clips' upper-body poses from several viewpoints (±45°), learn a 2-D "
             "GPLVM with its latent dynamics (Algorithm 1 of Tian et al.) and save it with its "
-            "SPM template. Re-running with the same settings and --out reuses the file. A clip "
+            "SPM template (--method latent, the default). Without --clips, the clips the "
+            "method's bundled model was trained on (bundled too), so that, e.g., jaxtrack "
+            "train --out latent.npz remakes jaxtrack's own latent.npz. Re-running with the "
+            "same settings and --out reuses the file. A clip "
             "is a catalogue name (see jaxtrack.data.list_clips()) or a path to a .bvh file or "
             "an .amc file (its .asf beside it, or given with --asf)."),
         epilog="example: jaxtrack train --clips animateddrawings/fair1_wave_hello "
@@ -48,8 +51,9 @@ def add_parser(subparsers) -> None:
                         "Gong's linear-combination model, or Kwatra et al.'s posture model")
     parser.add_argument("--clips", nargs="+", default=None, metavar="CLIP",
                         help="clips to learn from: catalogue names or .bvh/.amc files "
-                        "(required for latent; linear-combination and mixed-state default to "
-                        "their training clips of jaxtrack.data.splits)")
+                        "(default: the training subjects' clips bundled with jaxtrack that "
+                        "the method's bundled model was trained on, jaxtrack.data.models; "
+                        "python -m jaxtrack.data.models lists them)")
     add_asf_option(parser)
     parser.add_argument("--out", required=True, type=Path, metavar="MODEL.npz",
                         help="model file to write (reused when it holds a model trained with "
@@ -84,6 +88,10 @@ def add_parser(subparsers) -> None:
     group.add_argument("--max-frames", type=integer(2), default=None, metavar="N",
                        help="linear-combination, mixed-state: at most the first N frames of "
                        "each clip (default: all)")
+    group.add_argument("--laid-down", nargs="+", default=None, metavar="CLIP",
+                       help="mixed-state: clips also laid on their back and on their front "
+                       "as lying training data (default: without --clips, the bundled posture "
+                       "model's two waves; with --clips, none)")
     group.add_argument("--bins", type=integer(1), default=None, metavar="B",
                        help="mixed-state: bins per axis of the silhouette projection histograms "
                        "(default 16)")
@@ -97,6 +105,16 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from jaxtrack.data.models import METHODS, RECIPES
+
+    if args.laid_down is not None and args.method != "mixed-state":
+        raise UserError(f"--laid-down does not apply to --method {args.method} (it is the "
+                        f"mixed-state posture model's lying training data)")
+    if args.clips is None:  # the bundled model's clips, all bundled with the package
+        recipe = RECIPES[METHODS[args.method]]
+        args.clips = list(recipe.clips)
+        if args.laid_down is None:
+            args.laid_down = list(recipe.laid_down) or None
     if args.method == "linear-combination":
         from jaxtrack.cli import _train_linear_combination
 
@@ -107,8 +125,6 @@ def run(args: argparse.Namespace) -> int:
         return _train_mixed_state.train(args)
     from jaxtrack.priors.train import train_prior
 
-    if args.clips is None:
-        raise UserError("--clips is required for --method latent")
     sources = check_clips(args.clips, "--clips", args.asf)
     check_asf(args.asf, sources)
     if args.out.suffix != ".npz":

@@ -2,12 +2,14 @@
 
 A clip name is `<collection>/<path inside the folder, no extension>`, for example
 `animateddrawings/fair1_wave_hello`, `animateddrawings/history_c119d6b/cmu_1006_wave_hello_1`,
-`cmu_amc/07_01`, `cmu_bvh/131_01`, `bandai/dataset-2_wave-right-hand_normal_001`. The folder's own
+`cmu_amc/07_01`, `cmu_bvh/131_01`, `cmu_posture_bvh/75_19`,
+`bandai/dataset-2_wave-right-hand_normal_001`. The folder's own
 name works as the collection too (`animateddrawings_bvh/fair1_wave_hello.bvh`), and any other file
 is found by its name with extension (`pose2sim/Calib.qca.txt`).
 
 Places searched, in order (the first that has the file wins):
-1. the files bundled in the package (`jaxtrack/data/files/`, MIT/CMU/BSD data only);
+1. the files bundled in the package (`jaxtrack/data/files/`, MIT/CMU/BSD data only; the trained
+   models of `jaxtrack.data.models` are in its `models/` folder);
 2. the folder named by the environment variable `JAXTRACK_DATA`;
 3. a `shared/data` folder in any folder above the package or the working directory (the project's
    full collection, e.g. `/work/shared/data`, or `../shared/data` beside a CI clone);
@@ -38,9 +40,12 @@ COLLECTIONS = {
     "bandai": "bandai_namco_gestures",
     "cmu_amc": "cmu_asfamc_walk",
     "cmu_bvh": "cmu_bvh_131",
+    "cmu_posture_bvh": "cmu_posture_bvh",
     "pose2sim": "pose2sim_demo_singleperson",
 }
-"""Clip-name collection -> data folder name (the same in the package and in shared/data)."""
+"""Clip-name collection -> data folder name (the same in the package and in shared/data).
+``cmu_posture_bvh`` keeps its folder's name: two of its clips (75_19 sits, 64_26 stoops) are
+bundled for the posture model (``jaxtrack.data.models``), the rest are in shared/data."""
 
 MOTION_SUFFIXES = (".bvh", ".amc")
 
