@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env bench-mediapipe-env bench-peers-env install clean
+.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env detector bench-peers-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -39,9 +39,15 @@ bench: $(STAMP)
 bench-gpy-env:
 	$(PYTHON) -m venv .venv-gpy && .venv-gpy/bin/pip install -q -r benchmarks/requirements-gpy.txt
 
-# MediaPipe Pose (benchmarks/real_video.py's per-frame detector) in its own venv, never in .venv
-bench-mediapipe-env:
-	$(PYTHON) -m venv .venv-mediapipe && .venv-mediapipe/bin/pip install -q -r benchmarks/requirements-mediapipe.txt
+# MediaPipe Pose, the detector jaxtrack runs (jaxtrack/vision/mediapipe.py), in its own venv,
+# never in .venv: mediapipe 0.10.21 needs numpy < 2, jax numpy >= 2
+detector: .venv-mediapipe/.installed
+
+.venv-mediapipe/.installed: jaxtrack/vision/requirements-mediapipe.txt
+	$(PYTHON) -m venv .venv-mediapipe
+	.venv-mediapipe/bin/pip install -q -r jaxtrack/vision/requirements-mediapipe.txt
+	.venv-mediapipe/bin/python jaxtrack/vision/_mediapipe_worker.py --check
+	touch $@
 
 # the particle-count benchmark's peer libraries, each in its own venv (particles needs numpy<2,
 # cuthbert its own jax, pydpf torch): benchmarks/_peers.py runs them when these exist. pydpf 1.2

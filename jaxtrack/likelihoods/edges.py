@@ -190,7 +190,7 @@ keypoints and the true markers over √3 (a bivariate Cauchy's median radius is 
 scale), on the validation subjects' rendered gesture clips (``python -m benchmarks.keypoint_term``,
 2026-11-27: 3 Bandai clips × 2 views × 2 backgrounds, 60 frames each; docs/real-video.md). The
 head is the least sure: MediaPipe has no such marker, and it is placed from the shoulders and
-ears (``benchmarks/_mediapipe.py``)."""
+ears (``jaxtrack/vision/mediapipe.py``)."""
 
 CAUCHY_KEYPOINT_WEIGHT = 1.5
 """η = 3/2, the exponent of the bivariate Cauchy density ``(1 + q²)^(−3/2)``: the keypoint term

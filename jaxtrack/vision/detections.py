@@ -19,7 +19,7 @@ Readers, one per format:
   where the neck lies (:func:`openpose_layout`), or given.
 - :func:`read_coco`: COCO keypoint JSON, the results format (a list of ``{"image_id",
   "keypoints": [x, y, v, ...]}``) or an annotation file's ``annotations``; one frame per image.
-- :func:`read_mediapipe`: MediaPipe Pose's 33 landmarks, as ``benchmarks/_mediapipe.py`` writes
+- :func:`read_mediapipe`: MediaPipe Pose's 33 landmarks, as ``jaxtrack/vision/mediapipe.py`` writes
   them (``landmarks`` in pixels with ``visibility``, or its 12 markers, ``keypoints``), or a
   plain ``(time, 33, 3 | 4)`` ``.npy``/``.npz`` of normalised x, y[, z], visibility with the
   frame size given.
@@ -38,7 +38,7 @@ weighted mean of its keypoints, or is absent; nothing else is guessed:
 - ``neck`` = OpenPose's ``Neck`` where it has one (BODY_25, COCO_18: the shoulders' midpoint by
   its training definition; BODY_25B, HALPE_26: the upper neck); otherwise ``S + (E − S) / 3``,
   S the shoulders' and E the ears' midpoint (COCO_17, COCO_133, MediaPipe, as
-  ``benchmarks/_mediapipe.py``);
+  ``jaxtrack/vision/mediapipe.py``);
 - ``head`` (the base of the skull, ``jaxtrack.body.markers``) = ``Neck + 0.35 (Head − Neck)``
   where the format has the top of the head (BODY_25B, HALPE_26, as
   ``jaxtrack.evaluation.reference``); otherwise ``S + 0.9 (E − S)``;
@@ -111,7 +111,7 @@ _OPENPOSE_COUNTS = {17: ("COCO_17",), 18: ("COCO_18",), 25: ("BODY_25", "BODY_25
 
 NECK_FRACTION, HEAD_FRACTION = 1 / 3, 0.9
 """Without a neck keypoint: neck = S + NECK_FRACTION (E − S), head = S + HEAD_FRACTION (E − S)
-(S, E the shoulders' and ears' midpoints), as ``benchmarks/_mediapipe.py``."""
+(S, E the shoulders' and ears' midpoints), as ``jaxtrack/vision/mediapipe.py``."""
 HEAD_TOP_FRACTION = 0.35
 """With the top of the head: head = Neck + HEAD_TOP_FRACTION (Head − Neck), as
 ``jaxtrack.evaluation.reference``."""
@@ -620,7 +620,7 @@ def read_mediapipe(path: str | os.PathLike, *, frame_size: tuple[float, float] |
                    markers: tuple[str, ...] = SPM_MARKERS) -> Detections:
     """Detections from MediaPipe Pose's landmarks (one person per frame at most).
 
-    Accepts what ``benchmarks/_mediapipe.py`` writes: its run's ``.npz`` (``landmarks``
+    Accepts what ``jaxtrack/vision/mediapipe.py`` writes: its run's ``.npz`` (``landmarks``
     ``(time, 33, 2)`` pixels, NaN where no one was found, ``visibility`` ``(time, 33)``), or its
     keypoints file (``keypoints`` ``(time, 12, 2)`` already the tracker's markers, with
     ``confidence``); and a plain ``(time, 33, 3 | 4)`` ``.npy`` or single-array ``.npz`` of
@@ -642,7 +642,7 @@ def read_mediapipe(path: str | os.PathLike, *, frame_size: tuple[float, float] |
     markers = _check_markers(markers)
     arrays = _load_arrays(path)
     fail = lambda reason: DetectionFileError(f"{path}: {reason}")  # noqa: E731
-    if "keypoints" in arrays:  # the 12 markers benchmarks/_mediapipe.py's keypoints file holds
+    if "keypoints" in arrays:  # the 12 markers jaxtrack/vision/mediapipe.py's keypoints file holds
         from jaxtrack.vision.keypoints import read_keypoints
 
         try:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks._mediapipe import keypoint_confidence, to_upper_body
+from jaxtrack.vision.mediapipe import keypoint_confidence, to_upper_body
 from jaxtrack.body import SPM_MARKERS
 from jaxtrack.data import shared_folder
 from jaxtrack.evaluation.reference import read_openpose as reference_read_openpose
@@ -191,7 +191,7 @@ def test_mediapipe_run_file_matches_the_benchmarks_adapter():
     np.testing.assert_array_equal(detections.people, [1, 1, 1])
     np.testing.assert_allclose(_at(detections, 0, 0, "right_shoulder")[0], landmarks[0, 12])
     np.testing.assert_allclose(_at(detections, 0, 0, "left_wrist")[0], landmarks[0, 15])
-    # the whole mapping against benchmarks/_mediapipe.py's, an independent implementation
+    # the whole mapping against jaxtrack/vision/mediapipe.py's, an independent implementation
     np.testing.assert_allclose(detections.points[:, 0], to_upper_body(landmarks), atol=1e-9)
     np.testing.assert_allclose(detections.confidence[:, 0], keypoint_confidence(visibility),
                                atol=1e-9)

@@ -1,8 +1,8 @@
 """Run MediaPipe Pose (legacy solution, video mode, model_complexity=1) on the first 3 frames of
-the Pose2Sim demo's cam01.mp4 and save (1) what benchmarks/_mediapipe_reference.py writes and
+the Pose2Sim demo's cam01.mp4 and save (1) what jaxtrack/vision/_mediapipe_worker.py writes and
 (2) the raw normalised landmarks (time, 33, 4): x, y, z, visibility.
 
-    python make_mediapipe_samples.py VIDEO benchmarks/_mediapipe_reference.py
+    python make_mediapipe_samples.py VIDEO jaxtrack/vision/_mediapipe_worker.py
 """
 import subprocess
 import sys
