@@ -73,10 +73,10 @@ class Default:
 
 # -- the records these entries quote ------------------------------------------------------------
 
-_KEPT_2026_11_26 = ("python -m benchmarks.tracking --split validation --methods latent "
+_KEPT_2026_11_26 = ("python -m papers.tian2005.tracking --split validation --methods latent "
                     "--estimates refined --likelihoods limbs+edges --seeds 2 --set NAME=VALUE "
                     "--out benchmarks/results/tracking/defaults/NAME=VALUE")
-_KEPT_MHT = ("python -m benchmarks.tracking --split validation --methods mht --estimates own "
+_KEPT_MHT = ("python -m papers.tian2005.tracking --split validation --methods mht --estimates own "
              "--likelihoods limbs+edges --seeds 2 --set NAME=VALUE "
              "--out benchmarks/results/tracking/defaults-mht/NAME=VALUE")
 
@@ -124,7 +124,7 @@ DEFAULTS: tuple[Default, ...] = (
     # ---- particle counts ----------------------------------------------------------------------
     Default("latent tracker particles", f"{_LATENT}(engine).num_particles", 200, NONE,
             note="The protocol's count (jaxtrack.experiments.protocol.DEFAULT_PARTICLES). "
-            "`python -m benchmarks.particle_counts --tracking` measures other counts on the "
+            "`python -m papers.tian2005.particle_sweep` measures other counts on the "
             "test take only (docs/tracking.md); no choice on validation is recorded.",
             group="Particle counts"),
     Default("CONDENSATION particles", "jaxtrack.trackers.condensation:condensation_tracker"
@@ -153,27 +153,28 @@ DEFAULTS: tuple[Default, ...] = (
     Default("mode_radius", f"{_LATENT}(mode_radius)", 3.0, NONE, group="Latent tracker"),
     Default("initial_spread", f"{_LATENT}(initial_spread)", 1.0, NONE, group="Latent tracker"),
     Default("subject_lengths", f"{_LATENT}(subject_lengths)", True, "validation",
-            "python -m benchmarks.tracking --split validation --clips wide --seeds 2 --views 3 "
+            "python -m papers.tian2005.tracking --split validation --clips wide --seeds 2 "
+            "--views 3 "
             "--methods latent --estimates own refined --likelihoods limbs+edges "
             "[--set subject_lengths=1]", "2026-11-28",
             "All nine of the validation subject's gesture clips, 54 runs per value: on loses "
             "fewer runs (9/54 against 11/54 refined), which passes the rule.",
             "Latent tracker"),
     Default("partitioned", f"{_LATENT}(partitioned)", False, "validation",
-            "python -m benchmarks.tracking --split validation [--prior gestures --parts] "
+            "python -m papers.tian2005.tracking --split validation [--prior gestures --parts] "
             "[--set partitioned=1] --methods latent condensation --estimates own refined "
             "--likelihoods limbs+edges --seeds 5 --views 3 --no-real-video", "2026-11-27",
             "45 runs per cell: partitioned sampling lowers the own estimate (11.8 against "
             "17.3 %) but with the refinement it is worse than the shipped tracker (7.0 against "
             "5.7 %), so it stays off (docs/tracking.md).", "Latent tracker"),
     Default("latent velocity (second-order walk)", f"{_LATENT}(velocity)", None, "validation",
-            "python -m benchmarks.tracking --split validation --prior gestures --parts "
+            "python -m papers.tian2005.tracking --split validation --prior gestures --parts "
             "--methods latent --estimates own --likelihoods limbs+edges --seeds 5 --views 3 "
             "--set partitioned=1 [--set latent_velocity=1]", "2026-11-27",
             "None (the paper's random walk): the second-order walk moved no estimate beyond "
             "its interval (docs/tracking.md).", "Latent tracker"),
     Default("cycles per frame", "jaxtrack.trackers._options:Engine(iterations_per_frame)", 1,
-            "validation", "python -m benchmarks.tracking --split validation --methods latent "
+            "validation", "python -m papers.tian2005.tracking --split validation --methods latent "
             "condensation --estimates own --likelihoods limbs+edges --seeds 5 --views 3 "
             "[--set iterations=3]", "2026-11-27",
             "Three cycles moved neither tracker beyond its interval (latent 21.0 against 20.8 %, "
@@ -235,12 +236,13 @@ DEFAULTS: tuple[Default, ...] = (
     Default("foreground threshold", f"{_EDGES}:DEFAULT_FOREGROUND_THRESHOLD", 20 / 255, NONE,
             group="Likelihood"),
     Default("keypoint weight η", f"{_EDGES}:CAUCHY_KEYPOINT_WEIGHT", 1.5, "validation",
-            "python -m benchmarks.keypoint_term --estimates refined --keypoint-weights 1.5 5 15",
+            "python -m papers.tian2005.keypoint_term --estimates refined "
+            "--keypoint-weights 1.5 5 15",
             "2026-11-27", "3/2 is the bivariate Cauchy density's exponent; kept against 5 and "
             "15 by the refined trackers' mean error (docs/real-video.md).", "Likelihood"),
     Default("keypoint scales τ_j", f"{_EDGES}:KEYPOINT_SCALES",
             (0.082, 0.037, 0.018, 0.051, 0.051, 0.027, 0.039, 0.028, 0.049, 0.029, 0.033, 0.047),
-            "validation", "python -m benchmarks.keypoint_term", "2026-11-27",
+            "validation", "python -m papers.tian2005.keypoint_term", "2026-11-27",
             "Fitted, not tuned: MediaPipe Pose's median error per marker over √3, on 3 Bandai "
             "clips × 2 views × 2 backgrounds, 60 frames each.", "Likelihood"),
     # ---- MHT ----------------------------------------------------------------------------------
