@@ -46,9 +46,12 @@ from jax.scipy.special import log_ndtr
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from jaxtrack.body import SPM_MARKERS
+from jaxtrack.likelihoods._base import PartTemplates
+from jaxtrack.vision.observations import detections_of
 
-__all__ = ["DEFAULT_JOINT_SCALES", "DetectionModel", "DetectionsFrame", "detection_model",
-           "detections_frames", "log_density", "swap_order"]
+__all__ = ["DEFAULT_JOINT_SCALES", "DetectionModel", "DetectionTemplates", "DetectionsFrame",
+           "check_detections_frames", "detection_model", "detections_frames", "em_residuals",
+           "log_density", "swap_order"]
 
 DEFAULT_JOINT_SCALES: dict[str, float] = {
     "head": 0.15, "neck": 0.25, "thorax": 0.3, "pelvis": 0.35,
@@ -217,26 +220,17 @@ def _log_normal_mass(lower, upper):
     return log_high + _log1mexp(log_ndtr(low) - log_high)
 
 
-def log_density(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: DetectionsFrame,
-                params: DetectionModel) -> Float[Array, ""]:
-    """log p(detections | pose) of one pose and one frame (module docstring), normalised over
-    the positions of the keypoints found.
+def _components(pose, frame: DetectionsFrame, params: DetectionModel):
+    """The pieces of :func:`log_density` of one pose and one frame.
 
-    Args:
-        pose_markers: ``(markers, 2)`` the hypothesised pose's markers in pixels, in the
-            detections' marker order.
-        detections_frame: one frame's :class:`DetectionsFrame` (no time axis).
-        params: the :class:`DetectionModel`.
-
-    Returns:
-        A scalar; 0 when the frame holds no one.
+    Returns ``(ratio, inlier, log_components, log_none, present, sigma, log_area)``:
+    ``ratio`` ``(2, people, markers)`` log[p(d_jk | μ_o(k), c_jk) / U] of each order o (the
+    identity, the left/right swap), 0 where not found; ``inlier`` the same with the Gaussian's
+    share alone, log[w N_I / U]; ``log_components`` ``(2, people)`` the log of each (person,
+    order) mixture component over the background (−inf past ``num_people``); ``log_none`` the
+    log of the none-is-ours component; ``present`` ``(people, markers)``; ``sigma``
+    ``(markers,)``; ``log_area`` log(W H).
     """
-    pose = jnp.asarray(pose_markers)
-    frame = detections_frame
-    if pose.shape != frame.points.shape[1:] or pose.shape[0] != params.joint_scales.shape[0]:
-        raise ValueError(f"pose_markers {pose.shape}, the detections' markers "
-                         f"{frame.points.shape[1:]} and the model's joint_scales "
-                         f"{params.joint_scales.shape} must agree on the markers")
     dtype = jnp.result_type(pose, frame.points, params.joint_scales)
     pose = pose.astype(dtype)
     neck, pelvis = params.spine
@@ -254,24 +248,212 @@ def log_density(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: D
     log_weight, log_rest = jnp.log(weight), jnp.log1p(-weight)
 
     def person_terms(order):
-        # Σ_k log[p(d_k | μ_order(k)) / U] of every person: the detections labelled k against
-        # the pose's marker order(k) (the identity, or the left/right swap)
+        # log[p(d_k | μ_order(k)) / U] of every keypoint of every person: the detections
+        # labelled k against the pose's marker order(k) (the identity, or the left/right swap)
         mean, scale = pose[order], sigma[order]
         z = (frame.points - mean) / scale[:, None]
         log_gauss = (-0.5 * jnp.sum(z ** 2, -1) - 2 * jnp.log(scale) - jnp.log(2 * jnp.pi)
                      - jnp.sum(_log_normal_mass((-0.5 - mean) / scale[:, None],
                                                 (size - 0.5 - mean) / scale[:, None]), -1))
-        ratio = jnp.logaddexp(log_weight + log_gauss + log_area, log_rest)
-        return jnp.sum(jnp.where(present, ratio, 0.0), -1)
+        inlier = log_weight + log_gauss + log_area
+        ratio = jnp.logaddexp(inlier, log_rest)
+        return jnp.where(present, ratio, 0.0), jnp.where(present, inlier, 0.0)
 
     orders = jnp.asarray([tuple(range(pose.shape[0])), params.swap])
-    straight, swapped = jax.vmap(person_terms)(orders)
+    ratio, inlier = jax.vmap(person_terms)(orders)
+    straight, swapped = jnp.sum(ratio, -1)
     swap = params.swap_probability
-    # ℓ_j = log[(1 − s) Π_k … + s Π_k …(swapped)] − log B(D_j)
-    ell = jnp.logaddexp(jnp.log1p(-swap) + straight, jnp.log(swap) + swapped)
     count = frame.num_people
     log_ours = (jnp.log1p(-params.absent_probability)
-                - jnp.log(jnp.maximum(count, 1)).astype(dtype) + ell)
+                - jnp.log(jnp.maximum(count, 1)).astype(dtype))
+    # ℓ_j = log[(1 − s) Π_k … + s Π_k …(swapped)] − log B(D_j), kept as its two components
+    log_components = jnp.stack([jnp.log1p(-swap) + straight, jnp.log(swap) + swapped])
+    log_components = jnp.where(valid, log_ours + log_components, -jnp.inf)
     log_none = jnp.where(count > 0, jnp.log(params.absent_probability), 0.0)
-    terms = jnp.concatenate([log_none[None], jnp.where(valid, log_ours, -jnp.inf)])
+    return ratio, inlier, log_components, log_none, present, sigma, log_area
+
+
+def _check_shapes(pose, frame: DetectionsFrame, params: DetectionModel) -> None:
+    if pose.shape != frame.points.shape[1:] or pose.shape[0] != params.joint_scales.shape[0]:
+        raise ValueError(f"pose_markers {pose.shape}, the detections' markers "
+                         f"{frame.points.shape[1:]} and the model's joint_scales "
+                         f"{params.joint_scales.shape} must agree on the markers")
+
+
+def log_density(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: DetectionsFrame,
+                params: DetectionModel) -> Float[Array, ""]:
+    """log p(detections | pose) of one pose and one frame (module docstring), normalised over
+    the positions of the keypoints found.
+
+    Args:
+        pose_markers: ``(markers, 2)`` the hypothesised pose's markers in pixels, in the
+            detections' marker order.
+        detections_frame: one frame's :class:`DetectionsFrame` (no time axis).
+        params: the :class:`DetectionModel`.
+
+    Returns:
+        A scalar; 0 when the frame holds no one.
+    """
+    pose = jnp.asarray(pose_markers)
+    _check_shapes(pose, detections_frame, params)
+    _, _, log_components, log_none, present, _, log_area = _components(
+        pose, detections_frame, params)
+    # a person's two orders summed first, then the people, as log p is written
+    terms = jnp.concatenate([log_none[None], jax.nn.logsumexp(log_components, 0)])
     return jax.nn.logsumexp(terms) - log_area * jnp.sum(present)
+
+
+def em_residuals(pose_markers: Float[ArrayLike, "markers 2"], detections_frame: DetectionsFrame,
+                 params: DetectionModel) -> Float[Array, " residuals"]:
+    """Residuals for Gauss–Newton on the detection density: its EM surrogate's quadratic part.
+
+    With the responsibilities γ_ojk = P(person j is ours, in order o, keypoint k from the
+    Gaussian | D, μ) held fixed at the pose given (Dempster, Laird & Rubin 1977, the E step) and
+    the spreads σ_k too, −log p is, up to a constant, ½ Σ_ojk γ_ojk |d_jk − μ_o(k)|² / σ_k², the
+    half squared norm of the residuals √γ_ojk (d_jk − μ_o(k)) / σ_o(k); at the pose given its
+    gradient in the markers is that of −log p (σ fixed), so a Gauss–Newton step on it is an
+    EM step towards the density's mode, not on a different cost.
+
+    Returns:
+        ``(2 × people × markers × 2,)``, 0 where a keypoint was not found.
+    """
+    pose = jnp.asarray(pose_markers)
+    frame = detections_frame
+    _check_shapes(pose, frame, params)
+    ratio, inlier, log_components, log_none, present, sigma, _ = jax.lax.stop_gradient(
+        _components(pose, frame, params))
+    total = jax.nn.logsumexp(jnp.concatenate([log_none[None], log_components.ravel()]))
+    share = jnp.exp(log_components - total)[..., None] * jnp.exp(inlier - ratio)
+    gamma = jnp.where(present, share, 0.0)
+    orders = jnp.asarray([tuple(range(pose.shape[0])), params.swap])
+    mean, scale = pose[orders], sigma[orders]                              # (2, markers, …)
+    residual = (frame.points[None] - mean[:, None]) / scale[:, None, :, None]
+    return (jnp.sqrt(gamma)[..., None] * residual).ravel()
+
+
+def check_detections_frames(frames: DetectionsFrame, num_markers: int, *,
+                            name: str = "detections") -> None:
+    """Raise a one-line ValueError unless ``frames`` is a sequence's :class:`DetectionsFrame`
+    (a leading ``time`` axis on every field) with ``num_markers`` markers and sound values:
+    finite points where a keypoint was found, confidences in ``[0, 1]``, people counts within
+    the people axis, a positive finite frame size."""
+    if not isinstance(frames, DetectionsFrame):
+        raise ValueError(f"{name} must be a DetectionsFrame (jaxtrack.likelihoods."
+                         f"detections_frames of a jaxtrack.vision.Detections), got "
+                         f"{type(frames).__name__}")
+    points, confidence = np.asarray(frames.points), np.asarray(frames.confidence)
+    people, size = np.asarray(frames.num_people), np.asarray(frames.image_size)
+    if points.ndim != 4 or points.shape[2:] != (num_markers, 2):
+        raise ValueError(f"{name}: points must be (time, people, {num_markers}, 2), got shape "
+                         f"{points.shape}")
+    time = points.shape[0]
+    for label, value, shape in (("confidence", confidence, points.shape[:3]),
+                                ("num_people", people, (time,)), ("image_size", size, (time, 2))):
+        if value.shape != shape:
+            raise ValueError(f"{name}: {label} must be {shape}, got shape {value.shape}")
+    if time < 1:
+        raise ValueError(f"{name} hold no frame")
+    if not np.all(np.isfinite(confidence)) or confidence.min() < 0 or confidence.max() > 1:
+        raise ValueError(f"{name}: confidence must be finite and lie in [0, 1]")
+    found = confidence > 0
+    bad = found & ~np.all(np.isfinite(points), -1)
+    if bad.any():
+        frame = int(np.argwhere(bad)[0][0])
+        raise ValueError(f"{name}: frame {frame} has a non-finite keypoint with confidence "
+                         f"> 0; give confidence 0 where a keypoint was not found")
+    if people.min() < 0 or people.max() > points.shape[1]:
+        raise ValueError(f"{name}: num_people must lie in [0, {points.shape[1]}]")
+    if not (np.all(np.isfinite(size)) and np.all(size > 0)):
+        raise ValueError(f"{name}: image_size must be a positive (width, height)")
+
+
+class DetectionTemplates(PartTemplates):
+    """An image likelihood's templates times the detection density, or the density alone.
+
+    ``log p(z, D | μ) = log p_image(z | μ) + log p(D | μ)`` (:func:`log_density`): the image
+    and the detector are taken as independent given the pose. The image's parts stay its
+    parts; the density is a term of the whole pose (:meth:`whole_pose_log_likelihood`), whose
+    Gauss–Newton residuals are its EM surrogate's (:func:`em_residuals`). The frame's
+    detections ride in the observation (``jaxtrack.vision.ImageObservation.detections``).
+
+    Attributes:
+        image: the image likelihood's templates, or None (the detections alone).
+        params: the :class:`DetectionModel`.
+    """
+
+    image: PartTemplates | None
+    params: DetectionModel
+
+    @property
+    def part_markers(self) -> tuple[tuple[int, ...], ...]:
+        return () if self.image is None else self.image.part_markers
+
+    @property
+    def direct_part_markers(self) -> tuple[tuple[int, ...], ...]:
+        return () if self.image is None else self.image.direct_part_markers
+
+    @property
+    def spine_markers(self) -> tuple[int, int] | None:
+        return None if self.image is None else self.image.spine_markers
+
+    @property
+    def has_whole_pose_terms(self) -> bool:
+        return True
+
+    def _frame(self, observation) -> DetectionsFrame:
+        frame = detections_of(observation)
+        if frame is None:
+            raise ValueError("the detection likelihood reads each frame's detections: give "
+                             "observations with detections (jaxtrack.trackers."
+                             "detection_observations)")
+        return frame
+
+    def _image_dtype(self, markers_2d):
+        return jnp.result_type(jnp.asarray(markers_2d), self.params.joint_scales)
+
+    def detection_log_density(self, markers_2d, observation) -> Float[Array, ""]:
+        """log p(D | μ) of one pose (:func:`log_density`)."""
+        return log_density(markers_2d, self._frame(observation), self.params)
+
+    def whole_pose_log_likelihood(self, markers_2d, observation) -> Float[Array, ""]:
+        value = self.detection_log_density(markers_2d, observation)
+        if self.image is not None and self.image.has_whole_pose_terms:
+            value = value + self.image.whole_pose_log_likelihood(markers_2d, observation)
+        return value
+
+    def whole_pose_residuals(self, markers_2d, observation, spine=None
+                             ) -> Float[Array, " residuals"]:
+        residuals = em_residuals(markers_2d, self._frame(observation), self.params)
+        if self.image is not None and self.image.has_whole_pose_terms:
+            image = self.image.whole_pose_residuals(markers_2d, observation, spine)
+            residuals = jnp.concatenate([image, residuals.astype(image.dtype)])
+        return residuals
+
+    def log_likelihood(self, markers_2d, observation, sharpness, nearest: bool = True
+                       ) -> Float[Array, ""]:
+        value = self.detection_log_density(markers_2d, observation)
+        if self.image is None:
+            return value
+        image = self.image.log_likelihood(markers_2d, observation, sharpness, nearest)
+        return image + value.astype(image.dtype)
+
+    def residuals(self, markers_2d, observation, sharpness, spine=None
+                  ) -> Float[Array, " residuals"]:
+        residuals = em_residuals(markers_2d, self._frame(observation), self.params)
+        if self.image is None:
+            return residuals
+        image = self.image.residuals(markers_2d, observation, sharpness, spine)
+        return jnp.concatenate([image, residuals.astype(image.dtype)])
+
+    def part_log_likelihoods(self, markers_2d, observation, sharpness, nearest: bool = True,
+                             parts: tuple[int, ...] | None = None) -> Float[Array, " parts"]:
+        if self.image is None:
+            return jnp.zeros((0,), self._image_dtype(markers_2d))
+        return self.image.part_log_likelihoods(markers_2d, observation, sharpness, nearest,
+                                               parts)
+
+    def part_residuals(self, markers_2d, observation, sharpness, spine=None
+                       ) -> Float[Array, "parts per_part"]:
+        if self.image is None:
+            return jnp.zeros((0, 0), self._image_dtype(markers_2d))
+        return self.image.part_residuals(markers_2d, observation, sharpness, spine)

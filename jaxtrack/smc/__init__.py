@@ -16,6 +16,12 @@ from jaxtrack.smc._filter import (
     step,
     weighted_mean,
 )
+from jaxtrack.smc._fitting import (
+    FitResult,
+    adam_update,
+    fit_log_evidence,
+    log_evidence_and_gradient,
+)
 from jaxtrack.smc._linear_gaussian import (
     KalmanResult,
     LinearGaussian,
@@ -40,9 +46,18 @@ from jaxtrack.smc._resampling import (
     stratified_ancestors,
     systematic_ancestors,
 )
-from jaxtrack.smc._smoothing import SmoothedPaths, discrete_marginals, ffbsi, trace_ancestry
+from jaxtrack.smc._smoothing import (
+    LaggedParticles,
+    SmoothedPaths,
+    discrete_marginals,
+    ffbsi,
+    fixed_lag_ancestry,
+    trace_ancestry,
+)
 
 __all__ = [
+    "FitResult", "LaggedParticles", "adam_update", "fit_log_evidence", "fixed_lag_ancestry",
+    "log_evidence_and_gradient",
     "FilterResult", "FilterState", "KalmanResult", "LinearGaussian", "Multinomial", "Resampler",
     "Residual", "SmoothedPaths", "SoftResampling", "StateSpaceModel", "StepInfo", "StopGradient",
     "Stratified", "Systematic", "auto_chunk_size", "best_particle", "discrete_marginals",

@@ -7,7 +7,12 @@ An image tracker's observation of one frame is an :class:`ImageObservation`:
   the limb-strip and NCC likelihoods) or ``(channels, height, width)`` (the grey frame, its edge
   distance map and the nearest edge's tangent direction, and the person's mask as a fourth
   channel where there is one: :func:`jaxtrack.vision.edge_observations`);
-- ``keypoints``: a per-frame detector's keypoints (:class:`Keypoints`), or None.
+- ``keypoints``: a per-frame detector's keypoints (:class:`Keypoints`), or None;
+- ``detections``: every person a per-frame detector found, with their keypoints and
+  confidences (a ``jaxtrack.likelihoods.detections.DetectionsFrame``: ``(people, markers, 2)``
+  points, ``(people, markers)`` confidences, the number of people and the frame's size), scored
+  by the normalised detection density; or None. ``images`` is None where the tracker reads the
+  detections alone.
 
 Give every leaf a leading ``time`` axis for a chunk of frames (:func:`image_observations` makes
 one from grey frames). Keypoints never ride inside an image channel: they are their own leaves,
@@ -23,8 +28,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Array, Float
 
-__all__ = ["ImageObservation", "Keypoints", "image_observations", "images_of", "keypoints_of",
-           "observation_at"]
+__all__ = ["ImageObservation", "Keypoints", "detections_of", "image_observations", "images_of",
+           "keypoints_of", "observation_at"]
 
 
 class Keypoints(eqx.Module):
@@ -42,10 +47,12 @@ class Keypoints(eqx.Module):
 
 
 class ImageObservation(eqx.Module):
-    """One frame's image channels and, optionally, a detector's keypoints (module docstring)."""
+    """One frame's image channels and, optionally, a detector's keypoints or every person it
+    detected (module docstring)."""
 
-    images: Float[Array, "*time ..."]
+    images: Float[Array, "*time ..."] | None
     keypoints: Keypoints | None = None
+    detections: object | None = None  # a DetectionsFrame (likelihoods layer, above this one)
 
 
 def images_of(observation) -> Array:
@@ -60,6 +67,13 @@ def keypoints_of(observation) -> Keypoints | None:
     """The keypoints an observation carries, or None."""
     if isinstance(observation, ImageObservation):
         return observation.keypoints
+    return None
+
+
+def detections_of(observation):
+    """The detections (a ``DetectionsFrame``) an observation carries, or None."""
+    if isinstance(observation, ImageObservation):
+        return observation.detections
     return None
 
 
