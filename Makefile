@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test docs lint bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env detector bench-peers-env install clean
+.PHONY: demo test docs lint models bench bench-gplvm bench-gplvm-exact bench-tracking bench-gpy-env detector bench-peers-env install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,11 @@ docs: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check jaxtrack tests benchmarks
+
+# retrain the models bundled in jaxtrack/data/files/models/ (latent, linear-combination,
+# postures) from the training-subject clips bundled with the package, with their descriptions
+models: $(STAMP)
+	JAXTRACK_NO_SHARED=1 $(BIN)/python -m jaxtrack.data.models --rebuild
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.particle_counts
