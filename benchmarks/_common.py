@@ -14,7 +14,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import jax
-import numpy as np
 
 
 def device_description() -> str:
@@ -123,31 +122,3 @@ def run_in_venv(python: Path, script: Path, inputs: dict, *, output: str, read, 
         result = read(out_path)
     result["summary"] = done.stdout.strip()
     return result
-
-
-def auto_initial_pose(prior, image: np.ndarray, background_rgb: np.ndarray,
-                      truth: np.ndarray, mask: np.ndarray | None = None
-                      ) -> tuple[np.ndarray | None, dict]:
-    """``jaxtrack track --init face`` on one RGB frame, its foreground taken against
-    ``background_rgb``, or the person's ``mask`` of the frame where given (``--masks``): the
-    initial markers (None when it finds no one) and a record (the winning box's source, its
-    overlap, the pose's error against the frame's ``truth`` markers in torso lengths, seconds;
-    or why it failed)."""
-    from jaxtrack.body import UPPER_BODY_12
-    from jaxtrack.evaluation import marker_errors, torso_lengths
-    from jaxtrack.trackers.autoinit import AutoInitError, auto_initialise
-    from jaxtrack.vision import FaceDetectorUnavailableError, foreground_mask
-
-    started = time.perf_counter()
-    foreground = (foreground_mask(image, background_rgb) if mask is None
-                  else np.asarray(mask, bool))
-    try:
-        found = auto_initialise(prior.model, prior.template, image, foreground)
-    except (AutoInitError, FaceDetectorUnavailableError) as error:
-        return None, {"failed": " ".join(str(error).split())}
-    markers = np.asarray(found.markers, np.float64)
-    error = marker_errors(markers[None], truth[None])[0]
-    torso = torso_lengths(truth[None], UPPER_BODY_12)[0]
-    return markers, {"source": found.source, "overlap": float(found.score),
-                     "error_torso": float(error / torso),
-                     "seconds": time.perf_counter() - started}

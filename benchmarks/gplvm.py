@@ -73,8 +73,8 @@ from benchmarks._common import (
     write_json,
 )
 from benchmarks._gpy import run_gpy_reference
-from benchmarks.tracking import GESTURE_CLIPS, PRIOR_CLIPS
 from jaxtrack.body import SPM_MARKERS, marker_edges
+from jaxtrack.data.clip_sets import GESTURE_CLIPS, PRIOR_CLIPS
 from jaxtrack.data.splits import check_disjoint
 from jaxtrack.priors.gplvm import (
     GPLVM,

@@ -30,10 +30,8 @@ Kalman value. A single-sequence sweep N = 10² … 10⁶ reports per-frame time 
     python -m benchmarks.particle_counts            # full run (about an hour on 2 cores)
     python -m benchmarks.particle_counts --quick    # batch 8, 100 frames, for a smoke test
 
-``--tracking`` runs the other sweep instead: tracking error and ms/frame of the three trackers
-(latent, CONDENSATION, MHT) on the demo's held-out wave vs N, see ``benchmarks/_tracking_sweep.py``:
-
-    python -m benchmarks.particle_counts --tracking [--quick] [--seeds K]
+The trackers' error and ms/frame against N (latent, CONDENSATION, MHT on the demo's held-out
+wave) is a study of the latent tracker's paper: ``python -m papers.tian2005.particle_sweep``.
 """
 
 from __future__ import annotations
@@ -349,14 +347,7 @@ def sweep_benchmark(model, observations, particle_counts, numpy_limit):
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if "--tracking" in argv:  # the tracking sweep has its own options
-        from benchmarks._tracking_sweep import main as tracking_main
-
-        return tracking_main([argument for argument in argv if argument != "--tracking"])
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--tracking", action="store_true",
-                        help="run the trackers' error and speed sweep instead (its options: "
-                             "--tracking --help)")
     parser.add_argument("--batch", type=int, default=128, help="sequences per batch (128)")
     parser.add_argument("--frames", type=int, default=1000, help="frames per sequence (1000)")
     parser.add_argument("--batch-particles", type=int, nargs="+", default=[100, 1_000, 10_000])

@@ -1,14 +1,14 @@
-"""``python -m benchmarks.keypoint_term``: the fit of the keypoint term's scales and the
+"""``python -m papers.tian2005.keypoint_term``: the fit of the keypoint term's scales and the
 refusals of the real-video benchmark's keypoint options (the benchmark itself runs MediaPipe in
 its own venv and tracks for minutes, so it is not a test)."""
 
 import numpy as np
 import pytest
 
-from benchmarks import keypoint_term, real_video
-from benchmarks._mediapipe import LANDMARKS, detected_keypoints, keypoint_confidence
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.likelihoods.edges import MIRRORED_MARKERS
+from jaxtrack.vision.mediapipe import LANDMARKS, detected_keypoints, keypoint_confidence
+from papers.tian2005 import keypoint_term, real_video
 
 
 def _truth(frames=40, seed=0):

@@ -1,13 +1,13 @@
 """How well each candidate prior reconstructs the poses of people it was never trained on.
 
-    python -m benchmarks.prior_generalisation                     # validation subjects
-    python -m benchmarks.prior_generalisation --split test        # report only, never choose
-    python -m benchmarks.prior_generalisation --priors waves gestures --mirror both
+    python -m papers.tian2005.prior_generalisation                     # validation subjects
+    python -m papers.tian2005.prior_generalisation --split test        # report only, never choose
+    python -m papers.tian2005.prior_generalisation --priors waves gestures --mirror both
 
 The latent tracker's own estimate is μ of a latent point, so no tracker can report a pose
 closer than μ(μ⁻¹(y)), the prior's reconstruction of the true pose y: a floor under the
 latent tracker's error that CONDENSATION, tracking in the full state, does not have. For every
-candidate prior of ``benchmarks.tracking`` (``--prior`` × ``--mirror``, trained with the same
+candidate prior of ``papers.tian2005.tracking`` (``--prior`` × ``--mirror``, trained with the same
 settings and cache), the held-out subjects' gesture clips of ``--split``
 (:data:`jaxtrack.data.splits.SUBJECTS`; every clip of the split's AnimatedDrawings and Bandai
 subjects) are seen from ``--views`` viewpoints and fitted with the prior's SPM template, and
@@ -23,9 +23,10 @@ says how smooth each prior's training trajectories are in its latent space
 (:func:`latent_smoothness`: free latents sit in islands joined by jumps; a back-constrained
 GPLVM's move smoothly); with ``--steps`` a third says how far each held-out clip's own μ⁻¹
 trajectory steps, in units of the latent walk's ν (:func:`walk_steps`), and how fast its
-markers move (:func:`marker_speed`). ``benchmarks/results/prior_latent_trajectories.png``
+markers move (:func:`marker_speed`). ``papers/tian2005/results/runs/prior_latent_trajectories.png``
 draws the training trajectories (each prior's first two latent dimensions, one line per
-training sequence). Writes the tables and ``benchmarks/results/prior_generalisation_<split>.json``.
+training sequence). Writes the tables and
+``papers/tian2005/results/runs/prior_generalisation_<split>.json``.
 """
 
 from __future__ import annotations
@@ -41,14 +42,16 @@ from tqdm import tqdm
 
 from benchmarks._common import device_description, print_table, run_header, write_json
 from benchmarks.gplvm import marker_errors, pca_reconstruction
-from benchmarks.tracking import PRIOR_CLIPS, candidate_prior, prior_tag
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
+from jaxtrack.data.clip_sets import PRIOR_CLIPS
 from jaxtrack.data.splits import check_disjoint, clips_in
 from jaxtrack.evaluation import torso_lengths
+from jaxtrack.experiments.priors import prior_tag
 from jaxtrack.priors.dynamics import fit_latent_velocity
 from jaxtrack.priors.gplvm import UPPER_BODY_PARTS, feature_columns, part_features
 from jaxtrack.priors.poses import clip_motions, pose_features, pose_set
+from papers.tian2005 import RUNS, candidate_prior
 
 HELD_OUT_COLLECTIONS = ("animateddrawings", "bandai")
 """Upper-body gesture sources whose held-out subjects are reconstructed."""
@@ -215,7 +218,7 @@ def with_lengths_of(features: np.ndarray, reference: np.ndarray) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.prior_generalisation",
+    parser = argparse.ArgumentParser(prog="python -m papers.tian2005.prior_generalisation",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--split", choices=("validation", "test"), default="validation")
     parser.add_argument("--priors", nargs="+", choices=tuple(PRIOR_CLIPS),
@@ -289,9 +292,9 @@ def main(argv=None) -> int:
                             ("p90_nu", "p90 / ν", ".2f"), ("p99_nu", "p99 / ν", ".2f"),
                             ("over_3nu", "steps > 3 ν", ".0%"),
                             ("marker_speed", "fastest marker / torso per frame", ".3f")])
-    path = args.json or f"benchmarks/results/prior_generalisation_{args.split}.json"
+    path = args.json or str(RUNS / f"prior_generalisation_{args.split}.json")
     write_json(path, {"benchmark": "prior_generalisation",
-                      **run_header("benchmarks.prior_generalisation", argv, started),
+                      **run_header("papers.tian2005.prior_generalisation", argv, started),
                       "split": args.split,
                       "clips": list(clips), "arguments": vars(args), "rows": rows,
                       "latent_smoothness": smoothness, "held_out_steps": steps})

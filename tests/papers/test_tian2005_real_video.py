@@ -1,14 +1,14 @@
-"""``python -m benchmarks.real_video``: its MediaPipe landmark map, the frames it tracks and its
-refusals (the benchmark itself is a script: its ``--quick`` run compiles two trackers and takes
-minutes on 2 cores, so it is not a test)."""
+"""``python -m papers.tian2005.real_video``: its MediaPipe landmark map, the frames it tracks
+and its refusals (the study itself is a script: its ``--quick`` run compiles two trackers
+and takes minutes on 2 cores, so it is not a test)."""
 
 import numpy as np
 import pytest
 
-from benchmarks import real_video
-from benchmarks._mediapipe import LANDMARKS, to_upper_body
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.data import shared_folder
+from jaxtrack.vision.mediapipe import LANDMARKS, to_upper_body
+from papers.tian2005 import real_video
 
 SHARED = shared_folder()
 FOLDER = None if SHARED is None else SHARED / "pose2sim_demo_singleperson"

@@ -7,8 +7,8 @@ log-likelihoods to ``--out`` (``.npz``); with ``--compare REF.npz`` (a save made
 version, on the same machine: XLA compiles for the CPU it runs on) it prints, per array,
 whether it is identical bit for bit or its largest difference, and exits 1 if any differ.
 
-    python -m benchmarks.tracker_markers --out before.npz        # on the old version
-    python -m benchmarks.tracker_markers --out after.npz --compare before.npz
+    python -m papers.tian2005.tracker_markers --out before.npz        # on the old version
+    python -m papers.tian2005.tracker_markers --out after.npz --compare before.npz
 """
 
 from __future__ import annotations
@@ -21,7 +21,9 @@ from pathlib import Path
 import jax.random as jr
 import numpy as np
 
-RESULTS = Path(__file__).parent / "results"
+from papers.tian2005 import RUNS as FOLDER
+
+RESULTS = FOLDER
 
 # (name, method, particles, build_tracker options)
 RUNS = (

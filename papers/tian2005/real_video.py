@@ -1,9 +1,9 @@
 """The trackers on the four real Pose2Sim videos, scored against the triangulated reference.
 
-    python -m benchmarks.real_video                  # 4 views × 3 methods × 2 estimates × 2 inits
-    python -m benchmarks.real_video --frames 40      # the first 40 video frames of each view
-    python -m benchmarks.real_video --quick          # one view, 10 frames, the latent tracker
-    python -m benchmarks.real_video --score out/track.json   # a jaxtrack track run, scored
+    python -m papers.tian2005.real_video  # 4 views × 3 methods × 2 estimates × 2 inits
+    python -m papers.tian2005.real_video --frames 40      # the first 40 video frames of each view
+    python -m papers.tian2005.real_video --quick          # one view, 10 frames, the latent tracker
+    python -m papers.tian2005.real_video --score out/track.json   # a jaxtrack track run, scored
 
 Each video (``shared/data/pose2sim_demo_singleperson/videos/cam0N.mp4``, 1080 × 1920 at 60 fps,
 a man balancing on a beam) is downscaled as ``jaxtrack track`` does (longer side at most
@@ -14,8 +14,8 @@ MHT's step are learned, so that no method's dynamics run at the wrong rate), by
 
 - the latent tracker (200 particles), CONDENSATION (1 000 particles, AR(2) dynamics) and MHT
   (10 modes), all from the same prior: the GPLVM and the training poses of the wave gestures of
-  the scripted comparison's training subjects (``benchmarks.tracking.TRAINING_CLIPS``, as in the
-  demo; ``jaxtrack.data.splits``), with the default likelihood (limb strips, edges and the
+  the scripted comparison's training subjects (``jaxtrack.data.clip_sets.TRAINING_CLIPS``,
+  as in the demo; ``jaxtrack.data.splits``), with the default likelihood (limb strips, edges and the
   arms' foreground against the video's median background);
 - each reporting its own estimate and with the shared refinement stage (``Refinement()``);
 - each initialised (a) from the reference's markers in the first tracked frame and (b)
@@ -26,17 +26,17 @@ MHT's step are learned, so that no method's dynamics run at the wrong rate), by
 
 With ``--keypoints mediapipe`` every method's likelihood also scores MediaPipe Pose's keypoints
 of each frame (the keypoint term, ``jaxtrack.likelihoods.edges``: the detector's error model,
-its scales fitted on validation subjects by ``benchmarks.keypoint_term``, at η =
+its scales fitted on validation subjects by ``papers.tian2005.keypoint_term``, at η =
 ``--keypoint-weight``, default 3/2, the Cauchy density's own).
 
 Also scored: "static", the initial pose held still (how far the subject moves), and MediaPipe
-Pose (``benchmarks/_mediapipe.py``, a per-frame detector in its own venv, when ``make
-bench-mediapipe-env`` has made it). Every frame after the first tracked one is scored by
+Pose (``jaxtrack/vision/mediapipe.py``, a per-frame detector in its own venv, when ``make
+detector`` has made it). Every frame after the first tracked one is scored by
 :func:`jaxtrack.evaluation.evaluate_track` against the reference
 (:mod:`jaxtrack.evaluation.reference`, about 10 px median accuracy at full size, ~1-3 % of the
 torso): mean error in % of the reference torso (neck–pelvis) and the fraction of frames within
 15 % of it. Compile time and ms/frame are reported apart. Writes
-``benchmarks/results/real_video.json`` (``--out``) and prints a markdown table.
+``papers/tian2005/results/runs/real_video.json`` (``--out``) and prints a markdown table.
 """
 
 from __future__ import annotations
@@ -50,25 +50,27 @@ from pathlib import Path
 import jax.random as jr
 import numpy as np
 
-from benchmarks._common import auto_initial_pose, device_description, run_header
-from benchmarks._mediapipe import (
-    add_mask_options,
-    check_mask_options,
-    likelihood_options,
-    masks_or_exit,
-)
+from benchmarks._common import device_description, run_header
 from jaxtrack._files import write_json_atomically
 from jaxtrack.body import UPPER_BODY_12
 from jaxtrack.data.splits import split_of
 from jaxtrack.evaluation import evaluate_track, torso_lengths
 from jaxtrack.evaluation.reference import default_folder, load_reference
 from jaxtrack.experiments import DEFAULT_PARTICLES
+from jaxtrack.experiments.priors import auto_initial_pose
+from jaxtrack.vision.mediapipe import (
+    add_mask_options,
+    check_mask_options,
+    likelihood_options,
+    masks_or_exit,
+)
+from papers.tian2005 import RUNS, candidate_prior
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 METHODS = ("latent", "condensation", "mht")
 ESTIMATES = ("own", "refined")
 INITS = ("reference", "auto", "detector")
-RESULTS = Path("benchmarks/results")
+RESULTS = RUNS
 QUICK = {"views": ("cam02",), "frames": 10, "methods": ("latent",), "estimates": ("refined",)}
 SCORED = ("num_frames", "mean_error_px", "median_error_px", "mean_error_torso",
           "fraction_within_15", "failed", "failure_frame", "ms_per_frame", "compile_seconds",
@@ -117,7 +119,7 @@ class View:
 
 def detections(view: View) -> dict:
     """MediaPipe Pose on the view's tracked frames (run once, kept on the view)."""
-    from benchmarks._mediapipe import run_mediapipe
+    from jaxtrack.vision.mediapipe import run_mediapipe
 
     if view.detections is None:
         view.detections = run_mediapipe(view.images)
@@ -275,7 +277,7 @@ def _share_compilations() -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.real_video",
+    parser = argparse.ArgumentParser(prog="python -m papers.tian2005.real_video",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--views", nargs="+", choices=VIEWS, default=list(VIEWS))
     parser.add_argument("--frames", type=int, default=None,
@@ -313,7 +315,7 @@ def main(argv=None) -> int:
     parser.add_argument("--data", type=Path, default=None,
                         help="the pose2sim_demo_singleperson folder (default: shared data)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="JSON output (default benchmarks/results/real_video.json; "
+                        help="JSON output (default papers/tian2005/results/runs/real_video.json; "
                              "--quick: real_video_quick.json)")
     args = parser.parse_args(argv)
     if args.frames is not None and args.frames < 2:
@@ -362,7 +364,7 @@ def main(argv=None) -> int:
     out = args.out or RESULTS / (("real_video_quick" if args.quick else "real_video") + suffix
                                  + ".json")
 
-    from benchmarks.tracking import QUICK_TRAINING, TRAINING_CLIPS, candidate_prior
+    from jaxtrack.data.clip_sets import QUICK_TRAINING, TRAINING_CLIPS
 
     assert all(split_of(clip) == "training" for clip in TRAINING_CLIPS)
     started = time.perf_counter()
@@ -378,7 +380,7 @@ def main(argv=None) -> int:
         if args.masks == "mediapipe":
             view.masks = masks_or_exit(view.images, camera)
         if args.keypoints == "mediapipe" or "detector" in args.inits:
-            from benchmarks._mediapipe import detected_keypoints
+            from jaxtrack.vision.mediapipe import detected_keypoints
 
             found = detections(view)
             if "skipped" in found:
@@ -408,7 +410,7 @@ def main(argv=None) -> int:
             else:
                 poses["auto"] = pose
         if "detector" in args.inits:
-            from benchmarks._mediapipe import detected_keypoints
+            from jaxtrack.vision.mediapipe import detected_keypoints
 
             first, confidence = (value[0] for value in detected_keypoints(detections(view)))
             if np.all(confidence > 0):
@@ -436,7 +438,7 @@ def main(argv=None) -> int:
                                      f"swapped in {run['frames_swapped']} frames"))
     text = table(runs, views)
     print(text)
-    header = run_header("benchmarks.real_video", argv, started)
+    header = run_header("papers.tian2005.real_video", argv, started)
     write_json_atomically(out, {
         **header,
         "data": str(folder), "views": list(views), "frames": frames, "stride": args.stride,

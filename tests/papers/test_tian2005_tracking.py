@@ -1,4 +1,4 @@
-"""The scripted comparison (``python -m benchmarks.tracking``): its statistics and a quick run."""
+"""The scripted comparison (``python -m papers.tian2005.tracking``): statistics and a quick run."""
 
 import argparse
 import json
@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks import tracking
+import papers.tian2005
 from jaxtrack.data.splits import check_disjoint, split_of
+from papers.tian2005 import tracking
 
 
 def test_t_interval_is_the_students_t_half_width():
@@ -40,6 +41,7 @@ def test_summarise_groups_runs_by_configuration():
 def test_quick_comparison_writes_every_output(tmp_path, monkeypatch):
     # automatically initialised, as a user without ground truth would run it
     monkeypatch.setattr(tracking, "RESULTS", tmp_path / "results")
+    monkeypatch.setattr(papers.tian2005, "RUNS", tmp_path / "results")  # the prior's cache
     out = tmp_path / "quick"
     assert tracking.main(["--quick", "--init", "auto", "--particles", "latent=50",
                           "--out", str(out)]) == 0
@@ -127,7 +129,7 @@ def test_a_setting_reaches_the_tracker_it_belongs_to(monkeypatch):
 
 
 def test_the_test_grid_tracks_the_real_videos_with_the_same_methods(tmp_path, monkeypatch):
-    from benchmarks import real_video
+    from papers.tian2005 import real_video
 
     called = []
 
@@ -161,8 +163,8 @@ def test_the_test_grid_tracks_the_real_videos_with_the_same_methods(tmp_path, mo
 
 
 def test_a_failed_real_video_run_is_not_reported_as_a_table(tmp_path, monkeypatch):
-    from benchmarks import real_video
+    from papers.tian2005 import real_video
 
     monkeypatch.setattr(real_video, "main", lambda argv: 2)
-    with pytest.raises(RuntimeError, match="benchmarks.real_video failed"):
+    with pytest.raises(RuntimeError, match="papers.tian2005.real_video failed"):
         tracking.real_video_table(tmp_path, ("latent",), ("own",))

@@ -1,12 +1,12 @@
-"""``python -m benchmarks.likelihood_at_truth``: its summary of where the truth outscores the
+"""``python -m papers.tian2005.likelihood_at_truth``: its summary of where the truth outscores the
 tracker's estimate, and its refusals (the benchmark itself tracks seven sequences and takes
 minutes, so it is not a test)."""
 
 import numpy as np
 import pytest
 
-from benchmarks import likelihood_at_truth as check
-from benchmarks._mediapipe import masks_or_exit
+from jaxtrack.vision.mediapipe import masks_or_exit
+from papers.tian2005 import likelihood_at_truth as check
 
 
 def _check(truth, estimate, static, estimate_error, static_error):

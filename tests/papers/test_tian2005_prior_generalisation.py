@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from benchmarks.prior_generalisation import (
+from jaxtrack.data.splits import split_of
+from papers.tian2005.prior_generalisation import (
     held_out_clips,
     latent_smoothness,
     marker_speed,
@@ -12,7 +13,6 @@ from benchmarks.prior_generalisation import (
     walk_steps,
     with_lengths_of,
 )
-from jaxtrack.data.splits import split_of
 
 
 def test_nearest_reconstruction_picks_the_closest_training_row():
@@ -48,7 +48,7 @@ def test_held_out_clips_are_the_splits_gesture_clips():
 
 
 def test_a_clip_outside_the_split_is_refused_in_one_line(capsys):
-    from benchmarks.prior_generalisation import main
+    from papers.tian2005.prior_generalisation import main
 
     with pytest.raises(SystemExit):
         main(["--split", "validation", "--clips", "animateddrawings/fair1_wave_hello"])
@@ -56,7 +56,7 @@ def test_a_clip_outside_the_split_is_refused_in_one_line(capsys):
 
 
 def test_the_diagnosis_variants_each_change_one_setting():
-    from benchmarks.latent_diagnosis import variants
+    from papers.tian2005.latent_diagnosis import variants
 
     rows = variants()
     assert rows[0] == ("default", {}, 1.0, 1.0)
@@ -105,7 +105,7 @@ def test_marker_speed_is_the_fastest_markers_move_over_the_torso():
 
 
 def test_the_trajectory_plot_has_one_panel_per_prior(tmp_path):
-    from benchmarks.prior_generalisation import plot_trajectories
+    from papers.tian2005.prior_generalisation import plot_trajectories
 
     rng = np.random.default_rng(0)
     priors = {f"prior {k}": (rng.normal(size=(30, 2 + k)), np.repeat([0, 1, 2], 10))

@@ -1,16 +1,16 @@
 """The keypoint term's scales fitted on the validation subjects, and the trackers with it there.
 
-    python -m benchmarks.keypoint_term              # 3 validation clips × 2 views × 2 backgrounds
-    python -m benchmarks.keypoint_term --quick      # one sequence, 12 frames (a smoke run)
+    python -m papers.tian2005.keypoint_term  # 3 validation clips × 2 views × 2 backgrounds
+    python -m papers.tian2005.keypoint_term --quick      # one sequence, 12 frames (a smoke run)
 
 The likelihood's keypoint term (``jaxtrack.likelihoods.edges``: ``Likelihood(keypoint_weight=
 η)``) scores a per-frame detector's keypoints as the detector's error model, a bivariate Cauchy
 about each keypoint with a scale τ_j per marker in fractions of the spine. This script
 
-1. renders the scripted comparison's validation gesture clips (``benchmarks.tracking``
+1. renders the scripted comparison's validation gesture clips (``papers.tian2005.tracking``
    ``GESTURE_CLIPS["validation"]``: Bandai's actors, validation subjects) from a frontal and a
    random view over a real photo and over clutter, ``--frames`` frames each at 30 fps;
-2. runs MediaPipe Pose on them (``benchmarks/_mediapipe.py``, its own venv) and **fits τ_j**:
+2. runs MediaPipe Pose on them (``jaxtrack/vision/mediapipe.py``, its own venv) and **fits τ_j**:
    for each marker the median distance from MediaPipe's keypoint to the true marker, in spines
    (neck–pelvis) of the true pose, under the better left/right assignment of each frame (the
    term's own), over √3, a bivariate Cauchy's median radius in its scale; it prints them beside
@@ -25,7 +25,7 @@ about each keypoint with a scale τ_j per marker in fractions of the spine. This
 
 No setting is chosen from step 3: it says what the term does where the image likelihood
 already holds the person (on rendered frames it does), so that a user knows what it costs
-there, and at which weight. Writes ``benchmarks/results/keypoint_term.json`` and prints
+there, and at which weight. Writes ``papers/tian2005/results/runs/keypoint_term.json`` and prints
 markdown tables.
 """
 
@@ -42,8 +42,9 @@ import numpy as np
 
 from benchmarks._common import device_description, run_header
 from jaxtrack._files import write_json_atomically
+from papers.tian2005 import RUNS, candidate_prior
 
-RESULTS = Path("benchmarks/results")
+RESULTS = RUNS
 METHODS = ("latent", "condensation", "mht")
 ESTIMATES = ("own", "refined")
 MEDIAN_RADIUS = np.sqrt(3.0)
@@ -115,7 +116,7 @@ def table(runs: list[dict]) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.keypoint_term",
+    parser = argparse.ArgumentParser(prog="python -m papers.tian2005.keypoint_term",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=60, help="frames per sequence (60)")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
@@ -129,7 +130,8 @@ def main(argv=None) -> int:
                         help="one clip, the frontal photo view, 12 frames, the latent tracker "
                              "with refinement, a small prior (a smoke run)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="JSON output (default benchmarks/results/keypoint_term.json; "
+                        help="JSON output (default "
+                        "papers/tian2005/results/runs/keypoint_term.json; "
                              "--quick: keypoint_term_quick.json)")
     args = parser.parse_args(argv)
     if args.frames < 2:
@@ -141,11 +143,11 @@ def main(argv=None) -> int:
         parser.error(f"--keypoint-weights must be positive numbers, got {weights}")
     started = time.perf_counter()
 
-    from benchmarks._mediapipe import detected_keypoints, run_mediapipe
-    from benchmarks.tracking import GESTURE_CLIPS, QUICK_TRAINING, TRAINING_CLIPS, candidate_prior
     from jaxtrack.body import SPM_MARKERS
+    from jaxtrack.data.clip_sets import GESTURE_CLIPS, QUICK_TRAINING, TRAINING_CLIPS
     from jaxtrack.experiments import render_test_sequences
     from jaxtrack.likelihoods.edges import KEYPOINT_SCALES
+    from jaxtrack.vision.mediapipe import detected_keypoints, run_mediapipe
 
     clips, views, backgrounds, frames = GESTURE_CLIPS["validation"], 2, ("photo", "clutter"), \
         args.frames
@@ -180,8 +182,8 @@ def main(argv=None) -> int:
         runs.append({"method": "mediapipe", "estimate": "own", "keypoints": "—",
                      "sequence": sequence.name, **score(filled, sequence.truth)})
     if not args.no_tracking:
-        from benchmarks.real_video import _share_compilations
         from jaxtrack.trackers import track
+        from papers.tian2005.real_video import _share_compilations
 
         _share_compilations()  # every sequence is 640 × 480: one compilation per configuration
 
@@ -206,7 +208,7 @@ def main(argv=None) -> int:
                       f"{100 * run['fraction_within_15']:3.0f} % within 15 %")
     text = table(runs)
     print(text)
-    header = run_header("benchmarks.keypoint_term", argv, started)
+    header = run_header("papers.tian2005.keypoint_term", argv, started)
     write_json_atomically(out, {
         **header, "clips": list(clips), "views": views, "backgrounds": list(backgrounds),
         "frames": frames, "markers": list(SPM_MARKERS), "keypoint_weights": weights,

@@ -1,10 +1,10 @@
 """The scripted comparison: latent tracker, CONDENSATION and MHT on subjects the prior never saw.
 
-    python -m benchmarks.tracking                     # test subjects, the full grid (~1 h, 2 cores)
-    python -m benchmarks.tracking --split validation  # the same grid on validation subjects
-    python -m benchmarks.tracking --quick             # one short sequence, two methods (CI)
-    python -m benchmarks.tracking --no-real-video     # the rendered grid only
-    python -m benchmarks.tracking --keypoints mediapipe --likelihoods limbs+edges
+    python -m papers.tian2005.tracking                 # test subjects, the full grid (~1 h)
+    python -m papers.tian2005.tracking --split validation  # the same grid, validation subjects
+    python -m papers.tian2005.tracking --quick         # one short sequence, two methods (CI)
+    python -m papers.tian2005.tracking --no-real-video # the rendered grid only
+    python -m papers.tian2005.tracking --keypoints mediapipe --likelihoods limbs+edges
 
 The grid is methods {latent (200 particles), CONDENSATION (1 000), MHT (10 modes)} × estimate
 {the filter's own, + the shared refinement stage} × likelihood {eq. 7 marker patches, the default
@@ -19,18 +19,19 @@ foreground against the sequence's median background, :func:`auto_initial_markers
 pose for every method, seed and estimate of a sequence; a sequence where it finds no one is
 reported and left out. With ``--keypoints mediapipe`` the default likelihood also scores
 MediaPipe Pose's keypoints of every frame (the keypoint term at η = 3/2,
-``jaxtrack.likelihoods.edges``; MediaPipe in its venv, ``benchmarks/_mediapipe.py``): rows
+``jaxtrack.likelihoods.edges``; MediaPipe in its venv, ``jaxtrack/vision/mediapipe.py``): rows
 ``limbs+edges+keypoints``.
 
 On the test split the same methods and estimates then track the four real Pose2Sim videos of a
-test subject (:mod:`benchmarks.real_video`: the default likelihood, initialised from the
+test subject (:mod:`papers.tian2005.real_video`: the default likelihood, initialised from the
 reference's first frame and automatically, MediaPipe beside them where its venv exists), scored
 against the keypoints triangulated from the four cameras; their table follows the rendered one
 in ``table.md`` and their runs are in ``real_video.json`` (``--no-real-video`` leaves them out,
 as ``--quick``, ``--split validation`` and a prior other than the default do: real video has no
-validation subject, and :mod:`benchmarks.real_video` tracks with the default prior).
+validation subject, and :mod:`papers.tian2005.real_video` tracks with the default prior).
 
-Writes to ``benchmarks/results/tracking/<split>/``: ``runs.jsonl`` (one JSON object per run),
+Writes to ``papers/tian2005/results/runs/tracking/<split>/``: ``runs.jsonl`` (one JSON object
+per run),
 ``summary.json`` (per configuration: mean error with a 95 % t-interval over the runs, fraction
 within 15 % of the torso, lost runs, median ms/frame and compile seconds apart), ``table.md``
 (the table the README quotes) and ``errors.png``. Settings are chosen on ``--split validation``;
@@ -52,11 +53,17 @@ import jax.random as jr
 import numpy as np
 from tqdm import tqdm
 
-from benchmarks._common import auto_initial_pose, device_description, run_header
+from benchmarks._common import device_description, run_header
 from jaxtrack._files import write_json_atomically
 from jaxtrack._plotting import new_figure, save_figure
 from jaxtrack.body import UPPER_BODY_12
-from jaxtrack.data.splits import UnknownSubjectError, check_disjoint, clips_in, split_of
+from jaxtrack.data.clip_sets import (
+    GESTURE_CLIPS,
+    PRIOR_CLIPS,
+    QUICK_TRAINING,
+    WIDE_VALIDATION_CLIPS,
+)
+from jaxtrack.data.splits import UnknownSubjectError, check_disjoint, split_of
 from jaxtrack.evaluation import evaluate_track
 from jaxtrack.experiments import (
     BASELINE_DYNAMICS,
@@ -64,48 +71,15 @@ from jaxtrack.experiments import (
     build_tracker,
     render_test_sequences,
 )
+from jaxtrack.experiments.priors import auto_initial_pose, prior_tag
 from jaxtrack.priors.dynamics import fit_latent_velocity
-from jaxtrack.priors.gplvm import UPPER_BODY_PARTS
-from jaxtrack.priors.train import train_prior
 from jaxtrack.trackers import Likelihood, Refinement, track
+from papers.tian2005 import RUNS, candidate_prior
 
-_HISTORY = "animateddrawings/history_c119d6b/"
-TRAINING_CLIPS = ("animateddrawings/fair1_wave_hello", _HISTORY + "8yr_old_wave_hello")
-"""The prior's training clips: the wave gestures of the training subjects (bundled, MIT)."""
-
-PRIOR_CLIPS = {
-    "waves": TRAINING_CLIPS,
-    "gestures": clips_in("training", "animateddrawings"),
-}
-"""Candidate training sets for the prior (``--prior``), all of training subjects: ``waves``
-(two subjects' waves) and ``gestures`` (every AnimatedDrawings clip of the training subjects:
-waves, dab, jumping, zombie, jumping jacks and walks with a clap, a point, raise-the-roof and a
-side punch; four subjects)."""
-
-GESTURE_CLIPS = {
-    "validation": ("bandai/dataset-2_wave-right-hand_normal_001",
-                   "bandai/dataset-2_wave-left-hand_normal_001",
-                   "bandai/dataset-2_raise-up-right-hand_normal_001"),
-    "test": (_HISTORY + "cmu_1006_wave_hello_1", _HISTORY + "cmu_1006_wave_hello_2"),
-}
-"""Upper-body gesture clips of each split's subjects (the Bandai validation clips are the three
-kept in ``tests/data``, so validation runs from a source checkout without ``../shared``)."""
-
-_BANDAI = "bandai/dataset-2_"
-WIDE_VALIDATION_CLIPS = GESTURE_CLIPS["validation"] + tuple(_BANDAI + name for name in (
-    "wave-right-hand_active_001", "wave-right-hand_elderly_001", "wave-right-hand_youthful_001",
-    "wave-both-hands_normal_001", "raise-up-both-hands_normal_001", "wave-left-hand_normal_002"))
-"""``--clips wide``: the three validation clips and six more of the validation subject's
-upper-body gestures from ``../shared/data`` (the right-hand wave in three more styles, both
-hands waving and raised, the left-hand wave's second take): one clip of every gesture and style
-the Bandai source holds beside the three. The three alone favour the latent tracker
-(docs/tracking.md, "Six more of the validation subject's clips")."""
-
-QUICK_TRAINING = {"views": 2, "fps": 10.0, "active_size": 60, "iterations": 1}
 METHODS = ("latent", "condensation", "mht")
 ESTIMATES = ("own", "refined")
 LIKELIHOODS = ("markers", "limbs+edges")
-RESULTS = Path("benchmarks/results/tracking")
+RESULTS = RUNS / "tracking"
 
 COLUMNS = (("method", "method", "s"), ("estimate", "estimate", "s"),
            ("likelihood", "likelihood", "s"), ("particles", "N", "d"), ("runs", "runs", "d"),
@@ -113,27 +87,6 @@ COLUMNS = (("method", "method", "s"), ("estimate", "estimate", "s"),
            ("error_px", "error px", ".1f"), ("within_15", "within 15 %", ".0%"),
            ("lost", "lost", "s"), ("ms_per_frame", "ms/frame", ".1f"),
            ("compile_seconds", "compile s", ".1f"))
-
-
-def prior_tag(name: str, mirror: bool, parts: bool,
-              back_constraint: float | None = None, latent_dim: int = 2) -> str:
-    """The name of a candidate prior (its results folder and cache): ``gestures_mirrored_parts``,
-    ``waves_bc0.5`` (back-constrained, width 0.5), ``waves_q3`` (3-D latent spaces)."""
-    return (name + ("_mirrored" if mirror else "") + ("_parts" if parts else "")
-            + ("" if back_constraint is None else f"_bc{back_constraint:g}")
-            + ("" if latent_dim == 2 else f"_q{latent_dim}"))
-
-
-def candidate_prior(name: str, mirror: bool = False, parts: bool = False,
-                    back_constraint: float | None = None, latent_dim: int = 2, **training):
-    """The candidate prior ``name`` of :data:`PRIOR_CLIPS` (``training``: ``train_prior``'s
-    settings), trained once and cached in ``RESULTS`` under its :func:`prior_tag`."""
-    suffix = "_quick" if training else ""
-    tag = prior_tag(name, mirror, parts, back_constraint, latent_dim)
-    return train_prior(PRIOR_CLIPS[name], progress=False, mirror=mirror,
-                       parts=UPPER_BODY_PARTS if parts else None,
-                       back_constraint=back_constraint, latent_dim=latent_dim, **training,
-                       cache=RESULTS / f"prior_training_{tag}{suffix}.npz")
 
 
 def t_interval(values) -> float:
@@ -160,7 +113,7 @@ def configurations(quick: bool, methods=METHODS, estimates=ESTIMATES,
 def auto_initial_markers(prior, sequence) -> tuple[np.ndarray | None, dict]:
     """``jaxtrack track --init face`` on the sequence's first frame, its foreground taken against
     the sequence's median background as ``jaxtrack track`` takes it
-    (:func:`benchmarks._common.auto_initial_pose`; its record names the sequence)."""
+    (:func:`jaxtrack.experiments.priors.auto_initial_pose`; its record names the sequence)."""
     from jaxtrack.vision import median_background
 
     markers, record = auto_initial_pose(prior, sequence.images[0],
@@ -287,31 +240,31 @@ def plot(rows: list[dict], path: Path, title: str) -> Path:
 
 def wants_real_video(args, tag: str, settings: dict) -> bool:
     """Whether this run also tracks the real videos: the full test grid with the default prior
-    and settings (real video has no validation subject; benchmarks.real_video tracks with the
+    and settings (real video has no validation subject; papers.tian2005.real_video tracks with the
     default prior and settings)."""
     return not (args.no_real_video or args.quick or args.split != "test" or tag != "waves"
                 or settings or args.baseline_dynamics != "training"
-                or args.keypoints != "none")  # benchmarks.real_video --keypoints runs those
+                or args.keypoints != "none")  # papers.tian2005.real_video --keypoints runs those
 
 
 def real_video_table(out: Path, methods: tuple[str, ...], estimates: tuple[str, ...]) -> str:
     """Track the four real Pose2Sim videos with ``methods`` × ``estimates``, one tracker seed
-    (:func:`benchmarks.real_video.main`, both initialisations; 6 minutes on 2 cores for the
+    (:func:`papers.tian2005.real_video.main`, both initialisations; 6 minutes on 2 cores for the
     whole grid on 2026-11-27), writing ``out/real_video.json``; its table, headed, for
     ``table.md``."""
-    from benchmarks import real_video
+    from papers.tian2005 import real_video
 
     path = out / "real_video.json"
     code = real_video.main(["--methods", *methods, "--estimates", *estimates,
                             "--out", str(path)])
     if code != 0:
-        raise RuntimeError(f"benchmarks.real_video failed (exit status {code})")
+        raise RuntimeError(f"papers.tian2005.real_video failed (exit status {code})")
     result = json.loads(path.read_text())
     frames = result["frames"] or "all the reference's"
     return (f"Real video (a test subject): the four Pose2Sim views, {frames} video frames each, "
             f"one in {result.get('stride', 1)} tracked, the default likelihood, one tracker "
             f"seed; error against the keypoints triangulated from the four cameras "
-            f"(benchmarks.real_video):\n\n" + result["table"])
+            f"(papers.tian2005.real_video):\n\n" + result["table"])
 
 
 def _setting(text: str) -> tuple[str, float]:
@@ -336,7 +289,7 @@ def _particles(text: str) -> tuple[str, int]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.tracking",
+    parser = argparse.ArgumentParser(prog="python -m papers.tian2005.tracking",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--split", choices=("validation", "test"), default="test",
                         help="whose subjects are tracked (settings are chosen on validation)")
@@ -386,7 +339,8 @@ def main(argv=None) -> int:
     parser.add_argument("--no-real-video", action="store_true",
                         help="do not track the real Pose2Sim videos after the rendered grid")
     parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default benchmarks/results/tracking/<split>)")
+                        help="output folder (default "
+                        "papers/tian2005/results/runs/tracking/<split>)")
     args = parser.parse_args(argv)
     for name in ("seeds", "views"):
         if getattr(args, name) < 1:
@@ -474,7 +428,7 @@ def main(argv=None) -> int:
             return 1
     detections, detector = {}, []
     if args.keypoints == "mediapipe":
-        from benchmarks._mediapipe import detected_keypoints, run_mediapipe
+        from jaxtrack.vision.mediapipe import detected_keypoints, run_mediapipe
 
         for sequence in sequences:
             found = run_mediapipe(sequence.images)
@@ -533,7 +487,7 @@ def main(argv=None) -> int:
     (out / "table.md").write_text(table + "\n\n" + note + "\n")
     plot(rows, out / "errors.png", f"{args.split} subjects: mean marker error")
     write_json_atomically(out / "summary.json", {
-        **run_header("benchmarks.tracking", argv, started),
+        **run_header("papers.tian2005.tracking", argv, started),
         "split": args.split, "clips": list(clips), "prior": args.prior, "mirror": args.mirror,
         "parts": args.parts, "back_constraint": args.back_constraint,
         "latent_dim": args.latent_dim,

@@ -1,9 +1,9 @@
 """Why the latent tracker's own estimate misses a new person: variants on one validation wave.
 
-    python -m benchmarks.latent_diagnosis            # Bandai's right-hand wave, frontal view
+    python -m papers.tian2005.latent_diagnosis            # Bandai's right-hand wave, frontal view
 
 The latent tracker (its own estimate, no refinement, the default likelihood) with a candidate
-prior of ``benchmarks.tracking`` (``--prior``, ``--mirror``, ``--parts``; default the per-part
+prior of ``papers.tian2005.tracking`` (``--prior``, ``--mirror``, ``--parts``; default the per-part
 prior of the ten training-subject gestures) and variants of its settings: 1 000 particles, a
 flatter likelihood (λ / 2, λ / 4), a larger latent step (2 ν, 3 ν: the random walk's ν scales
 with the square root of the frame rate it is rescaled from), and no jumps with the subject's own
@@ -21,12 +21,13 @@ import jax.random as jr
 import numpy as np
 
 from benchmarks._common import print_table
-from benchmarks.tracking import PRIOR_CLIPS, candidate_prior
 from jaxtrack.body import UPPER_BODY_12
+from jaxtrack.data.clip_sets import PRIOR_CLIPS
 from jaxtrack.evaluation import torso_lengths
 from jaxtrack.experiments import render_test_sequences
 from jaxtrack.likelihoods import default_sharpness
 from jaxtrack.trackers import Engine, Likelihood, latent_tracker, track
+from papers.tian2005 import candidate_prior
 
 CLIP = "bandai/dataset-2_wave-right-hand_normal_001"
 WRISTS = (UPPER_BODY_12.index("right_wrist"), UPPER_BODY_12.index("left_wrist"))
@@ -42,7 +43,7 @@ def variants() -> list[tuple[str, dict, float, float]]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.latent_diagnosis",
+    parser = argparse.ArgumentParser(prog="python -m papers.tian2005.latent_diagnosis",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--prior", choices=tuple(PRIOR_CLIPS), default="gestures")
     parser.add_argument("--mirror", action="store_true")

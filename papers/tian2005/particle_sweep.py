@@ -1,8 +1,8 @@
 """Tracking error and speed vs particle count for the three trackers (issue 5).
 
-``python -m benchmarks.particle_counts --tracking`` runs this sweep: the demo's GPLVM prior (the
+``python -m papers.tian2005.particle_sweep`` runs this sweep: the demo's GPLVM prior (the
 three wave gestures of ``jaxtrack.experiments.demo.TRAIN_CLIPS``, cached in
-``benchmarks/results/``), the demo's held-out take rendered frontally over the real photo
+``papers/tian2005/results/runs/``), the demo's held-out take rendered frontally over the real photo
 background, and each method of ``jaxtrack.experiments.METHODS`` at
 N ∈ {10, 20, 50, 100, 200, 500, 1 000, 5 000, 10 000} particles (modes for MHT), initialised from
 frame 0's ground truth and scored by ``evaluate_track`` against the exact 2-D markers.
@@ -28,8 +28,8 @@ Two choices differ from ``run_method``, and neither changes a tracked marker:
   on 2 loaded cores), so its N is capped (``--max-mht``, 50). Larger N are listed as skipped with
   the run time a linear extrapolation from the cap predicts, not left out.
 
-    python -m benchmarks.particle_counts --tracking            # full sweep (~15 min on 2 cores)
-    python -m benchmarks.particle_counts --tracking --quick    # 40 frames, N in {10, 100, 1 000}
+    python -m papers.tian2005.particle_sweep            # full sweep (~15 min on 2 cores)
+    python -m papers.tian2005.particle_sweep --quick    # 40 frames, N in {10, 100, 1 000}
 """
 
 from __future__ import annotations
@@ -55,10 +55,11 @@ from jaxtrack.experiments import METHODS, build_tracker, render_test_sequences
 from jaxtrack.experiments.demo import HELD_OUT_CLIP, TRAIN_CLIPS
 from jaxtrack.priors.train import train_prior
 from jaxtrack.trackers import Likelihood, track
+from papers.tian2005 import RUNS
 
 PARTICLE_COUNTS = (10, 20, 50, 100, 200, 500, 1_000, 5_000, 10_000)
 QUICK_PARTICLE_COUNTS = (10, 100, 1_000)
-RESULTS = Path("benchmarks/results")
+RESULTS = RUNS
 
 COLUMNS = [("method", "method", "s"), ("particles", "N", "d"),
            ("mean_error_px", "error px", ".1f"), ("mean_error_torso", "error/torso", ".1%"),
@@ -176,7 +177,7 @@ def plot_sweep(rows: list[dict], path: Path, title: str, copy_ms: float | None =
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.particle_counts --tracking",
+        prog="python -m papers.tian2005.particle_sweep",
         description=__doc__.split("\n\n")[0])
     parser.add_argument("--particles", type=int, nargs="+", default=list(PARTICLE_COUNTS))
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
@@ -275,3 +276,7 @@ def main(argv=None) -> int:
     })
     print(f"wrote {args.json} and {plot}")
     return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,8 +1,8 @@
 """Does the tracking likelihood prefer the true pose? Rendered validation clips against the real
 Pose2Sim videos.
 
-    python -m benchmarks.likelihood_at_truth                 # 3 validation clips + 4 real views
-    python -m benchmarks.likelihood_at_truth --frames 20 --views cam01
+    python -m papers.tian2005.likelihood_at_truth  # 3 validation clips + 4 real views
+    python -m papers.tian2005.likelihood_at_truth --frames 20 --views cam01
 
 A tracker can only follow a person if its likelihood scores the true pose above the poses it
 drifts to. This script measures that directly, with the latent tracker's default likelihood
@@ -26,16 +26,17 @@ follow the person with it.
 
 With ``--masks mediapipe`` the foreground term reads MediaPipe's person segmentation of each
 frame (a fourth observation channel, ``jaxtrack.vision.edge_observations(masks=...)``; its
-venv as ``benchmarks/_mediapipe.py`` says) instead of the median background, which on the real
+venv as ``jaxtrack/vision/mediapipe.py`` says) instead of the median background, which on the real
 videos holds the man; ``--foreground-weight`` sets its μ (default the likelihood's), and
 ``--coverage-weight`` turns on the coverage term, which charges the masks for what the body
 leaves unexplained, at weight ν.
 
-The rendered sequences are the scripted comparison's validation clips (``benchmarks.tracking``
-``GESTURE_CLIPS["validation"]``, frontal view, real-photo background, 30 fps); the real ones the
-four Pose2Sim views tracked as ``benchmarks.real_video`` does (every second frame). The prior is
+The rendered sequences are the scripted comparison's validation clips
+(``jaxtrack.data.clip_sets.GESTURE_CLIPS["validation"]``, frontal view, real-photo background,
+30 fps); the real ones the four Pose2Sim views tracked as ``papers.tian2005.real_video`` does
+(every second frame). The prior is
 the scripted comparison's default (the training subjects' waves). Writes
-``benchmarks/results/likelihood_at_truth.json`` and prints a markdown table.
+``papers/tian2005/results/runs/likelihood_at_truth.json`` and prints a markdown table.
 """
 
 from __future__ import annotations
@@ -47,15 +48,16 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._common import device_description, run_header
-from benchmarks._mediapipe import (
+from jaxtrack._files import write_json_atomically
+from jaxtrack.vision.mediapipe import (
     add_mask_options,
     check_mask_options,
     likelihood_options,
     masks_or_exit,
 )
-from jaxtrack._files import write_json_atomically
+from papers.tian2005 import RUNS, candidate_prior
 
-RESULTS = Path("benchmarks/results")
+RESULTS = RUNS
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 LOST = 0.15
 """An estimate (or the static pose) this far off, as a fraction of the torso, counts as off."""
@@ -174,7 +176,7 @@ def _check_sequence(prior, name: str, kind: str, frames: np.ndarray, truth: np.n
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.likelihood_at_truth",
+    parser = argparse.ArgumentParser(prog="python -m papers.tian2005.likelihood_at_truth",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=60,
                         help="rendered frames per validation clip (default 60)")
@@ -189,7 +191,7 @@ def main(argv=None) -> int:
                         help="limbs+edges without its foreground term (no median background)")
     add_mask_options(parser)
     parser.add_argument("--out", type=Path, default=None,
-                        help="JSON output (default benchmarks/results/likelihood_at_truth"
+                        help="JSON output (default papers/tian2005/results/runs/likelihood_at_truth"
                              "[-LIKELIHOOD][-no-background][-masks][-muMU].json)")
     args = parser.parse_args(argv)
     if args.frames < 2:
@@ -214,11 +216,11 @@ def main(argv=None) -> int:
                                  + suffix + ".json")
     use_background = args.likelihood == "limbs+edges" and not args.no_background
 
-    from benchmarks.real_video import View
-    from benchmarks.tracking import GESTURE_CLIPS, TRAINING_CLIPS, candidate_prior
+    from jaxtrack.data.clip_sets import GESTURE_CLIPS, TRAINING_CLIPS
     from jaxtrack.evaluation.reference import default_folder
     from jaxtrack.experiments import render_test_sequences
     from jaxtrack.vision import median_grey_background
+    from papers.tian2005.real_video import View
 
     started = time.perf_counter()
     prior = candidate_prior("waves")
@@ -251,7 +253,7 @@ def main(argv=None) -> int:
             records.append(record)
     text = table(rows)
     print(text)
-    header = run_header("benchmarks.likelihood_at_truth", argv, started)
+    header = run_header("papers.tian2005.likelihood_at_truth", argv, started)
     write_json_atomically(out, {
         **header, "likelihood": args.likelihood,
         "background": use_background, "masks": args.masks,
