@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxtrack.vision.mediapipe import keypoint_confidence, to_upper_body
 from jaxtrack.body import SPM_MARKERS
 from jaxtrack.data import shared_folder
 from jaxtrack.evaluation.reference import read_openpose as reference_read_openpose
@@ -23,6 +22,7 @@ from jaxtrack.vision import (
     write_detections,
 )
 from jaxtrack.vision.detections import LAYOUT_KEYPOINTS, mapping_table, openpose_layout
+from jaxtrack.vision.mediapipe import keypoint_confidence, to_upper_body
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "detections"
 OPENPOSE = DATA / "openpose_body25b" / "cam01_json"

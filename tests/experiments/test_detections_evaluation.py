@@ -1,0 +1,121 @@
+"""The detections' evaluation: its scores on estimates of known error, every baseline row on a
+constructed four-view setting (exact projections of a known motion, plus noise), the hook for
+more rows, and the command line."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from jaxtrack.body import UPPER_BODY_12, look_at
+from jaxtrack.body._staging import project_numpy
+from jaxtrack.experiments.detections_evaluation import (
+    Setting,
+    evaluate,
+    main,
+    score_2d,
+    score_3d,
+    table,
+)
+
+NECK, PELVIS = UPPER_BODY_12.index("neck"), UPPER_BODY_12.index("pelvis")
+
+
+def body_motion(frames: int = 40, fps: float = 60.0) -> np.ndarray:
+    """(frames, 12, 3) metres: a fixed 12-marker body (torso 0.5 m) swaying slowly."""
+    rng = np.random.default_rng(3)
+    body = rng.uniform([-0.25, -0.15, 0.9], [0.25, 0.15, 1.7], (12, 3))
+    body[NECK], body[PELVIS] = (0.0, 0.0, 1.5), (0.0, 0.0, 1.0)
+    t = np.arange(frames) / fps
+    sway = np.stack([0.1 * np.sin(2 * np.pi * 0.7 * t), 0.05 * np.cos(2 * np.pi * 0.5 * t),
+                     np.zeros_like(t)], -1)
+    return body[None] + sway[:, None]
+
+
+def constructed_setting(noise_px: float = 0.0) -> Setting:
+    cameras = [look_at(eye, (0.0, 0.0, 1.2), (0.0, 0.0, 1.0), 1000.0, (1080, 1920), name=f"v{i}")
+               for i, eye in enumerate([(3.0, 0.0, 1.4), (0.0, 3.0, 1.6), (-3.0, 0.3, 1.2),
+                                        (0.2, -3.0, 1.5)])]
+    world = body_motion()
+    truth = {camera.name: project_numpy(camera, world)[0] for camera in cameras}
+    rng = np.random.default_rng(0)
+    detections = {name: (points + rng.normal(0.0, noise_px, points.shape),
+                         np.full(points.shape[:2], 0.9)) for name, points in truth.items()}
+    views = tuple(truth)
+    return Setting(views, np.arange(1, 41), 60.0, truth, world, detections, cameras,
+                   {view: {} for view in views})
+
+
+def test_the_scores_of_estimates_of_known_error():
+    world = body_motion(frames=5)
+    truth = project_numpy(look_at((3.0, 0, 1.4), (0, 0, 1.2), (0, 0, 1.0), 1000.0, (1080, 1920)),
+                          world)[0]
+    torso = np.linalg.norm(truth[:, NECK] - truth[:, PELVIS], axis=-1)
+    shifted = truth + np.array([0.1, 0.0]) * torso[:, None, None]  # 10 % of the torso, along x
+    scored = score_2d(shifted, truth)
+    assert scored["error_torso"] == pytest.approx(0.1) and scored["within_15"] == 1.0
+    assert score_2d(truth + np.array([0.2, 0.0]) * torso[:, None, None], truth)["within_15"] == 0
+    shifted[2, 5] = np.nan  # a frame lacking a marker is not within and not averaged
+    scored = score_2d(shifted, truth)
+    assert scored["within_15"] == pytest.approx(0.8) and scored["frames_complete"] == 4
+    world_scored = score_3d(world + np.array([0.0, 0.0, 0.05]), world)  # 5 cm, torso 0.5 m
+    assert world_scored["error_mm"] == pytest.approx(50.0)
+    assert world_scored["error_torso"] == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="must have shape"):
+        score_2d(truth[:, :11], truth)
+
+
+def test_every_baseline_row_on_four_constructed_views():
+    exact = evaluate(constructed_setting(0.0))
+    for name in ("raw", "butterworth", "one-euro", "kalman-rts", "kalman-rts vis>=0.5"):
+        assert exact["rows_2d"][name]["all"]["within_15"] > 0.9, name
+    assert exact["rows_2d"]["raw"]["all"]["error_px"] == pytest.approx(0.0, abs=1e-9)
+    assert exact["rows_3d"]["dlt"]["error_mm"] == pytest.approx(0.0, abs=1e-6)
+    # noisy detections: the smoothers come nearer the truth than the raw detections
+    noisy = evaluate(constructed_setting(8.0))
+    raw = noisy["rows_2d"]["raw"]["all"]["error_px"]
+    assert raw == pytest.approx(8.0 * np.sqrt(np.pi / 2), rel=0.1)  # Rayleigh mean of σ = 8
+    for name in ("butterworth", "kalman-rts"):
+        assert noisy["rows_2d"][name]["all"]["error_px"] < 0.7 * raw, name
+    assert noisy["rows_3d"]["dlt+butterworth"]["error_mm"] < noisy["rows_3d"]["dlt"]["error_mm"]
+    text = table(noisy)
+    assert "| kalman-rts |" in text and "| dlt+butterworth |" in text
+
+
+def test_more_rows_are_scored_as_the_baselines_are():
+    setting = constructed_setting(2.0)
+    results = evaluate(setting, extra_2d={"truth": setting.truth_2d},
+                       extra_3d={"truth 3-D": setting.truth_3d})
+    assert results["rows_2d"]["truth"]["all"]["error_px"] == pytest.approx(0.0)
+    assert results["rows_3d"]["truth 3-D"]["within_15"] == 1.0
+    with pytest.raises(ValueError, match="lacks views"):
+        evaluate(setting, extra_2d={"half": {"v0": setting.truth_2d["v0"]}})
+
+
+def test_bad_arguments_are_refused_in_one_line(capsys):
+    with pytest.raises(SystemExit):
+        main(["--json", "out.txt"])
+    assert "give a .json file name" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--min-confidence", "2"])
+    assert "--min-confidence must lie in [0, 1]" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_pose2sim_videos_from_the_cached_detections(tmp_path):
+    from jaxtrack.evaluation.reference import default_folder
+
+    try:
+        default_folder()
+    except FileNotFoundError as error:
+        pytest.skip(str(error))
+    out = tmp_path / "results.json"
+    assert main(["--json", str(out)]) == 0
+    results = json.loads(out.read_text())
+    assert set(results["rows_2d"]) == {"raw", "butterworth", "one-euro", "kalman-rts",
+                                       "kalman-rts vis>=0.5"}
+    # MediaPipe is about as far from the reference as two detectors are from each other
+    assert 0.7 < results["rows_2d"]["raw"]["all"]["within_15"] <= 1.0
+    assert results["rows_3d"]["dlt"]["frames_complete"] == len(results["frames"])
