@@ -51,7 +51,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["DEFAULT_DETECTIONS", "MIN_CONFIDENCE", "VIEWS", "Setting", "baseline_estimates",
-           "detect_views", "evaluate", "load_setting", "main", "score_2d", "score_3d", "table"]
+           "detect_views", "evaluate", "left_right_swaps", "load_setting", "main", "score_2d",
+           "score_3d", "table"]
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 DEFAULT_DETECTIONS = (Path(__file__).resolve().parents[2] / "tests" / "data" / "detections"
@@ -267,6 +268,8 @@ def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
             raise ValueError(f"extra row {name!r} lacks views {missing}")
         rows_2d[name] = per_view
     rows_3d.update(extra_3d or {})
+    swaps = {view: left_right_swaps(rows_2d["raw"][view], setting.truth_2d[view])
+             for view in setting.views}
     scored_2d = {}
     for name, per_view in rows_2d.items():
         views = {view: score_2d(per_view[view], setting.truth_2d[view])
@@ -275,9 +278,27 @@ def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
     return {"rows_2d": scored_2d,
             "rows_3d": {name: score_3d(world, setting.truth_3d)
                         for name, world in rows_3d.items()},
-            "detector": setting.detector, "notes": notes,
+            "raw_left_right_swaps": swaps, "detector": setting.detector, "notes": notes,
             "frames": [int(i) for i in setting.frame_indices], "fps": setting.fps,
             "min_confidence": min_confidence}
+
+
+def left_right_swaps(estimate, truth) -> dict:
+    """How often a ``(frames, 12, 2)`` estimate is nearer ``truth`` with its left and right
+    markers exchanged: ``frames`` (their count) and ``error_torso_undone`` (its mean error in
+    torso lengths with those frames exchanged back)."""
+    from jaxtrack.body import UPPER_BODY_12
+
+    names = list(UPPER_BODY_12)
+    mirror = [names.index(name.replace("left", "@").replace("right", "left").replace("@", "right"))
+              for name in names]
+    estimate, truth = np.asarray(estimate, np.float64), np.asarray(truth, np.float64)
+    as_is = np.linalg.norm(estimate - truth, axis=-1).mean(-1)
+    exchanged = np.linalg.norm(estimate[:, mirror] - truth, axis=-1).mean(-1)
+    swapped = exchanged < as_is
+    undone = np.where(swapped[:, None, None], estimate[:, mirror], estimate)
+    return {"frames": int(swapped.sum()), "error_torso_undone": score_2d(undone, truth)[
+        "error_torso"]}
 
 
 def _mean_over_views(views: Mapping) -> dict:
@@ -349,7 +370,9 @@ def main(argv: list[str] | None = None) -> int:
     for view, record in setting.detector.items():
         print(f"{view}: MediaPipe {record['version']} {record['ms_per_frame']:.1f} ms/frame "
               f"(first {record['first_frame_seconds']:.2f} s), "
-              f"{record['frames_without_person']} frames without a person")
+              f"{record['frames_without_person']} frames without a person, left and right "
+              f"exchanged in {results['raw_left_right_swaps'][view]['frames']} (undone: "
+              f"{_cell(results['raw_left_right_swaps'][view]['error_torso_undone'])} % torso)")
     if args.json is not None:
         write_json_atomically(args.json, results)
         print(f"wrote {args.json}")

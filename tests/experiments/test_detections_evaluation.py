@@ -14,6 +14,7 @@ from jaxtrack.body._staging import project_numpy
 from jaxtrack.experiments.detections_evaluation import (
     Setting,
     evaluate,
+    left_right_swaps,
     main,
     score_2d,
     score_3d,
@@ -65,6 +66,14 @@ def test_the_scores_of_estimates_of_known_error():
     assert world_scored["error_torso"] == pytest.approx(0.1)
     with pytest.raises(ValueError, match="must have shape"):
         score_2d(truth[:, :11], truth)
+    # two frames with left and right exchanged are found, and undone
+    names = list(UPPER_BODY_12)
+    mirror = [names.index(n.replace("left", "@").replace("right", "left").replace("@", "right"))
+              for n in names]
+    swapped = truth.copy()
+    swapped[[1, 3]] = truth[[1, 3]][:, mirror]
+    found = left_right_swaps(swapped, truth)
+    assert found["frames"] == 2 and found["error_torso_undone"] == pytest.approx(0.0)
 
 
 def test_every_baseline_row_on_four_constructed_views():
