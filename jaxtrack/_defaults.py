@@ -355,6 +355,25 @@ DEFAULTS: tuple[Default, ...] = (
     Default("GPLVM active steps", "jaxtrack.priors.gplvm._fit:fit_gplvm(active_steps)", 150,
             "validation", _GPLVM, "2026-11-26", "Re-chosen with T (docs/gplvm.md).",
             "GPLVM prior"),
+    # ---- baselines on detections ----------------------------------------------------------------
+    Default("Butterworth order", "jaxtrack.vision.smoothing:BUTTERWORTH_ORDER", 4, "paper",
+            note="Pose2Sim's Config.toml, [filtering.butterworth] order = 4: 2 per pass, "
+            "forward and backward (its filtering.py).", group="Baselines on detections"),
+    Default("Butterworth cutoff (Hz)", "jaxtrack.vision.smoothing:BUTTERWORTH_CUTOFF", 6.0,
+            "paper", note="Pose2Sim's Config.toml, [filtering.butterworth] cut_off_frequency.",
+            group="Baselines on detections"),
+    Default("one-euro f_c,min (Hz)", "jaxtrack.vision.smoothing:ONE_EURO_MIN_CUTOFF", 1.0,
+            "paper", note="Casiez, Roussel & Vogel 2012's starting point.",
+            group="Baselines on detections"),
+    Default("one-euro β", "jaxtrack.vision.smoothing:ONE_EURO_BETA", 0.0, "paper",
+            note="Casiez, Roussel & Vogel 2012's starting point (then raised for the motion).",
+            group="Baselines on detections"),
+    Default("one-euro f_c,d (Hz)", "jaxtrack.vision.smoothing:ONE_EURO_DERIVATIVE_CUTOFF", 1.0,
+            "paper", note="Casiez, Roussel & Vogel 2012.", group="Baselines on detections"),
+    Default("Kalman row's visibility threshold",
+            "jaxtrack.experiments.detections_evaluation:MIN_CONFIDENCE", 0.5, NONE,
+            note="MediaPipe's own drawing threshold; the evaluation also reports the row "
+            "without it (docs/detections.md).", group="Baselines on detections"),
 )
 
 
