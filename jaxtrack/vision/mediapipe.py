@@ -34,7 +34,7 @@ import numpy as np
 __all__ = [
     "LANDMARKS", "REQUIREMENTS", "WORKER", "DetectorUnavailableError", "MediaPipeDetector",
     "detect_pose", "detected_keypoints", "keypoint_confidence", "mediapipe_python",
-    "run_mediapipe", "to_upper_body",
+    "region_around", "run_mediapipe", "to_upper_body",
 ]
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -143,6 +143,25 @@ def _regions(regions, num_frames: int) -> np.ndarray | None:
     if np.any(boxes[:, 2] <= boxes[:, 0]) or np.any(boxes[:, 3] <= boxes[:, 1]):
         raise ValueError("regions: every box needs x1 > x0 and y1 > y0")
     return np.ascontiguousarray(boxes)
+
+
+def region_around(markers, frame_size: tuple[int, int], *, margin: float = 0.5) -> np.ndarray:
+    """A detection region ``(x0, y0, x1, y1)`` around a pose's markers ``(markers, 2)`` pixels
+    (e.g. a tracker's prediction for the next frame), for :meth:`MediaPipeDetector.detect`:
+    their bounding box grown by ``margin`` times its longer side on every side (MediaPipe
+    wants the whole person, and the prediction is not exact), made square (its pose detector
+    works on square crops), clipped to the frame ``(width, height)``. Missing (NaN) markers are
+    left out; with none finite the whole frame."""
+    width, height = (float(v) for v in frame_size)
+    points = np.asarray(markers, np.float64).reshape(-1, 2)
+    points = points[np.isfinite(points).all(-1)]
+    if len(points) == 0:
+        return np.array([0.0, 0.0, width, height])
+    low, high = points.min(0), points.max(0)
+    centre, side = 0.5 * (low + high), float((high - low).max())
+    half = 0.5 * side + margin * side + 1.0
+    box = np.r_[centre - half, centre + half]
+    return np.clip(box, 0.0, [width, height, width, height])
 
 
 def _check_frames(frames) -> np.ndarray:

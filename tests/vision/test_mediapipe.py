@@ -18,6 +18,7 @@ from jaxtrack.vision.mediapipe import (
     detect_pose,
     detected_keypoints,
     mediapipe_python,
+    region_around,
     run_mediapipe,
 )
 
@@ -90,6 +91,15 @@ def test_a_failing_worker_is_one_line_naming_make_detector():
     with pytest.raises(DetectorUnavailableError, match="stopped.*make detector") as error:
         detector.detect(frames[0])
     assert "\n" not in str(error.value)
+
+
+def test_a_region_around_predicted_markers_is_a_grown_square_inside_the_frame():
+    markers = np.array([[100.0, 200.0], [140.0, 260.0], [np.nan, np.nan]])
+    box = region_around(markers, (1000, 1000), margin=0.5)
+    # the box 40 x 60 centred at (120, 230): side 60 grown by 30 each side, plus a pixel
+    np.testing.assert_allclose(box, [120 - 61, 230 - 61, 120 + 61, 230 + 61])
+    np.testing.assert_allclose(region_around(markers, (150, 1000)), [59, 169, 150, 291])
+    np.testing.assert_allclose(region_around(np.full((3, 2), np.nan), (64, 48)), [0, 0, 64, 48])
 
 
 def test_bad_regions_are_refused():
