@@ -65,6 +65,7 @@ class Recipe:
             (``--laid-down``, the posture model only).
         options: the rest of the ``jaxtrack train`` command line.
         summary: one line on what the model is.
+        also_reads: other bundled files the training reads (:data:`ALSO_READ`).
     """
 
     name: str
@@ -73,6 +74,7 @@ class Recipe:
     laid_down: tuple[str, ...] = ()
     options: tuple[str, ...] = ()
     summary: str = ""
+    also_reads: tuple[str, ...] = ()
 
     @property
     def file_name(self) -> str:
@@ -92,6 +94,11 @@ class Recipe:
 _AD = "animateddrawings/"
 _HISTORY = _AD + "history_c119d6b/"
 
+ALSO_READ = {"pose2sim/Calib.qca.txt": "BSD-3-Clause",
+             "pose2sim/background_cam01.jpg": "BSD-3-Clause"}
+"""Other bundled files a training reads, with their licences: the cameras the clips are
+rendered through (linear-combination) and the background photo they are rendered over."""
+
 RECIPES: dict[str, Recipe] = {
     "latent": Recipe(
         "latent", "latent", (_AD + "fair1_wave_hello", _HISTORY + "8yr_old_wave_hello"),
@@ -105,15 +112,19 @@ RECIPES: dict[str, Recipe] = {
         options=("--seed", "0"),
         summary="Ong & Gong's hybrid-vector model (global PCA, clusters, transitions) of "
                 "three training subjects' gestures through the four Pose2Sim cameras "
-                "(jaxtrack.experiments.linear_combination.TRAIN_CLIPS)"),
+                "(jaxtrack.experiments.linear_combination.TRAIN_CLIPS)",
+        also_reads=("pose2sim/Calib.qca.txt", "pose2sim/background_cam01.jpg")),
     "postures": Recipe(
         "postures", "mixed-state",
         ("cmu_posture_bvh/75_19", "cmu_posture_bvh/64_26", "cmu_amc/07_01"),
         laid_down=(_AD + "fair1_wave_hello", _HISTORY + "8yr_old_wave_hello"),
-        options=("--seed", "0"),
+        # rendered at half the experiment's 640 x 480: the projection histograms are of the
+        # silhouette's bounding box, and the 6 500 rendered frames take a quarter of the time
+        options=("--size", "320x240", "--seed", "0"),
         summary="Kwatra et al.'s posture model (a Gaussian per posture over silhouette "
                 "projection histograms, posture transitions): CMU 75 sits, 64 stoops, 07 "
-                "walks; lying from two waves laid down"),
+                "walks; lying from two waves laid down",
+        also_reads=("pose2sim/background_cam01.jpg",)),
 }
 """The bundled models by file stem, and the ``jaxtrack train`` commands that make them."""
 
@@ -136,10 +147,6 @@ research and commercial use."""
 SHIPPABLE_LICENCES = ("MIT", "CMU", "BSD-3-Clause")
 """Licences whose data, and models trained on it, may go into the wheel."""
 
-ALSO_USED = {"pose2sim/Calib.qca.txt": "BSD-3-Clause",
-             "pose2sim/background_cam01.jpg": "BSD-3-Clause"}
-"""Other bundled files the training reads: the cameras the clips are rendered through
-(linear-combination) and the background photo they are rendered over."""
 
 
 def source_licence(clip: str) -> str:
@@ -299,7 +306,8 @@ def rebuild(names: list[str] | None = None, folder: Path | None = None) -> list[
             "split": "training subjects only (jaxtrack.data.splits)",
             "licences": {clip: source_licence(clip) for clip in (*recipe.clips,
                                                                  *recipe.laid_down)},
-            "also_reads": ALSO_USED, "command": recipe.command(),
+            "also_reads": {file: ALSO_READ[file] for file in recipe.also_reads},
+            "command": recipe.command(),
             "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d"),
             "commit": _commit(), "training_seconds": round(seconds, 1),
             "sha256": _digest(target), "bytes": target.stat().st_size,
