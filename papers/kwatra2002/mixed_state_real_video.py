@@ -21,8 +21,8 @@ The silhouettes' sources:
 - ``background``: background subtraction against the whole video's median, as ``jaxtrack track
   --method mixed-state`` takes them by default. The man barely leaves his place, so the median
   holds him and his silhouette is fragments.
-- ``mediapipe``: MediaPipe's person segmentation (``benchmarks/_mediapipe.py``, in its own venv,
-  ``make bench-mediapipe-env``; skipped where that venv is missing), the masks a user without an
+- ``mediapipe``: MediaPipe's person segmentation (``jaxtrack/vision/mediapipe.py``, in its own venv,
+  ``make detector``; skipped where that venv is missing), the masks a user without an
   empty plate of the scene would bring with ``jaxtrack track --masks``. They are made at 640
   pixels on the longer side, cached in ``benchmarks/results/mediapipe_masks/`` and resized to
   the tracked frames.
@@ -273,7 +273,7 @@ def main(argv=None) -> int:
         for camera in CAMERAS:
             masks_file = None
             if source == "mediapipe":
-                from benchmarks._mediapipe import demo_masks
+                from jaxtrack.vision.mediapipe import demo_masks
 
                 masks_file = demo_masks(folder, camera)
                 if isinstance(masks_file, dict):

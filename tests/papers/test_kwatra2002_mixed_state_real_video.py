@@ -74,7 +74,7 @@ def test_the_man_on_the_beam_stands_then_bends_in_a_lunge_then_stands():
 
 
 def test_mediapipe_masks_are_skipped_with_a_reason_without_its_python(tmp_path, monkeypatch):
-    from benchmarks._mediapipe import person_masks
+    from jaxtrack.vision.mediapipe import person_masks
 
     monkeypatch.setenv("JAXTRACK_MEDIAPIPE_PYTHON", str(tmp_path / "no-python"))
     video = tmp_path / "v.mp4"
