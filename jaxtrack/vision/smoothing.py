@@ -11,8 +11,8 @@ as its own series:
   prototype, prewarped) and the forward-backward filtering (:func:`filtfilt`: odd-extension
   padding and steady-state initial conditions, as ``scipy.signal.filtfilt``) are here, in NumPy.
 - :func:`one_euro_filter`: Casiez, Roussel & Vogel, "1€ Filter" (CHI 2012): an exponential
-  smoother whose cutoff rises with the speed, ``f_c = f_c,min + β |ẋ|`` (their eq. for the
-  adaptive cutoff), with the paper's defaults ``f_c,min = 1 Hz``, ``β = 0``, ``f_c,d = 1 Hz``.
+  smoother whose cutoff rises with the speed, ``f_c = f_c,min + β |ẋ|`` (their filter as they
+  give it), with the paper's defaults ``f_c,min = 1 Hz``, ``β = 0``, ``f_c,d = 1 Hz``.
   Causal; a missing frame is skipped (its output NaN), the next one's period spans the gap.
 - :func:`kalman_smoother`: a constant-velocity Kalman filter and Rauch–Tung–Striebel smoother
   (JAX, ``lax.scan``, every series at once), frames that are NaN or of low confidence treated as
@@ -251,7 +251,7 @@ def _kalman_function(fps: float, smooth: bool):
     def run(y, seen, r, a):
         r2 = (r ** 2)[:, None]
         # white-noise acceleration of spectral density q = σ_a²: the discrete Q of a constant-
-        # velocity model (Bar-Shalom, Li & Kirubarajan 2001, eq. 6.2.2-12)
+        # velocity model (Bar-Shalom, Li & Kirubarajan 2001, §6.2.2)
         q = (a ** 2)[:, None]
         q00, q01, q11 = q * dt ** 3 / 3, q * dt ** 2 / 2, q * dt
         shape = (r.shape[0], y.shape[1])
