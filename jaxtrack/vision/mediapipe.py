@@ -308,10 +308,14 @@ class MediaPipeDetector:
         (with the transfer) (and ``mask``)."""
         import io
 
+        from jaxtrack.vision._mediapipe_worker import crop_box
+
         frame = _check_frames(np.asarray(frame)[None])[0]
-        request = {"frame": frame}
-        if region is not None:
-            request["region"] = _regions(region, 1)[0]
+        height, width = frame.shape[:2]
+        # only the region goes down the pipe (the worker's own crop, so the same pixels)
+        x0, y0, x1, y1 = crop_box(None if region is None else _regions(region, 1)[0],
+                                  height, width)
+        request = {"frame": np.ascontiguousarray(frame[y0:y1, x0:x1])}
         if self._process is None or self._process.poll() is not None:
             raise self._failure("is not running")
         started = time.perf_counter()
@@ -333,6 +337,11 @@ class MediaPipeDetector:
         if "error" in result:
             raise ValueError(f"MediaPipe worker refused the frame: {result['error']}")
         self.version = result.pop("version", self.version)
+        result["landmarks"] = result["landmarks"] + np.array([x0, y0], np.float64)
+        if "mask" in result:
+            mask = np.zeros((height, width), bool)
+            mask[y0:y1, x0:x1] = result["mask"]
+            result["mask"] = mask
         result["wall_seconds"] = time.perf_counter() - started
         return result
 
