@@ -4,6 +4,7 @@
     start(key, first_frame, initial_pose) -> state                 (frame 0, on the host)
     update(key, state, frame)             -> (state, FrameEstimate) (every later frame, pure)
     first_estimate(state)                 -> FrameEstimate          (frame 0's report)
+    smooth(estimates)                     -> FrameEstimate or None  (optional, offline)
 
 ``observe`` turns a :class:`VideoChunk` (the frames as a video gives them: grey, colour, the
 person's masks, a detector's keypoints, a static background) into the tracker's own
@@ -20,7 +21,10 @@ pixels from the chunk in place instead of copying each frame out (:func:`frame_a
 
 Every tracker also says how many particles (or modes) it runs (``num_particles``), which
 likelihood it scores frames with (``likelihood``: which observations a frame needs) and what
-produced it (``options()``: a JSON-able record written into every result file).
+produced it (``options()``: a JSON-able record written into every result file). A tracker with
+a whole-sequence smoother gives the smoothed estimate of every frame from what ``update``
+reported (``smooth``: the per-frame estimates ``track()`` collected, a leading ``time`` axis on
+every leaf); the others return None, and an offline pipeline reports the filter's estimate.
 See ``docs/trackers.md``.
 """
 
@@ -162,3 +166,9 @@ class Tracker(eqx.Module):
     @abc.abstractmethod
     def options(self) -> dict:
         """A JSON-able record of the method and every option that produced it."""
+
+    def smooth(self, estimates: FrameEstimate) -> FrameEstimate | None:
+        """Every frame's estimate given the whole sequence, from the per-frame estimates
+        :func:`jaxtrack.trackers.track` collected (``TrackResult.estimates``: a leading
+        ``time`` axis on every leaf); None where the tracker has no smoother (this default)."""
+        return None

@@ -24,7 +24,16 @@ feet, pixels). Per frame t, with the posture likelihoods p(h_t | q) of
    tests/mixed_state/test_smoothing.py).
 4. Parts, constant velocity plus white noise: v' = v + σ_v ε, x' = x + v' + σ_x ε'; a
    particle whose posture changed has its parts re-drawn about the new posture's hypotheses
-   instead (``MixedStateModel.redraw_on_switch``, chosen on validation clips).
+   instead (``MixedStateModel.redraw_on_switch``, chosen on validation clips). With
+   ``part_proposal="posterior"`` each part is drawn instead from that prediction times its
+   term of the part likelihood (eq. 7), exactly: the paper's exp(−min(δ, d)) is bounded by the
+   mixture exp(−d) + exp(−δ), whose product with the Gaussian prediction is a two-component
+   Gaussian mixture (the prediction conditioned on the hypothesis, and the prediction itself);
+   the correction log Z − log(exp(−d) + exp(−δ)) per part makes the weight that of the same
+   target. Drawn from the prediction alone, 300 particles in 20 dimensions (five parts'
+   positions and velocities) keep an effective sample size of a few particles, and the
+   estimate is noisier than the hypotheses it integrates
+   (``tests/papers/test_kwatra2002_stages.py``).
 5. Any predicted part outside the silhouette is moved to the nearest silhouette pixel: one
    gather from the frame's nearest-point map
    (:func:`jaxtrack.vision.parts.nearest_silhouette_points`); the velocity becomes the
@@ -53,6 +62,8 @@ paths × particles density evaluations per frame. See ``docs/mixed-state.md``.
 
 from __future__ import annotations
 
+import dataclasses
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -66,7 +77,8 @@ from jaxtrack.likelihoods.part_distances import PartDistances
 from jaxtrack.priors.postures import NUM_POSTURES, PostureModel
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, VideoChunk
 
-__all__ = ["MixedStateFrame", "MixedStateModel", "MixedStateResult", "MixedStateTracker",
+__all__ = ["MixedStateEstimate", "MixedStateFrame", "MixedStateHistory", "MixedStateModel",
+           "MixedStateResult", "MixedStateTracker",
            "SmoothedPostures", "filter_sequence", "instantaneous_estimates",
            "observations_from_silhouettes", "smooth", "smooth_backward", "smooth_fixed_lag"]
 
@@ -120,6 +132,10 @@ class MixedStateModel(smc.StateSpaceModel):
             charge a wrong posture: the filter can lock into a wrong posture. Default on,
             chosen on the validation clips (same run: 5 482 px² re-drawn against 5 926 kept at
             δ = 25; 5 701 against 5 958 at δ = 9; 5 740 against 5 942 at δ = 100).
+        part_proposal: how the parts are drawn (:data:`PART_PROPOSALS`): ``"dynamics"``, from
+            the prediction alone (the paper's), or ``"posterior"``, from the prediction times
+            the part likelihood (step 4 of the module docstring); the target, and so the
+            posterior the filter and smoother estimate, is the same.
     """
 
     postures: PostureModel
@@ -130,11 +146,13 @@ class MixedStateModel(smc.StateSpaceModel):
     initial_velocity_std: Float[Array, ""]
     redetect_probability: Float[Array, ""]
     redraw_on_switch: bool = eqx.field(static=True)
+    part_proposal: str = eqx.field(static=True)
 
     def __init__(self, postures: PostureModel, part_likelihood: PartDistances | None = None, *,
                  position_std: float = 3.0, velocity_std: float = 2.0,
                  initial_std: float = 20.0, initial_velocity_std: float = 2.0,
-                 redetect_probability: float = 0.0, redraw_on_switch: bool = True):
+                 redetect_probability: float = 0.0, redraw_on_switch: bool = True,
+                 part_proposal: str = "dynamics"):
         values = dict(position_std=position_std, velocity_std=velocity_std,
                       initial_std=initial_std, initial_velocity_std=initial_velocity_std)
         for name, value in values.items():
@@ -148,6 +166,10 @@ class MixedStateModel(smc.StateSpaceModel):
         if not isinstance(redraw_on_switch, (bool, np.bool_)):
             raise ValueError(f"redraw_on_switch must be True or False, got {redraw_on_switch!r}")
         self.redraw_on_switch = bool(redraw_on_switch)
+        if part_proposal not in PART_PROPOSALS:
+            raise ValueError(f"part_proposal must be one of {', '.join(PART_PROPOSALS)}, got "
+                             f"{part_proposal!r}")
+        self.part_proposal = part_proposal
         self.postures = postures
         self.part_likelihood = PartDistances() if part_likelihood is None else part_likelihood
         for name, value in values.items():
@@ -161,6 +183,7 @@ class MixedStateModel(smc.StateSpaceModel):
                 "initial_velocity_std": float(self.initial_velocity_std),
                 "redetect_probability": float(self.redetect_probability),
                 "redraw_on_switch": self.redraw_on_switch,
+                "part_proposal": self.part_proposal,
                 "part_cutoff": float(self.part_likelihood.cutoff),
                 "posture_cutoff": float(self.postures.cutoff)}
 
@@ -187,11 +210,17 @@ class MixedStateModel(smc.StateSpaceModel):
         posture = _draw_posture(jr.uniform(key_posture, (), dtype), logits - log_evidence)
         hypotheses = frame.hypotheses.astype(dtype)
         noise = smc.fast_normal(key_noise, (2, *hypotheses.shape[1:]), dtype)
-        parts = hypotheses[posture] + self.initial_std.astype(dtype) * noise[0]
+        correction = jnp.zeros((), dtype)
+        if self.part_proposal == "posterior":
+            parts, correction = self._posterior_parts(
+                jr.fold_in(key_noise, 1), hypotheses[posture],
+                jnp.square(self.initial_std.astype(dtype)), hypotheses[posture])
+        else:
+            parts = hypotheses[posture] + self.initial_std.astype(dtype) * noise[0]
         parts = jnp.where(ok, _project(parts, frame.nearest), parts)
         velocities = self.initial_velocity_std.astype(dtype) * noise[1]
         particle = {"posture": posture, "parts": parts, "velocities": velocities}
-        return particle, jnp.where(ok, log_evidence, 0.0)
+        return particle, jnp.where(ok, log_evidence + correction, 0.0)
 
     def propose(self, key: PRNGKeyArray, particle: dict, time: Int[Array, ""],
                 frame: MixedStateFrame) -> tuple[dict, Float[Array, ""]]:
@@ -202,20 +231,22 @@ class MixedStateModel(smc.StateSpaceModel):
         log_row = self.postures.log_transition[particle["posture"]] + (
             self.log_posture_likelihoods(frame))
         log_normaliser = jax.nn.logsumexp(log_row)
-        moved = self._move(key, particle, log_row - log_normaliser, frame)
-        return moved, jnp.where(ok, log_normaliser, 0.0).astype(particle["parts"].dtype)
+        moved, correction = self._move(key, particle, log_row - log_normaliser, frame)
+        return moved, jnp.where(ok, log_normaliser + correction, 0.0).astype(
+            particle["parts"].dtype)
 
     def propagate(self, key: PRNGKeyArray, particle: dict, time: Int[Array, ""]) -> dict:
         """The dynamics without a frame: the posture from T, the parts by constant velocity
         (what ``propose`` does on a frame whose status is not ok)."""
         return self._move(key, particle, self.postures.log_transition[particle["posture"]],
-                          None)
+                          None)[0]
 
     def _move(self, key, particle: dict, log_probabilities, frame: MixedStateFrame | None
-              ) -> dict:
+              ) -> tuple[dict, Float[Array, ""]]:
         """The posture drawn from ``log_probabilities`` (normalised), the parts predicted
         (step 4), re-drawn about the frame's hypotheses and projected (step 5) where the frame
-        has a silhouette."""
+        has a silhouette; and the parts' log-weight correction (zero unless
+        ``part_proposal`` is ``"posterior"``)."""
         parts, velocities = particle["parts"], particle["velocities"]
         dtype = parts.dtype
         key_uniforms, key_noise = jr.split(key)
@@ -226,19 +257,70 @@ class MixedStateModel(smc.StateSpaceModel):
         velocities = velocities + self.velocity_std.astype(dtype) * noise[0]
         predicted = parts + velocities + self.position_std.astype(dtype) * noise[1]
         if frame is None:
-            return {"posture": posture, "parts": predicted, "velocities": predicted - parts}
+            return ({"posture": posture, "parts": predicted, "velocities": predicted - parts},
+                    jnp.zeros((), dtype))
         ok = frame.status == FRAME_OK
         # a few particles' parts re-drawn about their posture's hypotheses (recovery)
         redraw = uniforms[1] < self.redetect_probability.astype(dtype)
         if self.redraw_on_switch:  # a new posture starts from its own hypotheses
             redraw = redraw | (posture != particle["posture"])
         redraw = redraw & ok
-        fresh = frame.hypotheses.astype(dtype)[posture] + self.initial_std.astype(
-            dtype) * noise[2]
-        predicted = jnp.where(redraw, fresh, predicted)
+        own = frame.hypotheses.astype(dtype)[posture]
+        correction = jnp.zeros((), dtype)
+        if self.part_proposal == "posterior":
+            # the same prediction as the paper's (mean and variance per coordinate), drawn
+            # with the part likelihood folded in
+            mean = jnp.where(redraw, own, parts + particle["velocities"])
+            variance = jnp.where(redraw, jnp.square(self.initial_std.astype(dtype)),
+                                 jnp.square(self.velocity_std.astype(dtype))
+                                 + jnp.square(self.position_std.astype(dtype)))
+            drawn, correction = self._posterior_parts(jr.fold_in(key_noise, 1), mean,
+                                                      variance, own)
+            predicted = jnp.where(ok, drawn, predicted)
+            correction = jnp.where(ok, correction, 0.0)
+        else:
+            fresh = own + self.initial_std.astype(dtype) * noise[2]
+            predicted = jnp.where(redraw, fresh, predicted)
         predicted = jnp.where(ok, _project(predicted, frame.nearest), predicted)
         velocities = jnp.where(redraw, 0.0, predicted - parts)
-        return {"posture": posture, "parts": predicted, "velocities": velocities}
+        return {"posture": posture, "parts": predicted, "velocities": velocities}, correction
+
+    def _posterior_parts(self, key, mean: Float[Array, "parts 2"], variance: Float[Array, ""],
+                         hypotheses: Float[Array, "parts 2"]
+                         ) -> tuple[Float[Array, "parts 2"], Float[Array, ""]]:
+        """Each part drawn from N(mean, variance I) × (exp(−d) + exp(−δ)), d = (z − x)ᵀ R⁻¹
+        (z − x) (eq. 7 without its cap), and the log-weight correction Σ_i log Z_i −
+        log(exp(−d_i) + exp(−δ)) that makes this proposal's weight that of the prediction
+        times exp(−min(δ, d_i)) (step 4 of the module docstring).
+
+        With A = R⁻¹: exp(−dᵀAd) = π |A|^−½ N(z; x, (2A)⁻¹), so the Gaussian component has
+        covariance (I / variance + 2A)⁻¹, mean that times (mean / variance + 2A z) and mass
+        π |A|^−½ N(z; mean, variance I + (2A)⁻¹); the other component is the prediction, of
+        mass exp(−δ)."""
+        dtype = mean.dtype
+        inverse = self.part_likelihood.inverse_covariances.astype(dtype)  # A, (parts, 2, 2)
+        cutoff = self.part_likelihood.cutoff.astype(dtype)
+        identity = jnp.eye(2, dtype=dtype)
+        covariance = _inverse_2x2(2.0 * inverse + identity / variance)
+        centre = jnp.einsum("pij,pj->pi", covariance, mean / variance
+                            + jnp.einsum("pij,pj->pi", 2.0 * inverse, hypotheses))
+        marginal = variance * identity + _inverse_2x2(2.0 * inverse)
+        residual = hypotheses - mean
+        log_gaussian_mass = (jnp.log(jnp.pi) - 0.5 * jnp.log(_det_2x2(inverse))
+                             - 0.5 * jnp.einsum("pi,pij,pj->p", residual,
+                                                _inverse_2x2(marginal), residual)
+                             - jnp.log(2 * jnp.pi) - 0.5 * jnp.log(_det_2x2(marginal)))
+        log_mass = jnp.logaddexp(log_gaussian_mass, -cutoff)  # log Z_i
+        key_choice, key_noise = jr.split(key)
+        take_gaussian = jnp.log(jr.uniform(key_choice, log_mass.shape, dtype)) < (
+            log_gaussian_mass - log_mass)
+        noise = smc.fast_normal(key_noise, mean.shape, dtype)
+        drawn = jnp.where(take_gaussian[:, None],
+                          centre + jnp.einsum("pij,pj->pi", _cholesky_2x2(covariance), noise),
+                          mean + jnp.sqrt(variance) * noise)
+        difference = hypotheses - drawn
+        distance = jnp.einsum("pi,pij,pj->p", difference, inverse, difference)
+        return drawn, jnp.sum(log_mass - jnp.logaddexp(-distance, -cutoff))
 
     def log_likelihood(self, particle: dict, frame: MixedStateFrame) -> Float[Array, ""]:
         """Step 6's parts term, log p(Z_t | x, q) (eq. 4–7); zero on a frame whose status is
@@ -286,6 +368,31 @@ def _project(parts: Float[Array, "parts 2"], nearest: Int[Array, "height width 2
     target = nearest[rows, columns].astype(parts.dtype)
     inside = jnp.all(target == jnp.stack([columns, rows], axis=-1).astype(parts.dtype), axis=-1)
     return jnp.where(inside[:, None], parts, target)
+
+
+PART_PROPOSALS = ("dynamics", "posterior")
+"""How :class:`MixedStateModel` draws the parts: from the prediction (the paper's), or from
+the prediction times the part likelihood."""
+
+
+def _det_2x2(matrices: Float[Array, "... 2 2"]) -> Float[Array, "..."]:
+    return matrices[..., 0, 0] * matrices[..., 1, 1] - matrices[..., 0, 1] * matrices[..., 1, 0]
+
+
+def _inverse_2x2(matrices: Float[Array, "... 2 2"]) -> Float[Array, "... 2 2"]:
+    """Closed-form inverse of 2 × 2 matrices (cheaper than a solver under vmap)."""
+    adjugate = jnp.stack([jnp.stack([matrices[..., 1, 1], -matrices[..., 0, 1]], -1),
+                          jnp.stack([-matrices[..., 1, 0], matrices[..., 0, 0]], -1)], -2)
+    return adjugate / _det_2x2(matrices)[..., None, None]
+
+
+def _cholesky_2x2(matrices: Float[Array, "... 2 2"]) -> Float[Array, "... 2 2"]:
+    """Lower Cholesky factor of symmetric positive-definite 2 × 2 matrices."""
+    first = jnp.sqrt(matrices[..., 0, 0])
+    below = matrices[..., 1, 0] / first
+    second = jnp.sqrt(matrices[..., 1, 1] - below ** 2)
+    zero = jnp.zeros_like(first)
+    return jnp.stack([jnp.stack([first, zero], -1), jnp.stack([below, second], -1)], -2)
 
 
 def _draw_posture(uniform: Float[Array, ""], log_probabilities: Float[Array, " postures"]
@@ -358,11 +465,28 @@ def smooth(result: MixedStateResult) -> SmoothedPostures:
     """Kwatra et al.'s sequence smoother (§3.3): trace every final particle's ancestry
     (:func:`jaxtrack.smc.trace_ancestry`); per frame the MAP posture of the traced paths under
     the final weights, and the weighted mean parts of the paths in that posture."""
-    paths = smc.trace_ancestry(_as_filter_result(result))
-    posture_paths, part_paths = paths.paths["posture"], paths.paths["parts"]
-    best, probabilities, parts = jax.vmap(_estimate, in_axes=(0, 0, None))(
-        posture_paths, part_paths, paths.log_weights)
-    return SmoothedPostures(best, probabilities, parts)
+    return _smooth_history(result.postures, result.parts, result.log_weights, result.ancestors)
+
+
+def _smooth_history(postures: Int[Array, "time particles"],
+                    parts: Float[Array, "time particles parts 2"],
+                    log_weights: Float[Array, "time particles"],
+                    ancestors: Int[Array, "time particles"]) -> SmoothedPostures:
+    """:func:`smooth` of a particle history (what the filter keeps, or what
+    :class:`MixedStateTracker` reports frame by frame with ``keep_history``)."""
+    num_frames = postures.shape[0]
+    flags = jnp.zeros(num_frames, bool)
+    history = smc.FilterResult(
+        log_evidence=jnp.zeros((), log_weights.dtype),
+        log_evidence_increments=jnp.zeros(num_frames, log_weights.dtype),
+        ess=jnp.zeros(num_frames, log_weights.dtype), resampled=~flags, degenerate=flags,
+        num_invalid=jnp.zeros(num_frames, jnp.int32), mean=None, best=None,
+        particles={"posture": postures, "parts": parts}, log_weights=log_weights,
+        ancestors=ancestors)
+    paths = smc.trace_ancestry(history)
+    best, probabilities, smoothed = jax.vmap(_estimate, in_axes=(0, 0, None))(
+        paths.paths["posture"], paths.paths["parts"], paths.log_weights)
+    return SmoothedPostures(best, probabilities, smoothed)
 
 
 class _Dynamics(eqx.Module):
@@ -485,13 +609,47 @@ def observations_from_silhouettes(masks: np.ndarray, *, num_bins: int = 16) -> M
                            jnp.asarray(status, jnp.int32))
 
 
+class MixedStateHistory(eqx.Module):
+    """One frame's particles as the smoother traces them (:func:`smooth`)."""
+
+    postures: Int[Array, " particles"]
+    parts: Float[Array, "particles parts 2"]
+    log_weights: Float[Array, " particles"]
+    ancestors: Int[Array, " particles"]  # each particle's parent in the previous frame
+
+
+class MixedStateEstimate(FrameEstimate):
+    """:class:`MixedStateTracker`'s report of a frame: the filtered parts as ``markers``, and
+
+    Attributes:
+        posture: the filtered posture (largest total weight) and ``posture_probability`` its
+            weight.
+        instant_posture, instant_parts: the extended Ghost's estimate from this frame alone
+            (:func:`instantaneous_estimates`).
+        silhouette: the frame's silhouette status (:data:`jaxtrack.vision.histograms.FRAME_OK`
+            where a silhouette was found).
+        history: with ``keep_history``, the frame's particles, for :meth:`MixedStateTracker.smooth`.
+    """
+
+    posture: Int[Array, ""]
+    posture_probability: Float[Array, ""]
+    instant_posture: Int[Array, ""]
+    instant_parts: Float[Array, "parts 2"]
+    silhouette: Int[Array, ""]
+    history: MixedStateHistory | None
+
+
 class MixedStateState(eqx.Module):
     """What :class:`MixedStateTracker` carries from frame to frame: the engine's filter state
-    (particles ``{"posture", "parts", "velocities"}``) and whether the last frame was
-    degenerate."""
+    (particles ``{"posture", "parts", "velocities"}``), whether the last frame was degenerate,
+    the particles' parents and the last frame's instantaneous estimate and silhouette status."""
 
     filter: smc.FilterState
     degenerate: Bool[Array, ""]
+    ancestors: Int[Array, " particles"]
+    instant_posture: Int[Array, ""]
+    instant_parts: Float[Array, "parts 2"]
+    silhouette: Int[Array, ""]
 
     @property
     def postures(self) -> Int[Array, " particles"]:
@@ -510,18 +668,30 @@ class MixedStateState(eqx.Module):
         return self.filter.log_weights
 
 
+def _instant(model: MixedStateModel, frame: MixedStateFrame):
+    """This frame's extended Ghost estimate: argmax_q p(h | q) and that posture's z^q."""
+    posture = jnp.argmax(model.postures.log_likelihoods(frame.features)).astype(jnp.int32)
+    return posture, frame.hypotheses[posture]
+
+
 class MixedStateTracker(Tracker):
     """The mixed-state filter under the tracker contract (frame by frame, causal): the engine's
     :func:`jaxtrack.smc.initialize` and :func:`jaxtrack.smc.step` on :class:`MixedStateModel`.
 
-    Its frames are :class:`MixedStateFrame` observations; it reports the five parts (head,
-    hand, hand, foot, foot) as its markers. It starts from the first frame's silhouette
-    (§3.2 step 1), so ``start``'s ``initial_pose`` is not used.
+    Its frames are :class:`MixedStateFrame` observations (from the person's masks; the largest
+    blob of each is the silhouette); it reports the five parts (head, hand, hand, foot, foot)
+    as its markers, with the posture and the instantaneous estimate
+    (:class:`MixedStateEstimate`). It starts from the first frame's silhouette (§3.2 step 1),
+    so ``start``'s ``initial_pose`` is not used. With ``keep_history`` every frame's report
+    carries its particles, and :meth:`smooth` gives the whole-sequence smoother's estimate
+    (§3.3, :func:`smooth`) from them; its memory grows with the video by
+    ``particles × (2 × parts + 3)`` numbers a frame.
     """
 
     model: MixedStateModel
     particles: int = eqx.field(static=True)
     num_bins: int = eqx.field(static=True, default=16)
+    keep_history: bool = eqx.field(static=True, default=False)
 
     @property
     def likelihood(self) -> PartDistances:
@@ -532,13 +702,17 @@ class MixedStateTracker(Tracker):
         return ("masks",)
 
     def observe(self, chunk: VideoChunk, out=None) -> MixedStateFrame:
-        """The chunk's :class:`MixedStateFrame` from the person's masks (silhouettes), with
-        ``num_bins`` projection-histogram bins (the posture model's)
+        """The chunk's :class:`MixedStateFrame` from the person's masks: each mask's largest
+        blob (the person; speckle dropped, as :func:`jaxtrack.vision.histograms.silhouettes`
+        keeps it), with ``num_bins`` projection-histogram bins (the posture model's)
         (:func:`observations_from_silhouettes`)."""
+        from jaxtrack.vision.foreground import largest_component
+
         if chunk.masks is None:
             raise ValueError("the mixed-state tracker reads the person's silhouettes: give "
                              "masks=... (time, height, width) bool")
-        observations = observations_from_silhouettes(chunk.masks, num_bins=self.num_bins)
+        masks = np.stack([largest_component(mask) for mask in np.asarray(chunk.masks, bool)])
+        observations = observations_from_silhouettes(masks, num_bins=self.num_bins)
         return jax.tree.map(np.asarray, observations)
 
     def __check_init__(self):
@@ -550,26 +724,57 @@ class MixedStateTracker(Tracker):
         return self.particles
 
     def options(self) -> dict:
-        return {"method": "mixed-state", "particles": self.particles, **self.model.options()}
+        return {"method": "mixed-state", "particles": self.particles, "num_bins": self.num_bins,
+                **self.model.options()}
 
     def start(self, key, first_frame: MixedStateFrame, initial_pose=None) -> MixedStateState:
         first_frame = jax.tree.map(jnp.asarray, first_frame)  # NumPy from track()
         state, info = smc.initialize(key, self.model, first_frame, self.particles)
-        return MixedStateState(state, info.degenerate)
+        posture, parts = _instant(self.model, first_frame)
+        return MixedStateState(state, info.degenerate, jnp.arange(self.particles, dtype=jnp.int32),
+                               posture, parts, first_frame.status.astype(jnp.int32))
 
-    def _report(self, state: MixedStateState, increment) -> FrameEstimate:
-        _, _, parts = _estimate(state.postures, state.parts, state.log_weights)
+    def _report(self, state: MixedStateState, increment) -> MixedStateEstimate:
+        posture, probabilities, parts = _estimate(state.postures, state.parts,
+                                                  state.log_weights)
         best = state.parts[jnp.argmax(state.log_weights)]
         ess = jnp.where(state.degenerate, 0.0, _ess(state.log_weights))
-        return FrameEstimate(parts, best, ess, increment, state.degenerate)
+        history = None
+        if self.keep_history:
+            history = MixedStateHistory(state.postures, state.parts, state.log_weights,
+                                        state.ancestors)
+        return MixedStateEstimate(parts, best, ess, increment, state.degenerate,
+                                  posture.astype(jnp.int32), probabilities[posture],
+                                  state.instant_posture, state.instant_parts, state.silhouette,
+                                  history)
 
-    def first_estimate(self, state: MixedStateState) -> FrameEstimate:
+    def first_estimate(self, state: MixedStateState) -> MixedStateEstimate:
         return self._report(state, state.filter.log_evidence)
 
     def update(self, key, state: MixedStateState, frame: MixedStateFrame | FrameInChunk
-               ) -> tuple[MixedStateState, FrameEstimate]:
+               ) -> tuple[MixedStateState, MixedStateEstimate]:
         if isinstance(frame, FrameInChunk):  # a pytree frame: index every leaf in place
             frame = jax.tree.map(lambda leaf: leaf[frame.index], frame.frames)
         filtered, info = smc.step(key, state.filter, frame, self.model)
-        state = MixedStateState(filtered, info.degenerate)
+        posture, parts = _instant(self.model, frame)
+        state = MixedStateState(filtered, info.degenerate, info.ancestors.astype(jnp.int32),
+                                posture, parts,
+                                frame.status.astype(jnp.int32))
         return state, self._report(state, info.log_evidence_increment)
+
+    def smooth(self, estimates: MixedStateEstimate) -> MixedStateEstimate:
+        """The whole-sequence smoother's estimate (§3.3, :func:`smooth`) of every frame from
+        the reports of a tracker with ``keep_history`` (``TrackResult.estimates``): ``markers``
+        the smoothed parts, ``posture``/``posture_probability`` the smoothed posture; the
+        other fields as filtered. The history is dropped from the result."""
+        history = estimates.history
+        if history is None:
+            raise ValueError("smoothing needs every frame's particles: make the tracker with "
+                             "keep_history=True")
+        smoothed = _smooth_history(*(jnp.asarray(leaf) for leaf in (
+            history.postures, history.parts, history.log_weights, history.ancestors)))
+        chosen = jnp.take_along_axis(smoothed.posture_probabilities,
+                                     smoothed.posture[:, None], axis=1)[:, 0]
+        return jax.tree.map(np.asarray, dataclasses.replace(
+            estimates, markers=smoothed.parts, posture=smoothed.posture.astype(jnp.int32),
+            posture_probability=chosen, history=None))
