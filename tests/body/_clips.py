@@ -43,3 +43,20 @@ def knees_bend_backwards(motion: Motion, min_bend_degrees: float = 30.0) -> tupl
         bent += int(is_bent.sum())
         agreeing += int((is_bent & points_left).sum())
     return bent, agreeing
+
+
+def shared_clip_params(shared: dict) -> list:
+    """``pytest.param`` per shared clip, ``id="shared:<name>"``. HDM05's 127 takes share five
+    skeletons and one exporter: one take per actor runs in the default suite, the rest are
+    marked ``slow`` (``pytest -m slow``) so that every take is still checked."""
+    import pytest
+
+    params, actors = [], set()
+    for name, file in shared.items():
+        marks = ()
+        if name.startswith("hdm05_cut/"):
+            actor = name.rsplit("/", 1)[-1].split("_")[1]
+            marks = (pytest.mark.slow,) if actor in actors else ()
+            actors.add(actor)
+        params.append(pytest.param(file, id=f"shared:{name}", marks=marks))
+    return params

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _clips import upright_frame
+from _clips import shared_clip_params, upright_frame
 
 from jaxtrack.body.markers import (
     HUMANEVA_15,
@@ -26,7 +26,7 @@ LOCAL = {**clip_files(bundled_folder()), **clip_files(TESTS_DATA)}
 SHARED_FOLDER = shared_folder()
 SHARED = clip_files(SHARED_FOLDER) if SHARED_FOLDER is not None else {}
 CLIPS = [pytest.param(file, id=f"local:{name}") for name, file in LOCAL.items()] + (
-    [pytest.param(file, id=f"shared:{name}") for name, file in SHARED.items()] if SHARED
+    shared_clip_params(SHARED) if SHARED
     else [pytest.param(None, id="shared:absent")])
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _clips import knees_bend_backwards, upright_frame
+from _clips import knees_bend_backwards, shared_clip_params, upright_frame
 from scipy.spatial.transform import Rotation
 
 from jaxtrack.body._asf import parse_amc, parse_asf
@@ -27,7 +27,7 @@ def _clip_params():
     params = [pytest.param(file, id=f"bundled:{name}") for name, file in BUNDLED.items()]
     params += [pytest.param(file, id=f"tests:{name}") for name, file in TEST_ONLY.items()]
     if SHARED:
-        params += [pytest.param(file, id=f"shared:{name}") for name, file in SHARED.items()]
+        params += shared_clip_params(SHARED)
     else:
         params.append(pytest.param(None, id="shared:absent"))
     return params
