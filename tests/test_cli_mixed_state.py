@@ -118,7 +118,8 @@ def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp
     record = json.loads((out / "track.json").read_text())
     assert record["size"] == [160, 120] and record["tracked_size"] == [80, 60]
     assert record["particles"] == 64 and record["num_bins"] == 16
-    assert record["seconds"]["compile"] > 0 and record["seconds"]["filter_and_smooth"] > 0
+    assert record["timings"]["compile_seconds"] > 0 and record["timings"]["smooth_seconds"] > 0
+    assert record["estimate"].startswith("smoothed")
     assert len(record["frames"]) == 30
     low, high = markers.min(axis=1) - 12, markers.max(axis=1) + 12  # the walker, in video px
     for t, frame in enumerate(record["frames"]):

@@ -11,8 +11,10 @@ memory:
    foreground against the video's median background), a detector's keypoints (given, scaled
    into tracking pixels) and the static scene's background; the chunks stream into
    :func:`jaxtrack.trackers.track`, so no more than a chunk of frames is ever held;
-3. each frame gets a :class:`jaxtrack.trackers.status.FrameStatus` (ok, degenerate, no person,
-   lost) by :func:`jaxtrack.trackers.status.frame_statuses`;
+3. with ``smooth``, a tracker that has a whole-sequence smoother (``Tracker.smooth``) reports
+   the smoothed estimate of every frame, and the filter's beside it; each frame gets a
+   :class:`jaxtrack.trackers.status.FrameStatus` (ok, degenerate, no person, lost) by
+   :func:`jaxtrack.trackers.status.frame_statuses`;
 4. a second decoding pass draws the markers, scaled back to the video's own pixels, on the
    video's own frames, a chunk at a time, into a temporary file renamed onto ``overlay.mp4``
    when complete (:func:`jaxtrack.vision.overlay.write_overlay_video_from_file`);
@@ -33,14 +35,14 @@ import math
 import os
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import jax
 import numpy as np
 from jaxtyping import ArrayLike, Float, PRNGKeyArray
 
-from jaxtrack.trackers import Tracker, VideoChunk, track
+from jaxtrack.trackers import FrameEstimate, Tracker, TrackResult, VideoChunk, track
 from jaxtrack.trackers.status import (
     LOST_RULE,
     frame_statuses,
@@ -258,7 +260,9 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
                 background: np.ndarray | None = None,
                 marker_names: Sequence[str] | None = None, seed: int | None = None,
                 detector_seconds: float | None = None, progress: bool = True,
-                extra_record: dict | None = None) -> dict:
+                extra_record: dict | None = None, smooth: bool = False,
+                annotate: Callable[[TrackResult, FrameEstimate | None, np.ndarray],
+                                   tuple[list[dict], list[str]]] | None = None) -> dict:
     """Track a video file with any tracker; write ``out_dir/overlay.mp4`` and
     ``out_dir/track.json`` (module docstring).
 
@@ -294,6 +298,13 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
         progress: show a progress bar while tracking.
         extra_record: more JSON-able entries for ``track.json`` (the command's options, how the
             initial pose was found); they may not replace the pipeline's own.
+        smooth: report the tracker's whole-sequence smoother (``Tracker.smooth``: the estimate
+            of every frame given the whole video) as ``markers``, drawn and scored for status,
+            with the filter's as ``filtered_markers``; refused for a tracker without one.
+        annotate: ``annotate(result, smoothed, factors)`` gives the tracker's own per-frame
+            JSON entries (replacing the estimate's scalars the pipeline writes otherwise) and
+            a label per frame drawn on the overlay; ``factors`` are the tracking pixels per
+            video pixel, per axis.
 
     Returns:
         What ``track.json`` holds (a dict), with ``"result"``: the :class:`TrackResult` (in
@@ -316,6 +327,9 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
     if extra_record is not None:
         if not isinstance(extra_record, dict):
             raise TypeError("extra_record must be a dict of JSON-able entries")
+    if smooth and type(tracker).smooth is Tracker.smooth:
+        raise ValueError(f"the {type(tracker).__name__} has no whole-sequence smoother; leave "
+                         f"smooth out")
     out_dir = Path(out_dir)
     _probe_output(out_dir)  # before a frame is read
     video = Path(video)
@@ -448,6 +462,12 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
     finally:  # on an error too: stop the decoding thread and release the video
         stream.close()
     tracking_seconds = time.perf_counter() - tick
+    smoothed = None
+    if smooth:
+        tick = time.perf_counter()
+        smoothed = tracker.smooth(result.estimates)
+        timings["smooth_seconds"] = time.perf_counter() - tick
+    shown = result.estimates if smoothed is None else smoothed
     indices = np.concatenate(frame_indices)
     count = len(indices)
     if result.markers.shape[0] != count:
@@ -457,13 +477,18 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
     if len(names) != result.markers.shape[1]:
         raise ValueError(f"marker_names names {len(names)} markers, the tracker reports "
                          f"{result.markers.shape[1]}")
-    extras = _per_frame_extras(result.estimates)
+    extras = _per_frame_extras(shown)
+    shown_markers = np.asarray(shown.markers) if smoothed is not None else result.markers
     nobody = np.concatenate(no_person) if no_person else np.zeros(count, bool)
     if "found" in extras:  # the tracker saw nobody (no silhouette with its skin blobs)
         nobody = nobody | ~extras["found"].astype(bool)
-    statuses = frame_statuses(result.markers, tracked_size, degenerate=result.degenerate,
+    statuses = frame_statuses(shown_markers, tracked_size, degenerate=result.degenerate,
                               no_person=nobody, log_likelihood=result.log_likelihood)
-    markers = result.markers / factors
+    markers = shown_markers / factors
+    annotations, labels = ([], []) if annotate is None else annotate(result, smoothed, factors)
+    if annotate is not None and not (len(annotations) == len(labels) == count):
+        raise RuntimeError(f"annotate gave {len(annotations)} entries and {len(labels)} labels "
+                           f"for {count} frames")
     best_markers = result.best_markers / factors
     fps = first.fps if math.isfinite(first.fps) else None
 
@@ -480,7 +505,8 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
         written.append(write_overlay_video_from_file(
             video, indices, {method: markers}, overlay_path, fps=fps or 30.0,
             marker_names=names, chunk_size=min(chunk_frames, 32),
-            labels=[f"{t + 1}/{count} {status.value}" for t, status in enumerate(statuses)]))
+            labels=[(f"{labels[t]}  " if labels else "") + f"{t + 1}/{count} {status.value}"
+                    for t, status in enumerate(statuses)]))
         overlay_seconds = time.perf_counter() - tick
         # track()'s run time counts the chunks after the first as they are pulled from the
         # decoder; the first chunk's decoding and preparing come before it and count here
@@ -508,6 +534,12 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
                      "ess": _number(result.ess[t]),
                      "log_likelihood": _number(result.log_likelihood[t]),
                      "degenerate": bool(result.degenerate[t])}
+            if smoothed is not None:
+                entry["filtered_markers"] = _named(result.markers[t] / factors, names)
+            if annotate is not None:
+                entry.update(annotations[t])
+                per_frame.append(entry)
+                continue
             for name, values in extras.items():
                 value = values[t]
                 entry[name] = (bool(value) if values.dtype == bool else int(value)
@@ -519,6 +551,8 @@ def track_video(tracker: Tracker, video: str | os.PathLike, out_dir: str | os.Pa
             "scale": [float(factors[0]), float(factors[1])], "fps": fps,
             "frames_tracked": count, "first_frame": int(indices[0]),
             "particles": int(result.num_particles), "seed": seed,
+            "estimate": "smoothed over the whole video (filtered_markers: the filter's)"
+                        if smoothed is not None else "filtered",
             "masks": "given" if masks is not None else "foreground against the median "
                      "background" if needs_masks else None,
             "keypoints": "given" if given_keypoints is not None else None,

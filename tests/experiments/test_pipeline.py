@@ -235,6 +235,37 @@ def test_every_tracker_runs_from_a_video_file_in_chunks_as_from_memory(name, fig
         np.testing.assert_allclose(written[0], pose, atol=2.0)
 
 
+def test_a_smoother_reports_every_frame_given_the_whole_video(figure_video, tmp_path):
+    """With ``smooth``, the markers written and drawn are the tracker's smoother's, the
+    filter's beside them, and ``annotate``'s entries replace the estimate's scalars; a tracker
+    without a smoother is refused before a frame is decoded."""
+    from jaxtrack.trackers.mixed_state import MixedStateModel, MixedStateTracker
+
+    tracker = MixedStateTracker(MixedStateModel(figure_postures()), 16, keep_history=True)
+
+    def annotate(result, smoothed, factors):
+        assert factors.shape == (2,) and len(smoothed.posture) == len(result.markers)
+        return ([{"posture": int(q)} for q in smoothed.posture],
+                [f"posture {int(q)}" for q in smoothed.posture])
+
+    record = track_video(tracker, figure_video, tmp_path / "out", key=KEY, scale=SCALE,
+                         chunk_frames=3, progress=False, smooth=True, annotate=annotate)
+    saved = json.loads((tmp_path / "out" / "track.json").read_text())
+    assert saved["estimate"].startswith("smoothed") and saved["timings"]["smooth_seconds"] > 0
+    smoothed = tracker.smooth(record["result"].estimates)
+    names = saved["marker_names"]
+    for key, expected in (("markers", smoothed.markers), ("filtered_markers",
+                                                          record["result"].markers)):
+        written = np.array([[frame[key][n] for n in names] for frame in saved["frames"]])
+        np.testing.assert_allclose(written, expected / SCALE, atol=0.006)
+    assert [frame["posture"] for frame in saved["frames"]] == smoothed.posture.tolist()
+    assert "ess" in saved["frames"][0] and "silhouette" not in saved["frames"][0]
+    with pytest.raises(ValueError, match="Centroid has no whole-sequence smoother"):
+        track_video(Centroid(), figure_video, tmp_path / "none", key=KEY, progress=False,
+                    smooth=True)
+    assert not (tmp_path / "none").exists()
+
+
 def test_a_frame_without_the_person_is_no_person(figure_video, tmp_path):
     """An empty frame (the figure gone) has an empty foreground mask: 'no person'."""
     from jaxtrack.vision import read_video, write_frames
