@@ -10,7 +10,8 @@
 # (contour, hands, 3-D skeleton), learn the global PCA, the clusters and their transition
 # matrix, track a test subject's wave with cluster jumps, compare with the two baselines, sweep
 # clusters × samples (the paper's Fig. 10 and 12), and pick the least ambiguous view per frame
-# (§5.5–5.7). The reasoning and the measured numbers: `docs/linear-combination.md`.
+# (§5.5–5.7). The reasoning: `docs/linear-combination.md`; the measured numbers:
+# `papers/ong2002/README.md`.
 #
 # Everything it reads is bundled with jaxtrack (the wave clips, the Pose2Sim calibration and its
 # background photo). With `JAXTRACK_SMOKE=1` (what `tests/test_notebooks.py` sets) the clips,

@@ -50,7 +50,7 @@ def tracking_bytes(method: str, particles: int) -> int:
     inside the compiled step, so the peak grows as particles × (state + samples read per pose
     × values per sample). MHT's modes each hold a Gauss-Newton Jacobian, 25 columns of the
     residuals. About 13 kB a particle: an upper estimate to refuse impossible runs, checked
-    against measured peaks in ``docs/tracking.md`` (section "Memory")."""
+    against measured peaks in ``papers/tian2005/history.md`` (section "Memory")."""
     per_particle = 4 * (_STATE_FLOATS + _SAMPLES_PER_POSE * _FLOATS_PER_SAMPLE)
     if method == "mht":
         per_particle *= 25

@@ -21,7 +21,7 @@ anything fails or Ctrl-C interrupts. Every argument, output folder included, is 
 the first frame is decoded.
 
 A run on a real video, and the memory estimate's measurements: ``docs/real-video.md``,
-``docs/tracking.md`` (section "Memory").
+``papers/tian2005/history.md`` (section "Memory").
 """
 
 from __future__ import annotations

@@ -76,7 +76,7 @@ def add_parser(subparsers) -> None:
                         default=None, metavar="WIDTH",
                         help="latent: a back-constrained GPLVM, every latent a smooth function "
                              "of its pose, with this kernel width (relative to the median "
-                             "distance between poses; docs/tracking.md)")
+                             "distance between poses; papers/tian2005/history.md)")
     group = parser.add_argument_group("linear-combination and mixed-state")
     # linear-combination options
     group.add_argument("--cameras", type=integer(0), nargs="+", default=None, metavar="INDEX",

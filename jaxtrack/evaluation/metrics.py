@@ -9,7 +9,7 @@ follows the body, and the frames before that run are the frames it tracked.
 
 Everything here is NumPy, and every result is plain Python (floats, ints, bools, lists, dicts,
 None) so it can be written with :func:`jaxtrack._files.write_json_atomically` as it is. The
-results measured with them: ``docs/tracking.md``.
+results measured with them: ``papers/tian2005/README.md``.
 """
 
 from __future__ import annotations

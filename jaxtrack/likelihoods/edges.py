@@ -197,7 +197,7 @@ CAUCHY_KEYPOINT_WEIGHT = 1.5
 as the detector's error model. The weight the command line and the benchmarks give the term
 when keypoints are given; kept against 5 and 15 on the validation subjects by the refined
 trackers' mean error (``python -m benchmarks.keypoint_term --estimates refined
---keypoint-weights 1.5 5 15``, 2026-11-27; docs/real-video.md)."""
+--keypoint-weights 1.5 5 15``, 2026-11-27; papers/tian2005/history.md)."""
 
 MIRRORED_MARKERS = tuple(SPM_MARKERS.index(name.replace("left", "@").replace("right", "left")
                                            .replace("@", "right")) for name in SPM_MARKERS)

@@ -55,7 +55,7 @@ class PartDistances(eqx.Module):
         is chosen on the validation clips with the tracker's other settings (``python -m
         benchmarks.mixed_state_evaluation``, 2026-11-27: smoothed MSE over all parts 5 482 px²
         against 5 701 at δ = 9 and 5 740 at δ = 100, parts re-drawn on a posture switch, one
-        tracker seed each; docs/mixed-state.md)."""
+        tracker seed each; papers/kwatra2002/history.md)."""
         sigma = np.asarray(standard_deviations, np.float64)
         if sigma.ndim != 1 or not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
             raise ValueError(f"standard_deviations must be a 1-D array of positive pixels, got "

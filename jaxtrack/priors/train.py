@@ -106,10 +106,10 @@ def train_prior(clips: Sequence[str], *, views: int = 5, fps: float = 30.0,
         parts: None (Tian et al.: one GPLVM of the whole upper body), or part name → its links
             (indices into ``SPM_LINKS``, e.g. :data:`~jaxtrack.priors.gplvm.UPPER_BODY_PARTS`):
             one GPLVM per part over the same poses, a :class:`~jaxtrack.priors.gplvm.PartsGPLVM`
-            (why: docs/tracking.md, "A prior that generalises").
+            (why: papers/tian2005/history.md, "A prior that generalises").
         back_constraint: None (free latents, Tian et al.), or the width of a back-constrained
             GPLVM (``fit_gplvm``'s ``back_constraint``: every latent a smooth function of its
-            pose; docs/tracking.md, "A prior that generalises").
+            pose; papers/tian2005/history.md, "A prior that generalises").
         latent_dim: the latent dimension of each GPLVM (2, Tian et al.'s).
 
     Raises:
