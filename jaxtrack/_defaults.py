@@ -537,10 +537,6 @@ def render_markdown(entries: Sequence[Default] = DEFAULTS) -> str:
         "them there by the keep-unless-beaten rule (docs/trackers.md): "
         + ", ".join(f"`{entry.name}`" for entry in on_test) + ".",
         "",
-        "**Validated but not shipped.** The linear-combination tracker's P, Q and ω were "
-        "chosen on validation as 64, 16 and 0.03; the shipped 16, 64 and 0.1 have no recorded "
-        "origin.",
-        "",
     ]
     groups = list(dict.fromkeys(entry.group or "Other" for entry in entries))
     for group in groups:

@@ -69,12 +69,15 @@ def test_a_value_the_code_does_not_have_is_reported():
         assert len(_defaults.drift([dataclasses.replace(entry, where=where)])) == 1
 
 
-def test_the_linear_combination_tracker_ships_unvalidated_p_q_and_omega():
+def test_the_linear_combination_tracker_ships_the_validated_p_q_and_omega():
+    """Validation chose P, Q, ω = 64 / 16 / 0.03 (papers/ong2002): the library ships them."""
     by_where = {entry.where.rsplit(":", 1)[-1]: entry for entry in DEFAULTS}
-    for where, validated in (("FitnessSettings(contour_tolerance)", "P = 64"),
-                             ("FitnessSettings(hands_tolerance)", "Q = 16"),
-                             ("linear_combination_tracker(step)", "ω = 0.03")):
-        assert by_where[where].split == "none recorded" and validated in by_where[where].note
+    for where, validated in (("linear_combination_tracker(fitness).contour_tolerance", 64.0),
+                             ("linear_combination_tracker(fitness).hands_tolerance", 16.0),
+                             ("linear_combination_tracker(step)", 0.03)):
+        entry = by_where[where]
+        assert entry.split == "validation" and entry.value == validated
+        assert _defaults.code_value(entry.where) == validated
 
 
 def test_the_page_is_the_registry_rendered(tmp_path):
