@@ -2,10 +2,13 @@
 
 import json
 
+import pytest
+
 from jaxtrack.priors.train import train_prior
 from papers.tian2005 import particle_sweep
 
 
+@pytest.mark.slow  # a prior trained and three trackers compiled
 def test_the_sweep_runs_every_method_and_writes_json(tmp_path, monkeypatch):
     def small_prior(clips, **options):  # the demo's clips, tiny settings
         return train_prior(clips, views=1, fps=5.0, active_size=30, iterations=1,

@@ -38,6 +38,7 @@ def test_summarise_groups_runs_by_configuration():
     assert "| latent | own |" in tracking.markdown_table(rows)
 
 
+@pytest.mark.slow  # a prior trained and two trackers compiled: about a minute on 2 cores
 def test_quick_comparison_writes_every_output(tmp_path, monkeypatch):
     # automatically initialised, as a user without ground truth would run it
     monkeypatch.setattr(tracking, "RESULTS", tmp_path / "results")
