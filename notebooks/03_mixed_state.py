@@ -31,8 +31,8 @@
 # on the test clips, and one test sequence's posture frame by frame. The reasoning and the
 # choices the paper leaves open: `docs/mixed-state.md`.
 #
-# The full sizes are those of `python -m benchmarks.mixed_state_evaluation` (run from the
-# repository root): its posture model (`benchmarks/results/mixed_state_posture_model.npz`) and
+# The full sizes are those of `python -m papers.kwatra2002.mixed_state_evaluation` (run from
+# the repository root): its posture model (beside its `papers/kwatra2002/results/` JSON) and
 # the re-detection probability it chose on the validation clips are used when its results are
 # there, and the test clips are scored by the same call. With `JAXTRACK_SMOKE=1` (what
 # `tests/test_notebooks.py` sets) the clips, views, images and particle clouds are tiny, so the
@@ -67,7 +67,7 @@ from jaxtrack.trackers.mixed_state import (
 from jaxtrack.vision.histograms import FRAME_OK
 
 SMOKE = os.environ.get("JAXTRACK_SMOKE") == "1"
-BENCHMARK = Path("benchmarks/results/mixed_state_evaluation.json")
+BENCHMARK = Path("papers/kwatra2002/results/mixed_state_evaluation.json")
 BENCHMARK_MODEL = None
 BINS = 16
 if SMOKE:  # 45 frames of each training clip from both profiles (every posture seen at least twice)

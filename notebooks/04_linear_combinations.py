@@ -113,7 +113,7 @@ print(np.round(surface, 3))
 # vector (eq. 14): how many training vectors look alike there but have different skeletons.
 # The paper reads each frame's best-particle skeleton from the view of greatest fitness ×
 # 1/ambiguity (`selection="paper", estimate="best"`); jaxtrack's defaults, chosen together on
-# validation subjects (`python -m benchmarks.view_selection`), read the particles' weighted
+# validation subjects (`python -m papers.ong2002.view_selection`), read the particles' weighted
 # mean skeleton from the view of least ambiguity over ±5 frames.
 
 # %%

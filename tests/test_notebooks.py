@@ -16,6 +16,14 @@ more than the files bundled with jaxtrack fails here as it would on a user's mac
 The mixed-state notebook's posture clips are in the shared collection only: hidden, it shows a
 bundled clip's frame and skips the rest, so it also runs once with the collection in view
 (skipped where there is none) to check its Table 1.
+
+Each ``.py`` has a rendered ``.ipynb`` beside it, committed with its outputs for the
+documentation site (mkdocs-jupyter shows it, never runs it): its code must be the ``.py``'s and
+every code cell must have run, without an error, with a figure among the outputs. Re-render after
+changing a notebook's code (from the repository root, shared data in view; ``JAXTRACK_SMOKE=1``
+where the full sizes are too slow, as the notebook's first cell then says)::
+
+    .venv/bin/jupytext --to ipynb --execute --run-path . notebooks/NAME.py
 """
 
 from __future__ import annotations
@@ -34,6 +42,8 @@ pytest.importorskip("ipykernel")
 
 NOTEBOOKS = sorted((Path(__file__).parents[1] / "notebooks").glob("*.py"))
 CELL_TIMEOUT = 900  # seconds; a hung cell fails instead of stalling the suite
+LATENT_BOUND = 0.5  # mean marker error in torso lengths, 02's latent tracker from frame 0's truth
+SKELETON_BOUND = 0.5  # mean 3-D skeleton error in metres, 04's tracker and baselines
 
 
 def _hide_shared_data(shared: Path | None) -> str:
@@ -113,11 +123,67 @@ def test_notebook_runs_in_smoke_mode_without_shared_data(notebook, tmp_path, mon
     if error is not None:
         pytest.fail(f"{notebook.name} failed in smoke mode:\n{error}", pytrace=False)
     print(f"{notebook.name}: {time.perf_counter() - start:.0f} s in smoke mode")
-    if notebook.name == "01_engine_tour.py":
+    _check_numbers(notebook.name, printed)
+
+
+def _check_numbers(name: str, printed: str) -> None:
+    """What each notebook prints, checked against what its method must give (smoke sizes or
+    full: the bounds hold for both)."""
+    if name.startswith("01_"):
         # the particle filter's log evidence against the Kalman filter's, 50 frames
         pairs = re.findall(r"PF\s+(\S+)\s+Kalman\s+(\S+)", printed)
         assert len(pairs) >= 2
         assert all(abs(float(pf) - float(kalman)) < 3.0 for pf, kalman in pairs), printed
+        # the stop-gradient estimator is unbiased for the score: its mean over seeds is within
+        # four of its standard errors of the Kalman filter's exact gradient
+        exact = float(re.search(r"exact gradient (\S+);", printed).group(1))
+        mean, error = map(float, re.search(
+            r"StopGradient\s+mean\s+(\S+)\s+sd\s+\S+\s+standard error\s+(\S+)", printed).groups())
+        assert abs(mean - exact) < 4 * error, printed
+    elif name.startswith("02_"):
+        # both trackers start from frame 0's truth on a held-out take: finite errors, the latent
+        # tracker's (with its refinement) within LATENT_BOUND of the torso
+        errors = dict(re.findall(r"^(latent|condensation)\s+(\S+) of torso", printed,
+                                 flags=re.MULTILINE))
+        assert set(errors) == {"latent", "condensation"}, printed
+        assert all(np.isfinite(float(value)) for value in errors.values()), printed
+        assert float(errors["latent"]) < LATENT_BOUND, printed
+    elif name.startswith("04_"):
+        errors = re.findall(r"^(\S+)\s+mean 3-D error (\S+) m", printed, flags=re.MULTILINE)
+        assert len(errors) == 3, printed  # the tracker and its two baselines
+        assert all(0 < float(value) < SKELETON_BOUND for _, value in errors), printed
+        # the per-frame best view bounds any selection from below, the worst from above
+        selected, best, worst = map(float, re.search(
+            r"selected view (\S+) m, best view per frame \(oracle\) (\S+) m, worst view (\S+) m",
+            printed).groups())
+        assert best <= selected <= worst, printed
+
+
+def _outputs_text(document) -> str:
+    return "".join(output.get("text", "") for cell in document.cells if cell.cell_type == "code"
+                   for output in cell.get("outputs", []) if output.get("output_type") == "stream")
+
+
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda path: path.stem)
+def test_the_rendered_notebook_is_its_source_run(notebook):
+    """The ``.ipynb`` the documentation shows is the ``.py`` run: same code, every cell run
+    without an error, a figure among its outputs and its printed numbers within the bounds the
+    smoke runs are held to."""
+    rendered = notebook.with_suffix(".ipynb")
+    assert rendered.is_file(), f"{rendered.name} is missing: render it (module docstring)"
+    source = jupytext.read(notebook)
+    document = nbformat.read(rendered, as_version=4)
+    code = [cell for cell in document.cells if cell.cell_type == "code"]
+    assert [cell.source for cell in code] == [
+        cell.source for cell in source.cells if cell.cell_type == "code"], (
+        f"{rendered.name} was run from other code than {notebook.name}: render it again")
+    assert all(cell.execution_count is not None for cell in code), (
+        f"{rendered.name}: a cell never ran")
+    outputs = [output for cell in code for output in cell.get("outputs", [])]
+    assert not [output for output in outputs if output.get("output_type") == "error"]
+    assert any("image/png" in output.get("data", {}) for output in outputs), (
+        f"{rendered.name} has no figure: run it with matplotlib's inline backend")
+    _check_numbers(notebook.name, _outputs_text(document))
 
 
 def test_the_mixed_state_notebook_reproduces_table_1_from_the_shared_posture_clips(
