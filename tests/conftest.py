@@ -51,9 +51,9 @@ def _release_compiled_programs():
 # so ``tests/trackers/`` last) otherwise left one worker alone with the heaviest files at the end
 HEAVY_FIRST = ("tests/trackers/test_tracker_contract.py", "tests/trackers/test_latent.py",
                "tests/trackers/test_held_out_subject.py", "tests/test_notebooks.py",
-               "tests/test_benchmark_tracking.py", "tests/smc/test_transformations.py",
+               "tests/papers/test_tian2005_tracking.py", "tests/smc/test_transformations.py",
                "tests/priors/test_gplvm.py", "tests/likelihoods/test_edges.py",
-               "tests/test_cli_paths.py", "tests/trackers/test_baselines.py")
+               "tests/cli/test_paths.py", "tests/trackers/test_baselines.py")
 
 
 def pytest_collection_modifyitems(config, items):
