@@ -99,9 +99,10 @@ def write_json(path: str | Path, payload: dict) -> None:
 
 
 def run_in_venv(python: Path, script: Path, inputs: dict, *, output: str, read, label: str,
-                timeout: float | None) -> dict:
-    """Run ``python script IN.npz OUT`` on ``inputs`` in a temporary folder (a reference
-    library in its own venv) and return ``read(OUT)`` plus ``summary`` (the script's stdout),
+                timeout: float | None, arguments: tuple[str, ...] = ()) -> dict:
+    """Run ``python script [arguments] IN.npz OUT`` on ``inputs`` in a temporary folder (a
+    reference library in its own venv) and return ``read(OUT)`` plus ``summary`` (the script's
+    stdout),
     or ``{"skipped": reason}`` when the run fails, times out or cannot start. ``output`` names
     OUT's file (its suffix is the script's format); ``label`` names the run in the reasons."""
     import numpy as np
@@ -109,7 +110,7 @@ def run_in_venv(python: Path, script: Path, inputs: dict, *, output: str, read, 
     with tempfile.TemporaryDirectory(prefix="jaxtrack-reference-") as folder:
         in_path, out_path = Path(folder) / "in.npz", Path(folder) / output
         np.savez(in_path, **inputs)
-        command = [str(python), str(script), str(in_path), str(out_path)]
+        command = [str(python), str(script), *arguments, str(in_path), str(out_path)]
         try:
             done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired:

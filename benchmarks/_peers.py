@@ -3,7 +3,7 @@
 ``particles`` (N. Chopin, NumPy), ``cuthbert`` (JAX) and ``pydpf`` (Brady et al., PyTorch) never
 enter the jaxtrack venv; create theirs once with ``make bench-peers-env``
 (``.venv-peers-particles``, ``.venv-peers-cuthbert``, ``.venv-peers-pydpf``).
-The model's arrays and the observations go to a temporary .npz, ``_peer_<library>.py`` runs
+The model's arrays and the observations go to a temporary .npz, ``_peer_filters.py LIBRARY`` runs
 under the peer venv's python and writes JSON back. ``JAXTRACK_PEER_<LIBRARY>_PYTHON`` may name
 another python that has the library.
 """
@@ -55,8 +55,8 @@ def run_peer(library: str, model, observations, particle_counts, *, seed: int = 
         "particle_counts": np.asarray(particle_counts, np.int64),
         "seed": np.int64(seed),
     }
-    script = Path(__file__).resolve().parent / f"_peer_{library}.py"
-    return run_in_venv(python, script, inputs, output="out.json",
+    script = Path(__file__).resolve().parent / "_peer_filters.py"
+    return run_in_venv(python, script, inputs, output="out.json", arguments=(library,),
                        read=lambda path: json.loads(path.read_text()), label=library,
                        timeout=timeout)
 

@@ -149,7 +149,7 @@ def _refine_one(refinement: Refinement, start: Array, observed: Array | FrameInC
                 template: SPMTemplate, sharpness: Array, prior_std: Array
                 ) -> tuple[Array, Array]:
     """One candidate searched (arms) and refined, with its log-likelihood."""
-    # the named scopes label the compiled ops by stage (benchmarks/profile_step.py)
+    # the named scopes label the compiled ops by stage (python -m benchmarks.tracker_step --profile)
     frame = frame_at(observed)
     if refinement.arm_search is not None:
         with jax.named_scope("arm_search"):

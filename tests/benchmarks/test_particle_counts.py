@@ -53,3 +53,16 @@ def test_the_quick_benchmark_runs_and_checks_every_evidence(tmp_path):
     assert np.isfinite(batch["engine_error"]) and np.isfinite(batch["simple_error"])
     assert batch["speedup_vs_simple"] > 0
     assert batch["pydpf_published_s"] is None  # pydpf published N = 1 000 and 10 000 only
+
+
+def test_the_peer_script_names_its_libraries_when_given_another():
+    """The one script every peer venv runs imports only NumPy at its top and refuses an
+    unknown library with its usage."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(_peers.__file__).with_name("_peer_filters.py")
+    done = subprocess.run([sys.executable, str(script), "gpy", "in.npz", "out.json"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "particles|cuthbert|pydpf" in done.stderr

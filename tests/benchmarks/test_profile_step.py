@@ -1,10 +1,11 @@
-"""benchmarks/profile_step.py's helpers: HLO instructions matched to the tracker's named scopes."""
+"""``benchmarks.tracker_step --profile``'s helpers: HLO instructions matched to the tracker's
+named scopes."""
 
 import jax
 import jax.numpy as jnp
 import pytest
 
-from benchmarks.profile_step import _instructions, _stage, dispatch_cost
+from benchmarks.tracker_step import _instructions, _stage, dispatch_cost
 
 
 @pytest.mark.parametrize("op_name, stage", [
