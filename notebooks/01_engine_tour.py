@@ -39,8 +39,8 @@ exact = smc.kalman_filter(model, observations)
 # The particle filter's evidence estimate is unbiased on the natural scale, so its logarithm
 # is biased low by about half its variance, and that variance shrinks as 1/N (its spread as
 # 1/√N). Each line is one run with one seed, so each difference from the Kalman filter's exact
-# value is one draw of that error: with the full sizes 0.49 nats at N = 100, 0.03 at 1 000 and
-# 0.12 at 10 000 (a draw of a few hundredths' spread landing a couple of spreads low).
+# value is one draw of that error: with the full sizes 0.50 nats at N = 100, 0.22 at 1 000 and
+# 0.12 at 10 000 (jax 0.10.2 on a CPU; the keys are fixed, so the run below prints them).
 
 # %%
 for num in PARTICLE_COUNTS:
@@ -68,16 +68,15 @@ plt.legend()
 #   (its bias is O(1/N)), but its variance is large. The paths of a particle filter coalesce
 #   to a few ancestors, so this path-space estimate's variance grows about as T²/N in the
 #   number of frames T (Poyiadjis, Doucet & Singh 2011). With 5 000 particles and 50 frames,
-#   over 20 seeds it averages about 0.29 against the exact 0.391, with a standard deviation
-#   of about 0.40 from seed to seed: a single run (0.805 with seed 5, as this notebook once
-#   printed alone) is one draw of that spread, and the mean of the 20 is 1.2 standard errors
-#   (0.09) from the exact value, as a consistent estimator's should be.
+#   over 20 seeds it averages 0.364 against the exact 0.391, with a standard deviation of
+#   0.280 from seed to seed: a single run is one draw of that spread, and the mean of the 20
+#   is 0.4 standard errors (0.063) from the exact value, as a consistent estimator's should be.
 # - `SoftResampling(alpha=0.5)` (Karkus et al. 2018) draws parents from a mixture of the
 #   weights and the uniform and carries the ratio: part of the selection's gradient passes,
-#   so the estimate is biased for every α > 0 (about −1.3 here), with a smaller spread
+#   so the estimate is biased for every α > 0 (about −1.4 here), with a smaller spread
 #   (about 0.1) and a noisier forward pass.
 # - A plain scheme (`Systematic()`) resets the weights to 1/N: the selection's dependence on
-#   the parameter is dropped and only the pathwise part is left, strongly biased (about −3.0,
+#   the parameter is dropped and only the pathwise part is left, strongly biased (about −3.1,
 #   of the wrong sign) however many particles.
 #
 # The cell prints each estimator's mean over the seeds, its standard deviation and the
