@@ -11,9 +11,10 @@ model, track, and score instantaneous (extended Ghost), filtered and smoothed es
   error per part, hands and feet under the best left/right assignment per frame; fraction of
   frames within ε pixels; posture error rate).
 
-The clip split (by clip and, where the data allow, by subject) is :data:`TRAINING_CLIPS` /
-:data:`VALIDATION_CLIPS` / :data:`TEST_CLIPS`; see ``docs/mixed-state.md`` for why subject 75
-is on all three sides.
+The clip split is by person (:mod:`jaxtrack.data.splits`): :data:`TRAINING_CLIPS` are
+training subjects', :data:`VALIDATION_CLIPS` validation subjects' (CMU 77 and 02, HDM05 actor
+mm) and :data:`TEST_CLIPS` test subjects' (CMU 139 and 131, HDM05 actor tr): no person is on two
+sides.
 """
 
 from __future__ import annotations
@@ -55,17 +56,23 @@ TRAINING_CLIPS = ("cmu_posture_bvh/75_19", "cmu_posture_bvh/64_26",
                   "cmu_amc/07_01")
 """Sitting at two heights (subject 75), stooping (64), getting up and crawling (DeepMimic),
 walking (07)."""
-VALIDATION_CLIPS = ("cmu_posture_bvh/77_07", "cmu_amc/02_01", "cmu_posture_bvh/75_17",
-                    "deepmimic_getup_bvh/roll")
+VALIDATION_CLIPS = ("cmu_posture_bvh/77_07", "cmu_amc/02_01",
+                    "hdm05_cut/lieDownFloor/HDM_mm_lieDownFloor_015_120",
+                    "hdm05_cut/squat1Reps/HDM_mm_squat1Reps_037_120",
+                    "hdm05_cut/depositFloorR/HDM_mm_depositFloorR_019_120")
 """Where the posture model's and the tracker's settings are chosen
-(``python -m benchmarks.mixed_state_evaluation``): a half-crouch (subject 77) and a walk
-(subject 02), of validation subjects of ``jaxtrack.data.splits``; and, since no validation
-subject sits or lies down, a held-out clip of each training subject who does: subject 75's
-third sit (75_17) and DeepMimic's forward roll (through sitting and lying), held out by clip as
-75_20 is on the test side."""
-TEST_CLIPS = ("cmu_posture_bvh/139_16", "cmu_posture_bvh/75_20", "cmu_bvh/131_01")
-"""Lying → all fours → kneel → stand (subject 139), stylised walk (131): test subjects; low sit
-(a held-out clip of subject 75, the only subject who sits, so held out by clip)."""
+(``python -m papers.kwatra2002.mixed_state_evaluation``), all of validation subjects of
+:mod:`jaxtrack.data.splits`: a half-crouch (CMU 77), a walk (CMU 02), and HDM05 actor mm's
+first lie-down, squat and crouch (put an object on the floor). Until 2026-11-29 they were 77_07,
+02_01 and held-out clips of two training subjects (CMU 75's 75_17, DeepMimic's roll), since no
+validation subject then sat or lay down; the settings of 2026-11-27 were chosen on those."""
+TEST_CLIPS = ("cmu_posture_bvh/139_16", "cmu_bvh/131_01",
+              "hdm05_cut/lieDownFloor/HDM_tr_lieDownFloor_019_120",
+              "hdm05_cut/squat1Reps/HDM_tr_squat1Reps_041_120",
+              "hdm05_cut/depositFloorR/HDM_tr_depositFloorR_027_120")
+"""All of test subjects: lying → all fours → kneel → stand (CMU 139), a stylised walk (CMU 131),
+and HDM05 actor tr's first lie-down, squat and crouch. Until 2026-11-29 a low sit of CMU 75
+(75_20), a training subject, held out by clip, was here too."""
 VIEW_AZIMUTHS = (np.pi / 2, -np.pi / 2, np.pi / 4, -np.pi / 4, 0.0)
 """Camera azimuths (radians from the subject's mean facing direction): both profiles (lying
 facing left and right), two obliques, frontal."""

@@ -44,6 +44,9 @@ def _parse(argv):
                         "'validation')")
     parser.add_argument("--held-out", action="store_true", help="also part 2: train on actors "
                         "bd, bk, dg and test on actor tr (entry 'held_out'; held_out.SPLIT)")
+    parser.add_argument("--skip-paper-setting", action="store_true", help="compute only the "
+                        "entries asked for by --validation and --held-out; every other entry "
+                        "of an existing --json file is kept as it is (each entry is dated)")
     args = parser.parse_args(argv)
     if args.particles < 1 or args.seeds < 1:
         parser.error("--particles and --seeds must be at least 1")
@@ -52,6 +55,9 @@ def _parse(argv):
         parser.error(f"--json {out}: the file name must end in .json")
     if not out.parent.exists():
         parser.error(f"--json {out}: folder {out.parent} does not exist; create it first")
+    if args.skip_paper_setting and not (args.validation or args.held_out):
+        parser.error("--skip-paper-setting leaves nothing to compute: add --validation or "
+                     "--held-out")
     return args
 
 
@@ -286,11 +292,30 @@ def _write_json(path: Path, contents: dict) -> None:
         raise
 
 
+def _existing(path: Path) -> dict:
+    """The entries of an earlier run's JSON at ``path`` (none if there is no such file)."""
+    if not path.is_file():
+        return {}
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"--json {path} is not a JSON file ({error}); move it away or "
+                         f"drop --skip-paper-setting") from None
+
+
 def main(argv=None) -> int:
+    import datetime
+
     args = _parse(argv)
     out = Path(args.json)
+    stamp = {"date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d"),
+             "command": "python -m papers.kwatra2002 " + " ".join(
+                 sys.argv[1:] if argv is None else argv)}
+    results = chosen = other_people = None
     try:
-        results, arrays = paper_setting(args.actor, args.particles, args.seeds)
+        contents = _existing(out) if args.skip_paper_setting else {}
+        if not args.skip_paper_setting:
+            results, arrays = paper_setting(args.actor, args.particles, args.seeds)
         chosen = validation(args.actor, args.particles) if args.validation else None
         if args.held_out:
             from papers.kwatra2002.held_out import held_out
@@ -299,14 +324,19 @@ def main(argv=None) -> int:
     except (FileNotFoundError, ValueError) as error:
         print(f"python -m papers.kwatra2002: {error}", file=sys.stderr)
         return 2
-    contents = {"paper_setting": results}
-    if chosen is not None:
-        contents["validation"] = chosen
-    if args.held_out:
-        contents["held_out"] = other_people
-    plots = plot(arrays, out.parent, out.stem)
-    contents["plots"] = [p.name for p in plots]
+    for name, entry in (("paper_setting", results), ("validation", chosen),
+                        ("held_out", other_people)):
+        if entry is not None:
+            contents[name] = {**entry, "run": stamp}
+    if results is not None:
+        plots = plot(arrays, out.parent, out.stem)
+        contents["plots"] = [p.name for p in plots]
     _write_json(out, contents)
+    if results is None:
+        print(json.dumps({name: contents[name]["run"] for name in contents
+                          if isinstance(contents[name], dict) and "run" in contents[name]},
+                         indent=1))
+        return 0
     summary = {kind: {"mse_all": round(results[kind]["mse_all"]),
                       "posture_error": round(results[kind]["posture_error"], 3),
                       "head_within_20px": round(results[kind]["head_within_20px"], 3)}

@@ -6,9 +6,9 @@ clips, then the paper's Table 1 metrics on the test clips.
    posture, as the library's defaults have it, and the mixture that
    ``papers.kwatra2002.posture_classifier`` chose by the classifier alone), and each is scored
    on the validation clips
-   (``experiments.mixed_state.VALIDATION_CLIPS``: subject 77's half-crouch and subject 02's
-   walk, validation subjects of ``jaxtrack.data.splits``, and held-out clips of the training
-   subjects who sit and lie down: 75_17 and DeepMimic's roll).
+   (``experiments.mixed_state.VALIDATION_CLIPS``, all of validation subjects of
+   ``jaxtrack.data.splits``: CMU 77's half-crouch, CMU 02's walk, HDM05 actor mm's lie-down,
+   squat and crouch).
 2. With each model, the part likelihood's cutoff δ (``PartDistances.cutoff``, ``--cutoff``:
    how far, in squared standard deviations, a hypothesis still pulls a part), the
    re-detection probability (``MixedStateModel.redetect_probability``, the chance per
@@ -20,7 +20,9 @@ clips, then the paper's Table 1 metrics on the test clips.
    and is chosen by what the tracker does with it. (Until 2026-11-27 the posture model was
    chosen first, by the instantaneous posture error; the classifier that error prefers made
    the tracker worse on validation.)
-3. The test clips are scored once with the chosen settings, for the instantaneous (extended
+3. The test clips (``experiments.mixed_state.TEST_CLIPS``, all of test subjects: CMU 139,
+   CMU 131, HDM05 actor tr) are scored once with the chosen settings, with 95 % bootstrap
+   intervals over clips, for the instantaneous (extended
    Ghost), filtered, smoothed and fixed-lag estimates, and the two-pass smoother (backward
    simulation with ``--backward-paths`` paths, ``trackers.mixed_state.smooth_backward``) for
    comparison with the paper's ancestry tracing, with its run time; with
@@ -144,6 +146,45 @@ def instantaneous_posture_error(model, features, labels) -> float:
     return float(np.mean(np.asarray(model.classify(features)) != labels))
 
 
+def clip_intervals(sequences: dict, clips, kinds=KINDS, seed: int = 0,
+                   resamples: int = 2000) -> dict:
+    """95 % bootstrap intervals over clips (all views of a clip drawn together) of the
+    frame-pooled MSE over all parts and the posture error, per estimate.
+
+    Args:
+        sequences: ``evaluate``'s ``"sequences"``: per rendered view (named
+            ``<clip stem>_...``) a score per estimate, with its ``frames``.
+        clips: the catalogue clips rendered.
+
+    Returns:
+        ``{kind: {"mse_all_95": [low, high], "posture_error_95": [low, high]}}``."""
+    stems = [clip.split("/")[-1] for clip in clips]
+    groups = {stem: [name for name in sequences if name.startswith(stem + "_")]
+              for stem in stems}
+    if any(not names for names in groups.values()):
+        raise ValueError(f"no rendered view of clips {[s for s, n in groups.items() if not n]}")
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, len(stems), size=(resamples, len(stems)))
+    out = {}
+    for kind in kinds:
+        sums = {"mse_all": np.zeros(len(stems)), "posture_error": np.zeros(len(stems))}
+        counts = np.zeros(len(stems))
+        for index, stem in enumerate(stems):
+            for name in groups[stem]:
+                scored = sequences[name][kind]
+                if not scored["frames"]:
+                    continue
+                counts[index] += scored["frames"]
+                sums["mse_all"][index] += scored["mse"]["all"] * scored["frames"]
+                sums["posture_error"][index] += scored["posture_error"] * scored["frames"]
+        out[kind] = {}
+        for measure, values in sums.items():
+            means = values[draws].sum(axis=1) / np.maximum(counts[draws].sum(axis=1), 1)
+            out[kind][f"{measure}_95"] = [float(np.quantile(means, 0.025)),
+                                          float(np.quantile(means, 0.975))]
+    return out
+
+
 CLASSIFIERS_CHOICE = (2, "pooled", 1.0, "level+pose2sim")
 """The posture model ``python -m papers.kwatra2002.posture_classifier`` chose by the instantaneous
 posture error alone (2026-11-27): a default candidate here beside the library's."""
@@ -241,6 +282,8 @@ def main(argv=None) -> int:
                        redraw_on_switch=chosen_switch == "redraw", part_cutoff=cutoff,
                        backward_paths=backward_paths)
     test_seconds = time.perf_counter() - begin
+    intervals = clip_intervals(test["sequences"], ms.TEST_CLIPS,
+                               [kind for kind in (*KINDS, "backward") if kind in test["overall"]])
     through_cameras = None
     if args.pose2sim_cameras:
         through_cameras = ms.evaluate(posture_model, ms.TEST_CLIPS, azimuths=(),
@@ -273,6 +316,12 @@ def main(argv=None) -> int:
           f"clutter; "
           f"{test_seconds:.0f} s")
     print_table(_rows(test["overall"]), _COLUMNS)
+    print("95 % bootstrap intervals over the test clips (all views of a clip together): "
+          + "; ".join(f"{kind} MSE all {low:.0f}-{high:.0f}, posture error "
+                      f"{100 * values['posture_error_95'][0]:.1f}-"
+                      f"{100 * values['posture_error_95'][1]:.1f} %"
+                      for kind, values in intervals.items()
+                      for low, high in [values["mse_all_95"]]))
     if backward_paths is not None:
         runs = test["sequences"].values()
         print(f"run time over the {len(runs)} test sequences: filter + ancestry tracing "
@@ -301,6 +350,7 @@ def main(argv=None) -> int:
                           "chosen_part_cutoff": cutoff,
                           "chosen_redetect_probability": chosen,
                           "chosen_on_switch": chosen_switch, "test": test,
+                          "test_intervals_over_clips": intervals,
                           "test_seconds": test_seconds,
                           "test_through_pose2sim_cameras": through_cameras})
     return 0

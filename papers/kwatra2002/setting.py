@@ -49,6 +49,7 @@ VALIDATION_GRID = (
     {"initial_std": 20.0, "redraw_on_switch": True},
     {"initial_std": 5.0, "redraw_on_switch": True},
     {"initial_std": 20.0, "redraw_on_switch": False},
+    {"initial_std": 20.0, "redraw_on_switch": True, "part_proposal": "posterior"},
 )
 """The mixed-state model's settings tried on the validation takes
 (:class:`jaxtrack.trackers.mixed_state.MixedStateModel`'s keywords): the library default

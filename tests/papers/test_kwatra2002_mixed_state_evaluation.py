@@ -48,3 +48,21 @@ def test_posture_model_specs_read_back_and_the_default_is_the_librarys():
     assert evaluation.VIEWS[views] == tuple(ms.TRAINING_POSE2SIM_CAMERAS)
     assert evaluation.model_path(Path("r"), spec).name == (
         "mixed_state_posture_model_k2_pooled_ridge1_level+pose2sim.npz")
+
+
+def test_intervals_draw_every_view_of_a_clip_together():
+    """Two clips of two views each: the interval spans the two clips' pooled values, and a
+    clip with no rendered view is refused by name."""
+    def scored(mse, error, frames=10):
+        return {"smoothed": {"mse": {"all": mse}, "posture_error": error, "frames": frames}}
+
+    sequences = {"139_16_az90_clutter": scored(100.0, 0.1), "139_16_az0_clutter": scored(300.0,
+                                                                                       0.3),
+                 "131_01_az90_clutter": scored(1000.0, 0.5), "131_01_az0_clutter": scored(1000.0,
+                                                                                        0.5)}
+    intervals = evaluation.clip_intervals(sequences, ["cmu_posture_bvh/139_16", "cmu_bvh/131_01"],
+                                          kinds=("smoothed",))["smoothed"]
+    assert intervals["mse_all_95"] == pytest.approx([200.0, 1000.0])
+    assert intervals["posture_error_95"] == pytest.approx([0.2, 0.5])
+    with pytest.raises(ValueError, match="75_20"):
+        evaluation.clip_intervals(sequences, ["cmu_posture_bvh/75_20"], kinds=("smoothed",))

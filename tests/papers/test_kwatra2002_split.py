@@ -25,3 +25,20 @@ def test_bootstrap_interval_over_takes():
     assert low < pooled < high and high - low < 1.0
     # one take alone: every resample is that take, the interval a point
     assert bootstrap_interval([np.full(5, 3.0)]) == [3.0, 3.0]
+
+
+def test_the_mixed_state_evaluations_clips_share_no_person_across_splits():
+    """The rendered evaluation (papers.kwatra2002.mixed_state_evaluation): training clips of
+    training subjects, validation of validation subjects, test of test subjects, by
+    jaxtrack.data.splits; and the test side holds a person who lies down (CMU 139, HDM05 tr)."""
+    from jaxtrack.data.splits import split_of, subject_of
+    from jaxtrack.experiments import mixed_state as ms
+
+    sides = {"training": ms.TRAINING_CLIPS, "validation": ms.VALIDATION_CLIPS,
+             "test": ms.TEST_CLIPS}
+    for split, clips in sides.items():
+        assert [split_of(clip) for clip in clips] == [split] * len(clips), split
+    people = {split: {subject_of(clip) for clip in clips} for split, clips in sides.items()}
+    assert not (people["training"] & people["validation"] or people["training"] & people["test"]
+                or people["validation"] & people["test"])
+    assert {"cmu:139", "hdm05:tr"} <= people["test"] and "hdm05:mm" in people["validation"]
