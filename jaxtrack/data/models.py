@@ -4,15 +4,13 @@ Three small files ship in ``jaxtrack/data/files/models/``, each beside a JSON de
 what it was trained on (clips, subjects and their split, the data's licences, the exact
 ``jaxtrack train`` command, the date):
 
-============================  ==========================================  =====================
-file                          used by ``jaxtrack track --method``          trained by
-============================  ==========================================  =====================
-``latent.npz``                ``latent``, ``condensation``, ``mht``        ``--method latent``
-``linear_combination.npz``    ``linear-combination``                       ``--method
-                                                                          linear-combination``
-``postures.npz``              ``mixed-state``                              ``--method
-                                                                          mixed-state``
-============================  ==========================================  =====================
+- ``latent.npz``: a GPLVM pose prior (``jaxtrack train --method latent``), used by
+  ``--method latent``, ``condensation`` and ``mht`` (the baselines learn their dynamics from its
+  training poses);
+- ``linear_combination.npz``: Ong & Gong's model (``jaxtrack train --method
+  linear-combination``), used by ``--method linear-combination``;
+- ``postures.npz``: Kwatra et al.'s posture model (``jaxtrack train --method mixed-state``),
+  used by ``--method mixed-state``.
 
 Every model is trained on **training subjects** only (:mod:`jaxtrack.data.splits`) and only on
 data whose licence allows it in the wheel (MIT, CMU's terms, BSD-3-Clause): never on the
