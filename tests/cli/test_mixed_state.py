@@ -15,10 +15,12 @@ import numpy as np
 import pytest
 
 from jaxtrack.cli import main
+from jaxtrack.experiments.mixed_state import TRAINING_CLIPS
 from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES, PostureModel
 
 SIZE = (160, 120)
-TRAIN = ("--max-frames", "45", "--size", "160x120", "--azimuths", "90", "-90")
+TRAIN = ("--clips", *TRAINING_CLIPS, "--max-frames", "45", "--size", "160x120", "--azimuths",
+         "90", "-90")  # the experiment's clips (the bundled model's default has no DeepMimic)
 ESTIMATES = ("instantaneous", "filtered", "smoothed", "fixed_lag")
 
 

@@ -24,9 +24,13 @@ BUNDLED_CLIPS = [
     "animateddrawings/history_c119d6b/8yr_old_wave_hello",
     "animateddrawings/history_c119d6b/cmu_1006_wave_hello_1",
     "animateddrawings/history_c119d6b/cmu_1006_wave_hello_2",
+    "animateddrawings/history_c119d6b/cmu_new_walk_point",
+    "animateddrawings/history_c119d6b/cmu_new_walk_raise_the_roof",
     "cmu_amc/07_01",
     "cmu_amc/07_02",
     "cmu_bvh/131_01",
+    "cmu_posture_bvh/64_26",
+    "cmu_posture_bvh/75_19",
 ]
 
 
