@@ -312,6 +312,14 @@ DEFAULTS: tuple[Default, ...] = (
     Default("redraw_on_switch", f"{_MIXED}(redraw_on_switch)", True, "validation",
             _MIXED_STATE, "2026-11-27", "Re-drawn against kept at δ = 9, 25 and 100. "
             + _MIXED_STATE_NOTE, "Mixed state"),
+    Default("part proposal", f"{_MIXED}(part_proposal)", "dynamics", "paper",
+            note="The paper's (§3.2: the parts drawn from the prediction). 'posterior' (the "
+            "prediction times the part likelihood, reweighted exactly) averages white "
+            "hypothesis noise that the paper's does not (python -m papers.kwatra2002.diagnosis "
+            "--synthetic) but scored worse on HDM05 actor bd's held-out validation takes, "
+            "2026-11-29: smoothed MSE 6 496 against 6 053 px² (python -m papers.kwatra2002 "
+            "--json papers/kwatra2002/results/kwatra2002.json --validation "
+            "--skip-paper-setting).", group="Mixed state"),
     Default("part cutoff δ", "jaxtrack.likelihoods.part_distances:PartDistances(cutoff)", 25.0,
             "validation", _MIXED_STATE, "2026-11-27", "Against 9 and 100. " + _MIXED_STATE_NOTE,
             "Mixed state"),
