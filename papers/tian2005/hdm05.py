@@ -39,12 +39,21 @@ training poses whichever prior it is given; it is run with the whole-body one.""
 PER_PART = ("latent, per part", "latent, per part, partitioned")
 
 
-def arm_clips(split: str) -> tuple[str, ...]:
-    """The HDM05 arm-movement takes (:data:`KINDS`) of one split's actors."""
-    from jaxtrack.data.splits import clips_in
+def arm_clips(split: str, takes_per_kind: int | None = None) -> tuple[str, ...]:
+    """The HDM05 arm-movement takes (:data:`KINDS`) of one split's actors: all of them, or the
+    first ``takes_per_kind`` of each movement and actor (by take number)."""
+    from jaxtrack.data.splits import clips_in, subject_of
 
-    return tuple(clip for clip in clips_in(split, "hdm05_cut")
-                 if clip.split("/")[1] in KINDS)
+    clips = [clip for clip in clips_in(split, "hdm05_cut") if clip.split("/")[1] in KINDS]
+    if takes_per_kind is None:
+        return tuple(clips)
+    kept, count = [], {}
+    for clip in clips:  # clips_in sorts them, so by take number within a movement and actor
+        key = (clip.split("/")[1], subject_of(clip))
+        count[key] = count.get(key, 0) + 1
+        if count[key] <= takes_per_kind:
+            kept.append(clip)
+    return tuple(kept)
 
 
 def train_priors(progress: bool = False) -> dict:
@@ -63,17 +72,18 @@ def train_priors(progress: bool = False) -> dict:
                                  cache=RUNS / "hdm05" / "prior_parts.npz")}
 
 
-def track_split(priors: dict, split: str, names, seeds: int, progress: bool = True
-                ) -> list[dict]:
-    """Every configuration of ``names`` on every arm take of ``split``'s actors (frontal view),
-    ``seeds`` tracker seeds each: ``tracking.run_one``'s records plus ``configuration``."""
+def track_split(priors: dict, split: str, names, seeds: int, takes_per_kind: int | None = None,
+                progress: bool = True) -> list[dict]:
+    """Every configuration of ``names`` on the arm takes of ``split``'s actors (frontal view;
+    :func:`arm_clips`), ``seeds`` tracker seeds each: ``tracking.run_one``'s records plus
+    ``configuration``."""
     from tqdm import tqdm
 
     from jaxtrack.experiments import render_test_sequences
     from papers.tian2005.tracking import run_one
 
     runs = []
-    for index, clip in enumerate(tqdm(arm_clips(split), desc=f"{split} takes",
+    for index, clip in enumerate(tqdm(arm_clips(split, takes_per_kind), desc=f"{split} takes",
                                       disable=not progress)):
         (sequence,) = render_test_sequences(clip, views=1, seed=index)
         for name in names:
@@ -139,22 +149,26 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", type=int, default=2, help="tracker seeds per tr take (2)")
     parser.add_argument("--validation-seeds", type=int, default=1,
                         help="tracker seeds per mm take (1)")
+    parser.add_argument("--takes-per-kind", type=int, default=1,
+                        help="tracked takes of each movement (the first ones; 1), or 0 for all")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
-    if args.seeds < 2 or args.validation_seeds < 1:
+    if args.seeds < 2 or args.validation_seeds < 1 or args.takes_per_kind < 0:
         parser.error("--seeds must be at least 2 (an interval over seeds) and "
-                     "--validation-seeds at least 1")
+                     "--validation-seeds at least 1, --takes-per-kind at least 0")
     out = Path(args.json)
     if out.suffix != ".json" or not out.parent.is_dir():
         parser.error(f"--json {out}: give a .json file in an existing folder")
     started = time.perf_counter()
     try:
         priors = train_priors()
-        validation_runs = track_split(priors, "validation", list(CONFIGURATIONS),
-                                      args.validation_seeds)
+        takes = args.takes_per_kind or None
+        # the one choice made on mm: the per-part prior's sampler
+        validation_runs = track_split(priors, "validation", PER_PART, args.validation_seeds,
+                                      takes)
         validation = summarise(validation_runs)
         chosen = min(PER_PART, key=lambda name: validation[name]["error_torso"])
         names = ["latent, whole body", chosen, "condensation"]
-        test_runs = track_split(priors, "test", names, args.seeds)
+        test_runs = track_split(priors, "test", names, args.seeds, takes)
     except (FileNotFoundError, ValueError) as error:
         print(f"python -m papers.tian2005.hdm05: {error}", file=sys.stderr)
         return 2
@@ -164,7 +178,8 @@ def main(argv=None) -> int:
         **run_header("papers.tian2005.hdm05", argv if argv is not None else sys.argv[1:],
                      started),
         "kinds": list(KINDS), "training_clips": list(arm_clips("training")),
-        "validation_clips": list(arm_clips("validation")), "test_clips": list(arm_clips("test")),
+        "validation_clips": list(arm_clips("validation", takes)),
+        "test_clips": list(arm_clips("test", takes)), "takes_per_kind": takes,
         "priors": {name: prior.description for name, prior in priors.items()},
         "particles": PARTICLES, "likelihood": LIKELIHOOD, "estimate": "own",
         "baseline_dynamics": "training", "seeds": args.seeds,

@@ -16,6 +16,10 @@ def test_each_split_holds_its_own_actors_arm_takes():
         kinds = {clip.split("/")[1] for clip in hdm05.arm_clips(split)}
         assert kinds == set(hdm05.KINDS)
     check_disjoint(hdm05.arm_clips("training"), hdm05.arm_clips("test"))  # raises if shared
+    first = hdm05.arm_clips("test", takes_per_kind=1)
+    assert len(first) == 3 and {clip.split("/")[1] for clip in first} == set(hdm05.KINDS)
+    assert "HDM_tr_grabHighR_023_120" in " ".join(first)  # tr's first reach (takes 023-029)
+    assert len(hdm05.arm_clips("training", takes_per_kind=2)) == 2 * 3 * 3  # kinds × actors
 
 
 def test_the_summary_gives_each_latent_configuration_its_ratio_to_condensation():
