@@ -86,8 +86,10 @@ def test_a_small_run_writes_the_table_and_the_json(tmp_path, monkeypatch):
     import papers.tian2005
     from jaxtrack.priors import train
 
+    original = train.train_prior
+
     def small(clips, **options):  # tiny priors, the same for every protocol
-        return train.train_prior(clips, views=1, fps=10.0, active_size=30, iterations=1,
+        return original(clips, views=1, fps=10.0, active_size=30, iterations=1,
                                  progress=False)
 
     monkeypatch.setattr(train, "train_prior", small)
