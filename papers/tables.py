@@ -40,15 +40,15 @@ def _percent(value: float, digits: int = 1) -> str:
 
 def kwatra_table(results: dict) -> str:
     """Kwatra et al.: instantaneous against integrated, in the paper's setting and held out."""
-    lines = ["| Kwatra et al. 2002 (640 × 480, one side camera) | MSE all parts, px² | posture "
-             "error | head within 20 px |", "|---|---|---|---|"]
-    for setting, title in (("paper_setting", "paper's setting (actor bd, own takes)"),
+    lines = ["| Kwatra et al. 2002 (640 × 480, one side camera): instantaneous → smoothed | MSE "
+             "all parts, px² | posture error | head within 20 px |", "|---|---|---|---|"]
+    for setting, title in (("paper_setting", "paper's setting (actor bd, own other takes)"),
                            ("held_out", "held out (actor tr, never seen)")):
-        for kind in ("instantaneous", "smoothed"):
-            row = results[setting][kind]
-            lines.append(f"| {title}: {kind} | {row['mse_all']:,.0f} | "
-                         f"{_percent(row['posture_error'])} | "
-                         f"{_percent(row['head_within_20px'])} |")
+        before, after = results[setting]["instantaneous"], results[setting]["smoothed"]
+        lines.append(f"| {title} | {before['mse_all']:,.0f} → {after['mse_all']:,.0f} | "
+                     f"{_percent(before['posture_error'])} → {_percent(after['posture_error'])}"
+                     f" | {_percent(before['head_within_20px'])} → "
+                     f"{_percent(after['head_within_20px'])} |")
     targets = results["paper_setting"]["targets"]
     met = [name for name, key in (("the MSE", "mse_halved"),
                                   ("the posture error", "posture_error_halved")) if targets[key]]
@@ -86,16 +86,31 @@ def ong_table(results: dict) -> str:
 
 
 def tian_table(results: dict) -> str:
-    """Tian et al.: the latent tracker against CONDENSATION and MHT, paper's protocol and
-    held out."""
-    lines = ["| Tian et al. 2005 | protocol | error, % of torso | within 15 % of torso |",
-             "|---|---|---|---|"]
-    for row in results["table"]:
-        lines.append(f"| {row['method']} | {row['protocol']} | {row['error']:.1f} | "
-                     f"{row['within']:.0f} % |")
+    """Tian et al.: the latent tracker against CONDENSATION and MHT, in the paper's protocol
+    (prior trained on the test subject's other take) and held out (prior from other people)."""
+    paper, held_out = results["protocols"]["paper"], results["protocols"]["held_out"]
+    settings = results["settings"]
+    lines = ["| Tian et al. 2005: error, % of torso (± 95 %; frames within 15 %) | paper's "
+             "protocol | held out |", "|---|---|---|"]
+    names = {"latent": "latent tracker", "condensation": "CONDENSATION, AR(2) from the test "
+             "clip's start", "mht": "MHT"}
+    for method, name in names.items():
+        cells = []
+        for protocol in (paper, held_out):
+            row = protocol["rows"][method]
+            cells.append(f"{_percent(row['error_torso'])} (± {_percent(row['error_torso_ci'])}"
+                         f"; {_percent(row['within_15'], 0)})")
+        unit = "modes" if method == "mht" else "particles"
+        lines.append(f"| {name}, {paper['rows'][method]['particles']} {unit} | "
+                     + " | ".join(cells) + " |")
+    ratios = [protocol["ratio_latent_over_condensation"] for protocol in (paper, held_out)]
+    lines.append("| latent / CONDENSATION (the paper: ≤ 0.5) | " + " | ".join(
+        f"{ratio['ratio']:.2f} ({ratio['low']:.2f}–{ratio['high']:.2f})" for ratio in ratios)
+        + " |")
     lines.append("")
-    lines.append(f"`{results['command']}` ({results['date']}; "
-                 f"[papers/tian2005](papers/tian2005/README.md))")
+    lines.append(f"Each filter's own estimate, {settings['likelihood']} likelihood, "
+                 f"{paper['rows']['latent']['runs']} runs per cell. `{results['command']}` "
+                 f"({results['date']}; [papers/tian2005](papers/tian2005/README.md))")
     return "\n".join(lines)
 
 

@@ -191,7 +191,7 @@ def test_every_readme_command_runs_as_written(tmp_path):
             continue
         result = _bash(command, folder, timeout=3600, shared=shared)
         assert result.returncode == 0, f"{command}:\n{result.stderr[-2000:]}"
-    for written in ("out/latent.json", "waves.npz", "walks.npz", "tracked/track.json",
+    for written in ("out/latent.json", "waves.npz", "tracked/track.json",
                     "tracked/overlay.mp4", "wave.npz", "wave.mp4", "jaxtrack-demo/metrics.json"):
         assert (folder / written).is_file(), written
     if left_out:
