@@ -213,6 +213,10 @@ def main(argv=None) -> int:
                         "experiments.mixed_state.VIEW_AZIMUTHS; 90 -90: the paper's side views)")
     parser.add_argument("--pose2sim-cameras", type=int, nargs="*", default=[], metavar="INDEX",
                         help="also score the test clips through these Pose2Sim cameras (0-3)")
+    parser.add_argument("--skip-validation", action="store_true",
+                        help="score the test clips with the one setting given (one value each "
+                             "of --posture-models, --cutoff, --redetect and --switch), without "
+                             "the validation clips: a held-out score with no setting chosen")
     parser.add_argument("--out", default=str(RESULTS / "mixed_state_evaluation.json"))
     args = parser.parse_args(argv)
     from jaxtrack.cli._common import UserError, pose2sim_cameras
@@ -235,6 +239,10 @@ def main(argv=None) -> int:
                                          for text in args.posture_models)))
     except ValueError as error:
         parser.error(f"--posture-models: {error}")
+    if args.skip_validation and (len(specs) > 1 or len(args.cutoff) > 1
+                                 or len(args.redetect) > 1 or len(args.switch) > 1):
+        parser.error("--skip-validation scores one setting: give one value each of "
+                     "--posture-models, --cutoff, --redetect and --switch")
     if args.backward_paths < 0:
         parser.error(f"--backward-paths must be 0 or more, got {args.backward_paths}")
     backward_paths = args.backward_paths or None
@@ -249,30 +257,35 @@ def main(argv=None) -> int:
     train_seconds = time.perf_counter() - begin
     azimuths = ms.VIEW_AZIMUTHS if args.azimuths is None else tuple(
         float(np.radians(value)) for value in args.azimuths)
-    # the evaluation's own rendering of the validation clips, once for every setting
-    sequences = ms.render_sequences(ms.VALIDATION_CLIPS, azimuths, ("clutter",), (640, 480),
-                                    args.frames, args.seed)
-    features, labels = labelled_features(sequences, num_bins=16)
-    posture_errors = {spec: instantaneous_posture_error(model, features, labels)
-                      for spec, model in models.items()}
-    for spec, error in posture_errors.items():
-        print(f"validation, posture model {spec_text(spec)}: instantaneous posture error "
-              f"{100 * error:.1f} %")
-    validation = {}
-    for spec, cutoff, switch, value in itertools.product(specs, args.cutoff, args.switch,
-                                                         args.redetect):
-        result = ms.evaluate(models[spec], ms.VALIDATION_CLIPS, azimuths=azimuths,
-                             backgrounds=("clutter",),
-                             num_particles=args.particles, max_frames=args.frames,
-                             seed=args.seed, redetect_probability=value,
-                             redraw_on_switch=switch == "redraw", part_cutoff=cutoff,
-                             sequences=sequences)
-        validation[(spec, cutoff, value, switch)] = result["overall"]
-        print(f"validation, posture model {spec_text(spec)}, cutoff {cutoff:g}, redetect "
-              f"{value:g}, {switch} on a switch: smoothed MSE all "
-              f"{result['overall']['smoothed']['mse']['all']:.1f}", flush=True)
-    spec, cutoff, chosen, chosen_switch = min(
-        validation, key=lambda key: validation[key]["smoothed"]["mse"]["all"])
+    posture_errors, validation = {}, {}
+    if args.skip_validation:
+        spec, cutoff, chosen, chosen_switch = specs[0], args.cutoff[0], args.redetect[0], \
+            args.switch[0]
+    else:
+        # the evaluation's own rendering of the validation clips, once for every setting
+        sequences = ms.render_sequences(ms.VALIDATION_CLIPS, azimuths, ("clutter",), (640, 480),
+                                        args.frames, args.seed)
+        features, labels = labelled_features(sequences, num_bins=16)
+        posture_errors = {spec: instantaneous_posture_error(model, features, labels)
+                          for spec, model in models.items()}
+        for spec, error in posture_errors.items():
+            print(f"validation, posture model {spec_text(spec)}: instantaneous posture error "
+                  f"{100 * error:.1f} %")
+        validation = {}
+        for spec, cutoff, switch, value in itertools.product(specs, args.cutoff, args.switch,
+                                                             args.redetect):
+            result = ms.evaluate(models[spec], ms.VALIDATION_CLIPS, azimuths=azimuths,
+                                 backgrounds=("clutter",),
+                                 num_particles=args.particles, max_frames=args.frames,
+                                 seed=args.seed, redetect_probability=value,
+                                 redraw_on_switch=switch == "redraw", part_cutoff=cutoff,
+                                 sequences=sequences)
+            validation[(spec, cutoff, value, switch)] = result["overall"]
+            print(f"validation, posture model {spec_text(spec)}, cutoff {cutoff:g}, redetect "
+                  f"{value:g}, {switch} on a switch: smoothed MSE all "
+                  f"{result['overall']['smoothed']['mse']['all']:.1f}", flush=True)
+        spec, cutoff, chosen, chosen_switch = min(
+            validation, key=lambda key: validation[key]["smoothed"]["mse"]["all"])
     posture_model = models[spec]
     components, covariance, ridge, views = spec
     begin = time.perf_counter()
@@ -294,22 +307,23 @@ def main(argv=None) -> int:
                                       redraw_on_switch=chosen_switch == "redraw",
                                       part_cutoff=cutoff, backward_paths=backward_paths)
     print(f"device: {device_description()}")
-    print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; instantaneous posture error "
-          + ", ".join(f"{100 * error:.1f} % with {spec_text(key)}"
-                      for key, error in posture_errors.items())
-          + "; smoothed MSE all (px², 640 x 480) by posture model, part cutoff, re-detection "
-            "and switch rule:")
-    print_table([{"model": spec_text(key), "cutoff": delta, "redetect": value,
-                  "switch": switch, "mse": scores["smoothed"]["mse"]["all"],
-                  "instantaneous": scores["instantaneous"]["mse"]["all"],
-                  "posture_error": 100 * scores["smoothed"]["posture_error"]}
-                 for (key, delta, value, switch), scores in validation.items()],
-                [("model", "posture model", "s"), ("cutoff", "cutoff", "g"),
-                 ("redetect", "redetect", "g"),
-                 ("switch", "on a switch", "s"),
-                 ("mse", "smoothed MSE all", ".1f"),
-                 ("instantaneous", "instantaneous MSE all", ".1f"),
-                 ("posture_error", "posture error %", ".1f")])
+    if validation:
+        print(f"validation clips {', '.join(ms.VALIDATION_CLIPS)}; instantaneous posture error "
+              + ", ".join(f"{100 * error:.1f} % with {spec_text(key)}"
+                          for key, error in posture_errors.items())
+              + "; smoothed MSE all (px², 640 x 480) by posture model, part cutoff, re-detection "
+                "and switch rule:")
+        print_table([{"model": spec_text(key), "cutoff": delta, "redetect": value,
+                      "switch": switch, "mse": scores["smoothed"]["mse"]["all"],
+                      "instantaneous": scores["instantaneous"]["mse"]["all"],
+                      "posture_error": 100 * scores["smoothed"]["posture_error"]}
+                     for (key, delta, value, switch), scores in validation.items()],
+                    [("model", "posture model", "s"), ("cutoff", "cutoff", "g"),
+                     ("redetect", "redetect", "g"),
+                     ("switch", "on a switch", "s"),
+                     ("mse", "smoothed MSE all", ".1f"),
+                     ("instantaneous", "instantaneous MSE all", ".1f"),
+                     ("posture_error", "posture error %", ".1f")])
     print(f"\ntest clips {', '.join(ms.TEST_CLIPS)}, posture model {spec_text(spec)}, cutoff "
           f"{cutoff:g}, redetect {chosen:g}, {chosen_switch} on a switch, "
           f"{args.particles} particles, {args.frames} frames per clip, {len(azimuths)} views, "
