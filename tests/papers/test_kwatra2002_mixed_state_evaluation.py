@@ -18,6 +18,7 @@ from papers.kwatra2002 import mixed_state_evaluation as evaluation
     (["--cutoff", "nan"], "--cutoff values must be finite"),
     (["--frames", "1"], "--frames must be at least 2, got 1"),
     (["--particles", "0"], "--particles must be at least 1, got 0"),
+    (["--skip-validation", "--cutoff", "9", "25"], "--skip-validation scores one setting"),
     (["--pose2sim-cameras", "4"], "--pose2sim-cameras must be Pose2Sim camera indices 0-3, got 4"),
     (["--pose2sim-cameras", "1", "1"], "--pose2sim-cameras names a camera twice: 1 1")])
 def test_bad_arguments_are_refused_in_one_line_before_any_work(argv, message, capsys):
