@@ -39,9 +39,9 @@ from pathlib import Path
 from papers.ong2002 import evaluation, surface
 
 FIGURES = {"test_m": ("ong2002_fig12_novel_motion.png",
-                      "Fig. 12: novel motion (the test subject's two waves, 4 views)"),
+                      "Fig. 12, novel motion:\nthe test subject's two waves, 4 views"),
            "training_m": ("ong2002_fig10_training_motion.png",
-                          "Fig. 10: training motion (a training clip, 4 views)")}
+                          "Fig. 10, training motion:\na training clip, 4 views")}
 """Surface key → (file name beside the JSON, title). Both are the best particle's skeleton, the
 paper's estimate; the JSON also holds the weighted mean's (``*_mean_m``)."""
 
@@ -63,6 +63,8 @@ def _parse(argv):
     parser.add_argument("--no-surface", action="store_true", help="leave out the surfaces")
     parser.add_argument("--no-view-selection", action="store_true",
                         help="leave out view selection")
+    parser.add_argument("--replot", action="store_true",
+                        help="only draw the heat maps again from the surface rows --json holds")
     parser.add_argument("--view-frames", type=int, default=90,
                         help="frames per clip for view selection (90, as its validation run)")
     args = parser.parse_args(argv)
@@ -133,17 +135,26 @@ def surfaces(args, constant_mm: float | None, on_rows) -> dict:
     rows = surface.surface(args.clusters, args.samples, views=(0, 1, 2, 3), frames=args.frames,
                            fitness=lc.DEFAULT_FITNESS, step=lc.DEFAULT_STEP,
                            on_row=on_rows)
-    figures = {}
-    for key, (name, title) in FIGURES.items():
-        figures[key] = surface.heat_map(
-            rows, key, args.json.parent / name, title=title,
-            reference_mm=constant_mm if key == "test_m" else None).name
     return {"clusters": args.clusters, "samples": args.samples, "rows": rows,
             "training": surface.trends(rows, "training_m"),
             "novel": surface.trends(rows, "test_m"),
             "training_weighted_mean": surface.trends(rows, "training_mean_m"),
             "novel_weighted_mean": surface.trends(rows, "test_mean_m"),
-            "figures": figures}
+            "figures": draw(rows, args.json.parent, constant_mm)}
+
+
+def draw(rows: list[dict], folder: Path, constant_mm: float | None) -> dict:
+    """The heat map of each surface of :data:`FIGURES` in ``folder``; returns key → file name."""
+    return {key: surface.heat_map(rows, key, folder / name, title=title,
+                                  reference=("the training skeletons' mean", constant_mm)
+                                  if key == "test_m" and constant_mm is not None else None).name
+            for key, (name, title) in FIGURES.items()}
+
+
+def _constant_mm(test: dict) -> float:
+    """The test error (mm) of the training skeletons' mean held constant."""
+    return 1e3 * next(row for row in test["rows"]
+                      if row["method"] == evaluation.TRAINING_CONSTANT)["error_m"]
 
 
 def view_selection_summary(out: Path, frames: int) -> dict:
@@ -163,6 +174,15 @@ def view_selection_summary(out: Path, frames: int) -> dict:
 
 def main(argv=None) -> int:
     args = _parse(argv)
+    if args.replot:
+        try:
+            record = json.loads(args.json.read_text())
+            rows = record["surface"]["rows"]
+        except (OSError, ValueError, KeyError) as error:
+            raise SystemExit(f"--replot: {args.json} holds no finished surface ({error}); run "
+                             "without --replot first") from None
+        print(draw(rows, args.json.parent, _constant_mm(record["test"])))
+        return 0
     from jaxtrack._files import write_json_atomically
     from jaxtrack.experiments import linear_combination as lc
 
@@ -185,9 +205,7 @@ def main(argv=None) -> int:
     if args.validation:
         write(validation=validation_choice(trained, args.frames))
     if not args.no_surface:
-        constant = next(row for row in record["test"]["rows"]
-                        if row["method"] == evaluation.TRAINING_CONSTANT)["error_m"]
-        write(surface=surfaces(args, 1e3 * constant,
+        write(surface=surfaces(args, _constant_mm(record["test"]),
                                lambda rows: write(surface={"partial_rows": rows})))
     if not args.no_view_selection:
         write(view_selection=view_selection_summary(

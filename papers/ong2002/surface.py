@@ -7,9 +7,10 @@ linear_combination.TRAIN_CLIPS``, through the Pose2Sim cameras of ``--views``); 
 runs at each sample count (5 iterations per frame) on the first training clip (the paper's
 "training sequences") and on the test subject's two waves, every view. Eq. 9's tolerances P, Q
 and the step ω are the ones ``python -m papers.ong2002.evaluation`` chose on the
-validation subject (2026-11-26: P = 64, Q = 16, ω = 0.03); ``--P``, ``--Q`` and ``--step`` give
-others. The paper's grid is clusters {10, 20, …, 100} × samples {10, 20, …, 90, 100, 150, …,
-300}; ``--clusters`` and ``--samples`` take a coarser one.
+validation subject (2026-11-26: P = 64, Q = 16, ω = 0.03, the library's defaults since
+2026-11-29); ``--P``, ``--Q`` and ``--step`` give others. The paper's grid is clusters
+{10, 20, …, 100} × samples {10, 20, …, 90, 100, 150, …, 300}; ``--clusters`` and ``--samples``
+take a coarser one.
 
     python -m papers.ong2002.surface [--frames 60] [--clusters 10 40 100] ...
 
@@ -165,7 +166,7 @@ def trends(rows: list[dict], key: str) -> dict:
 
 
 def heat_map(rows: list[dict], key: str, path: str | Path, *, title: str,
-             reference_mm: float | None = None) -> Path:
+             reference: tuple[str, float] | None = None) -> Path:
     """A clusters × samples heat map of ``key`` (mm), each cell labelled with its value.
 
     Args:
@@ -173,8 +174,8 @@ def heat_map(rows: list[dict], key: str, path: str | Path, *, title: str,
         key: the error to draw (``training_m``, ``test_m``, ...).
         path: the PNG to write (its folder must exist).
         title: the figure's title.
-        reference_mm: a level to name in the colour bar's label (e.g. a constant skeleton's
-            error), or None.
+        reference: ``(name, mm)``, a level to name in the colour bar's label (e.g. a
+            constant skeleton's error), or None.
 
     Returns:
         The path.
@@ -197,8 +198,8 @@ def heat_map(rows: list[dict], key: str, path: str | Path, *, title: str,
             axis.text(j, i, f"{errors[i, j]:.0f}", ha="center", va="center", fontsize=8,
                       color="white" if errors[i, j] < middle else "black")
     label = "mean 3-D skeleton error (mm)"
-    if reference_mm is not None:
-        label += f"\n(a constant skeleton: {reference_mm:.0f} mm)"
+    if reference is not None:
+        label += f"\n({reference[0]}: {reference[1]:.0f} mm)"
     figure.colorbar(image, ax=axis, label=label)
     axis.set_title(title, fontsize=10)
     figure.tight_layout()

@@ -43,7 +43,8 @@ def test_a_grid_with_a_hole_is_refused_and_the_heat_map_is_written(tmp_path):
     np.testing.assert_allclose(errors[:, 0], [110, 140, 200])
     with pytest.raises(ValueError, match="holes"):
         trends(rows[1:], "training_m")
-    path = heat_map(rows, "training_m", tmp_path / "surface.png", title="t", reference_mm=150)
+    path = heat_map(rows, "training_m", tmp_path / "surface.png", title="t",
+                    reference=("a constant", 150.0))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
