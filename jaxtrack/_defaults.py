@@ -289,7 +289,9 @@ DEFAULTS: tuple[Default, ...] = (
     Default("edge threshold", f"{_FITNESS}(edge_threshold)", 0.05, NONE,
             group="Linear combinations"),
     Default("clusters", "jaxtrack.experiments.linear_combination:train(num_clusters)", 20, NONE,
-            note="`--surface` measures clusters × samples (Fig. 10, 12); no choice is recorded.",
+            note="`python -m papers.ong2002` measures clusters × samples (Fig. 10, 12; "
+            "papers/ong2002/README.md), on a training clip and the test subject: no choice on "
+            "validation is recorded.",
             group="Linear combinations"),
     Default("view rule", "jaxtrack.experiments.linear_combination:DEFAULT_VIEW_SELECTION",
             "ambiguity", "validation", _VIEWS, "2026-11-27",
