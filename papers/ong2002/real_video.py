@@ -33,7 +33,7 @@ video's median background, as ``jaxtrack track`` does by default; the man barely
 place, so the median holds him and the silhouettes are fragments. ``mediapipe`` gives
 ``jaxtrack track --masks`` MediaPipe's person segmentation of each video instead
 (``jaxtrack/vision/mediapipe.py``, in its own venv, ``make detector``; cached in
-``benchmarks/results/mediapipe_masks/``, shared with ``benchmarks.mixed_state_real_video``).
+``benchmarks/results/mediapipe_masks/``, shared with ``papers.kwatra2002.mixed_state_real_video``).
 
 ``--demo multiperson`` tracks the two-person take instead
 (``shared/data/pose2sim_demo_multiperson``: the same man in a lunge with his arms out while a
@@ -59,7 +59,7 @@ from benchmarks._common import device_description, print_table, write_json
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results"
 """The model cache, the overlays and the JSON: kept out of git beside the other benchmarks'
-results (the MediaPipe masks there are shared with ``benchmarks.mixed_state_real_video``)."""
+results (the MediaPipe masks there are shared with ``papers.kwatra2002.mixed_state_real_video``)."""
 CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 
 

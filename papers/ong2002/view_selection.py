@@ -7,8 +7,8 @@ skeleton is best, and whether fitness and ambiguity can tell at all.
 
 Each clip is rendered through the four Pose2Sim cameras over the real-photo background and
 tracked in each view on its own (``jaxtrack.experiments.linear_combination.multi_view``: the
-model of ``jaxtrack train --method linear-combination``'s training subjects, eq. 9's P = 64,
-Q = 16 and ω = 0.03 as ``papers.ong2002.evaluation`` chose them on validation).
+model of ``jaxtrack train --method linear-combination``'s training subjects, the library's
+eq. 9 P = 64, Q = 16 and ω = 0.03, as ``papers.ong2002.evaluation`` chose them on validation).
 Per frame a rule picks one view; its 3-D skeleton error is compared with the best view of the
 frame (an oracle) and the worst. The rules:
 
@@ -363,8 +363,9 @@ def main(argv=None) -> int:
         parser.error(" ".join(str(error).split()))
     trained = lc.train(train_clips, views=views, num_clusters=args.clusters)
     ambiguities = training_ambiguity(trained.vectors, trained.model.layout)
-    fitness = FitnessSettings(contour_tolerance=jnp.asarray(64.0),
-                              hands_tolerance=jnp.asarray(16.0))
+    # the library's P, Q and ω (64, 16, 0.03), chosen on validation by papers.ong2002.evaluation
+    fitness = FitnessSettings(contour_tolerance=jnp.asarray(lc.DEFAULT_FITNESS.contour_tolerance),
+                              hands_tolerance=jnp.asarray(lc.DEFAULT_FITNESS.hands_tolerance))
     print(f"trained on {len(trained.vectors)} vectors ({time.perf_counter() - started:.0f} s); "
           f"{device_description()}", flush=True)
     results = {estimate: {} for estimate in lc.SKELETON_ESTIMATES}
@@ -372,7 +373,7 @@ def main(argv=None) -> int:
     for split, clips in (("validation", VALIDATION), ("test", lc.TEST_CLIPS)):
         for clip in clips:
             result = lc.multi_view(trained, clip, views=views, max_frames=args.frames,
-                                   fitness=fitness, step=jnp.asarray(0.03),
+                                   fitness=fitness, step=jnp.asarray(lc.DEFAULT_STEP),
                                    ambiguities=ambiguities)
             for estimate, by_split in features.items():
                 by_split.setdefault(split, []).append(
@@ -434,7 +435,9 @@ def main(argv=None) -> int:
     header = run_header("papers.ong2002.view_selection", argv, started)
     write_json_atomically(args.out, {
         **header, "frames": args.frames,
-        "settings": {"P": 64.0, "Q": 16.0, "step": 0.03, "clusters": args.clusters,
+        "settings": {"P": float(lc.DEFAULT_FITNESS.contour_tolerance),
+                     "Q": float(lc.DEFAULT_FITNESS.hands_tolerance), "step": lc.DEFAULT_STEP,
+                     "clusters": args.clusters,
                      "particles": 300, "iterations": 5, "views": list(views),
                      "train_clips": train_clips},
         "chosen_on_validation": {"estimate": chosen_estimate, "rule": chosen},
