@@ -105,7 +105,7 @@ def test_every_rig_maps_to_anatomical_markers(file):
 # rigs whose only real files are in shared/data: the DeepMimic clips are LGPL (never copied into
 # the repository) and the MotionBuilder-friendly CMU clips are not bundled;
 # test_motion.py reads both dialects from files it writes
-SHARED_ONLY_RIGS = {"cmu_bvh_mb", "deepmimic"}
+SHARED_ONLY_RIGS = {"deepmimic"}
 
 
 def test_every_rig_has_a_clip_here():

@@ -2,7 +2,6 @@
 left/right, and forward kinematics against an independent SciPy reference."""
 
 import functools
-import time
 from pathlib import Path
 
 import numpy as np
@@ -351,11 +350,10 @@ def test_asf_forward_kinematics_matches_scipy():
     np.testing.assert_allclose(femur, 6.92462 / 0.45 * 0.0254, rtol=1e-5)
 
 
-def test_a_thousand_frame_bvh_loads_fast():
-    file = BUNDLED["cmu_bvh/131_01"]  # 994 frames x 93 channels
-    start = time.perf_counter()
-    load_motion(file)
-    assert time.perf_counter() - start < 1.0
+def test_a_thousand_frame_bvh_loads_whole():
+    """Every frame of a long clip (its speed is a benchmark's business, not a test's)."""
+    motion = load_motion(BUNDLED["cmu_bvh/131_01"])  # 994 frames x 93 channels
+    assert motion.positions.shape[:2] == (994, 31) and np.all(np.isfinite(motion.positions))
 
 
 def test_joint_index_and_validation():
