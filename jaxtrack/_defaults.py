@@ -102,8 +102,8 @@ _MIXED_STATE_NOTE = ("Smoothed MSE over all parts on the validation clips (docs/
                      "the docstring of the code quotes the numbers).")
 _ARM_NOTE = ("On the Bandai validation splits, prior trained on other Bandai takes "
              "(docs/trackers.md, \"Why the defaults are what they are\"; "
-             "docs/measurement-log.md); the record gives no command line, the date is that "
-             "of the commit that set the value.")
+             "the measurement log, git show 561ec54:docs/measurement-log.md); the record "
+             "gives no command line, the date is that of the commit that set the value.")
 _LC_VALIDATED = "python -m papers.ong2002.evaluation --frames 60 --multi-view"
 _LC_NOTE = ("Chosen on the validation subject's wave (Bandai-Namco, four Pose2Sim views, 60 "
             "frames) over {grid} by the best particle's 3-D error, for both filters; the same "
@@ -125,7 +125,7 @@ DEFAULTS: tuple[Default, ...] = (
     Default("latent tracker particles", f"{_LATENT}(engine).num_particles", 200, NONE,
             note="The protocol's count (jaxtrack.experiments.protocol.DEFAULT_PARTICLES). "
             "`python -m papers.tian2005.particle_sweep` measures other counts on the "
-            "test take only (docs/tracking.md); no choice on validation is recorded.",
+            "test take only (papers/tian2005/history.md); no choice on validation is recorded.",
             group="Particle counts"),
     Default("CONDENSATION particles", "jaxtrack.trackers.condensation:condensation_tracker"
             "(engine).num_particles", 1000, NONE,
@@ -133,7 +133,8 @@ DEFAULTS: tuple[Default, ...] = (
             group="Particle counts"),
     Default("MHT modes", f"{_MHT}(num_modes)", 10, NONE,
             note="10 against 50 modes is measured on the protocol's held-out take "
-            "(docs/measurement-log.md); no choice on validation is recorded.",
+            "(the measurement log, git show 561ec54:docs/measurement-log.md); no choice on "
+            "validation is recorded.",
             group="Particle counts"),
     Default("linear-combination particles", f"{_LC}(engine).num_particles", 300, "paper",
             note="Ong & Gong 2002: up to 300 samples.", group="Particle counts"),
@@ -166,20 +167,20 @@ DEFAULTS: tuple[Default, ...] = (
             "--likelihoods limbs+edges --seeds 5 --views 3 --no-real-video", "2026-11-27",
             "45 runs per cell: partitioned sampling lowers the own estimate (11.8 against "
             "17.3 %) but with the refinement it is worse than the shipped tracker (7.0 against "
-            "5.7 %), so it stays off (docs/tracking.md).", "Latent tracker"),
+            "5.7 %), so it stays off (papers/tian2005/history.md).", "Latent tracker"),
     Default("latent velocity (second-order walk)", f"{_LATENT}(velocity)", None, "validation",
             "python -m papers.tian2005.tracking --split validation --prior gestures --parts "
             "--methods latent --estimates own --likelihoods limbs+edges --seeds 5 --views 3 "
             "--set partitioned=1 [--set latent_velocity=1]", "2026-11-27",
             "None (the paper's random walk): the second-order walk moved no estimate beyond "
-            "its interval (docs/tracking.md).", "Latent tracker"),
+            "its interval (papers/tian2005/history.md).", "Latent tracker"),
     Default("cycles per frame", "jaxtrack.trackers._options:Engine(iterations_per_frame)", 1,
             "validation", "python -m papers.tian2005.tracking --split validation --methods latent "
             "condensation --estimates own --likelihoods limbs+edges --seeds 5 --views 3 "
             "[--set iterations=3]", "2026-11-27",
             "Three cycles moved neither tracker beyond its interval (latent 21.0 against 20.8 %, "
             "CONDENSATION 14.1 against 13.6 %); the linear-combination tracker replaces it by "
-            "its own `iterations` (docs/tracking.md).", "Latent tracker"),
+            "its own `iterations` (papers/tian2005/history.md).", "Latent tracker"),
     # ---- refinement ---------------------------------------------------------------------------
     Default("refinement steps", "jaxtrack.trackers._options:DEFAULT_REFINE_STEPS", 10,
             "validation", _kept("refine_steps"), "2026-11-26",
@@ -230,8 +231,9 @@ DEFAULTS: tuple[Default, ...] = (
     Default("edge scale σ", f"{_EDGES}:DEFAULT_EDGE_SCALE", 0.025, NONE, group="Likelihood"),
     Default("foreground_weight μ", f"{_EDGES}:DEFAULT_FOREGROUND_WEIGHT", 2.0, "validation",
             _kept("foreground_weight"), "2026-11-26",
-            "First chosen on the Bandai validation splits (commit 23021bf, docs/tracking.md); "
-            "kept against 1 (3.50 ± 1.53 %) and 4 (3.88 ± 1.81 %). " + _KEPT_NOTE,
+            "First chosen on the Bandai validation splits (commit 23021bf, "
+            "papers/tian2005/history.md); kept against 1 (3.50 ± 1.53 %) and 4 "
+            "(3.88 ± 1.81 %). " + _KEPT_NOTE,
             "Likelihood"),
     Default("foreground threshold", f"{_EDGES}:DEFAULT_FOREGROUND_THRESHOLD", 20 / 255, NONE,
             group="Likelihood"),
@@ -239,7 +241,7 @@ DEFAULTS: tuple[Default, ...] = (
             "python -m papers.tian2005.keypoint_term --estimates refined "
             "--keypoint-weights 1.5 5 15",
             "2026-11-27", "3/2 is the bivariate Cauchy density's exponent; kept against 5 and "
-            "15 by the refined trackers' mean error (docs/real-video.md).", "Likelihood"),
+            "15 by the refined trackers' mean error (papers/tian2005/history.md).", "Likelihood"),
     Default("keypoint scales τ_j", f"{_EDGES}:KEYPOINT_SCALES",
             (0.082, 0.037, 0.018, 0.051, 0.051, 0.027, 0.039, 0.028, 0.049, 0.029, 0.033, 0.047),
             "validation", "python -m papers.tian2005.keypoint_term", "2026-11-27",

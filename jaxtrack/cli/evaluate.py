@@ -90,7 +90,8 @@ def add_parser(subparsers) -> None:
                              "(default 0)")
     parser.add_argument("--prior-optimiser", choices=OPTIMISERS, default="bfgs",
                         help="eq. 1's minimiser when training the GPLVM (default bfgs, what the "
-                             "tracking results in docs/tracking.md used; lbfgs: see docs/gplvm.md)")
+                             "tracking results in papers/tian2005/history.md used; lbfgs: see "
+                             "docs/gplvm.md)")
     add_tracker_options(parser)
     parser.add_argument("--baseline-dynamics", choices=("training", "test_start"),
                         default="training",

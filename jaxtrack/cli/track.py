@@ -20,7 +20,7 @@ written by :func:`jaxtrack.experiments.pipeline.track_video`, nothing left half-
 anything fails or Ctrl-C interrupts. Every argument, output folder included, is checked before
 the first frame is decoded.
 
-A run on a real video, and the memory estimate's measurements: ``docs/real-video.md``,
+A run on a real video, and the memory estimate's measurements: ``papers/tian2005/history.md``,
 ``papers/tian2005/history.md`` (section "Memory").
 """
 

@@ -69,7 +69,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--parts", action="store_true",
                         help="latent: one GPLVM per body part (torso, each arm) instead of one "
                              "of the whole upper body: reconstructs new people's poses better "
-                             "(docs/tracking.md, 'A prior that generalises across people')")
+                             "(papers/tian2005/history.md, 'A prior that generalises across "
+                             "people')")
     parser.add_argument("--mirror", action="store_true",
                         help="latent: also learn from every clip's left-right mirror image")
     parser.add_argument("--back-constraint", type=real(positive=True, unit=" width"),

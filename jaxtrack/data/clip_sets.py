@@ -44,8 +44,8 @@ WIDE_VALIDATION_CLIPS = GESTURE_CLIPS["validation"] + tuple(_BANDAI + name for n
 """The three validation clips and six more of the validation subject's upper-body gestures from
 ``../shared/data`` (the right-hand wave in three more styles, both hands waving and raised, the
 left-hand wave's second take): one clip of every gesture and style the Bandai source holds
-beside the three. The three alone favour the latent tracker (docs/tracking.md, "Six more of the
-validation subject's clips")."""
+beside the three. The three alone favour the latent tracker (papers/tian2005/history.md, "Six
+more of the validation subject's clips")."""
 
 QUICK_TRAINING = {"views": 2, "fps": 10.0, "active_size": 60, "iterations": 1}
 """``train_prior`` settings of a small prior for smoke runs: 2 views, 10 fps, 60 active points,

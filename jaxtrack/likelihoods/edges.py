@@ -187,10 +187,10 @@ KEYPOINT_SCALES = (0.082, 0.037, 0.018, 0.051, 0.051, 0.027, 0.039, 0.028, 0.049
 """τ_j: the keypoint term's scale per marker (``SPM_MARKERS`` order) as a fraction of the spine
 (neck–pelvis), the detector's error scale: the median distance between MediaPipe Pose's
 keypoints and the true markers over √3 (a bivariate Cauchy's median radius is √3 times its
-scale), on the validation subjects' rendered gesture clips (``python -m benchmarks.keypoint_term``,
-2026-11-27: 3 Bandai clips × 2 views × 2 backgrounds, 60 frames each; docs/real-video.md). The
-head is the least sure: MediaPipe has no such marker, and it is placed from the shoulders and
-ears (``jaxtrack/vision/mediapipe.py``)."""
+scale), on the validation subjects' rendered gesture clips (``python -m
+papers.tian2005.keypoint_term``, 2026-11-27: 3 Bandai clips × 2 views × 2 backgrounds, 60
+frames each; papers/tian2005/history.md). The head is the least sure: MediaPipe has no such
+marker, and it is placed from the shoulders and ears (``jaxtrack/vision/mediapipe.py``)."""
 
 CAUCHY_KEYPOINT_WEIGHT = 1.5
 """η = 3/2, the exponent of the bivariate Cauchy density ``(1 + q²)^(−3/2)``: the keypoint term

@@ -9,7 +9,7 @@ flatter likelihood (λ / 2, λ / 4), a larger latent step (2 ν, 3 ν: the rando
 with the square root of the frame rate it is rescaled from), and no jumps with the subject's own
 link lengths. Per variant: the estimate's and the best particle's mean error in % of the torso,
 frames within 15 %, median ESS and the two wrists' error. A validation subject: this chooses
-nothing by itself, it says where the error comes from (docs/tracking.md, "A prior that
+nothing by itself, it says where the error comes from (papers/tian2005/history.md, "A prior that
 generalises across people").
 """
 

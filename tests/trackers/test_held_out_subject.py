@@ -49,7 +49,8 @@ def test_the_shipped_latent_tracker_stays_on_a_held_out_subject(subject_prior, s
 def test_the_filters_own_estimates_on_a_held_out_subject(subject_prior, sequence):
     latent = _error(subject_prior, sequence, "latent", 200, None)
     condensation = _error(subject_prior, sequence, "condensation", 1000, None)
-    # the prior alone does not carry this subject (docs/tracking.md): guarded, not celebrated
+    # the prior alone does not carry this subject (papers/tian2005/history.md): guarded, not
+    # celebrated
     assert latent["mean_error_torso"] < 0.35  # measured 0.19 (0.32 with the paper's decoder)
     assert condensation["mean_error_torso"] < 0.12  # measured 0.077; 0.087 on 2026-11-28
 

@@ -4,7 +4,8 @@ Tian et al. learn one GPLVM of the whole upper body, so a pose is only reachable
 pose combined its arms' configurations the same way. Another person waves with the other arm
 raised a little differently, and no training pose holds that combination: on the validation
 subjects the nearest of 14 540 whole-body training poses was 17.5 % of the torso off on a wave,
-the nearest *per part* (torso, each arm) 3.8 % (docs/tracking.md, "A prior that generalises").
+the nearest *per part* (torso, each arm) 3.8 % (papers/tian2005/history.md, "A prior that
+generalises").
 :class:`PartsGPLVM` learns one GPLVM per part from the same training poses; its latent point is
 the parts' latent points concatenated (2 + 2 + 2 = 6-D for the default parts), μ(x) scatters
 each part's μ into its links' features, and μ⁻¹ inverts each part on its own links. It has the
