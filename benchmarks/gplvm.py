@@ -101,7 +101,7 @@ HELD_OUT_CLIPS = GESTURE_CLIPS["test"]
 VALIDATION_CLIPS = GESTURE_CLIPS["validation"]
 """``--validation``: settings are chosen on these clips of a validation subject (the Bandai
 actors) instead, so that the held-out clips above only report. The clips of
-:mod:`benchmarks.tracking`'s comparison, so that both choose on the same people."""
+:mod:`papers.tian2005.tracking`'s comparison, so that both choose on the same people."""
 
 
 def split(validation: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:

@@ -196,7 +196,7 @@ CAUCHY_KEYPOINT_WEIGHT = 1.5
 """η = 3/2, the exponent of the bivariate Cauchy density ``(1 + q²)^(−3/2)``: the keypoint term
 as the detector's error model. The weight the command line and the benchmarks give the term
 when keypoints are given; kept against 5 and 15 on the validation subjects by the refined
-trackers' mean error (``python -m benchmarks.keypoint_term --estimates refined
+trackers' mean error (``python -m papers.tian2005.keypoint_term --estimates refined
 --keypoint-weights 1.5 5 15``, 2026-11-27; papers/tian2005/history.md)."""
 
 MIRRORED_MARKERS = tuple(SPM_MARKERS.index(name.replace("left", "@").replace("right", "left")

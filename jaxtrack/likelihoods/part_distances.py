@@ -53,8 +53,8 @@ class PartDistances(eqx.Module):
         """Isotropic R_i = σ_i² I from per-part standard deviations in pixels (head, hands,
         feet), the cutoff δ and log k. δ = 25 (a hypothesis pulls a part from up to 5 σ away)
         is chosen on the validation clips with the tracker's other settings (``python -m
-        benchmarks.mixed_state_evaluation``, 2026-11-27: smoothed MSE over all parts 5 482 px²
-        against 5 701 at δ = 9 and 5 740 at δ = 100, parts re-drawn on a posture switch, one
+        papers.kwatra2002.mixed_state_evaluation``, 2026-11-27: smoothed MSE over all parts
+        5 482 px² against 5 701 at δ = 9 and 5 740 at δ = 100, parts re-drawn on a posture switch, one
         tracker seed each; papers/kwatra2002/history.md)."""
         sigma = np.asarray(standard_deviations, np.float64)
         if sigma.ndim != 1 or not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
