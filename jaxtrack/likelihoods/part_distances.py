@@ -54,8 +54,8 @@ class PartDistances(eqx.Module):
         feet), the cutoff δ and log k. δ = 25 (a hypothesis pulls a part from up to 5 σ away)
         is chosen on the validation clips with the tracker's other settings (``python -m
         papers.kwatra2002.mixed_state_evaluation``, 2026-11-27: smoothed MSE over all parts
-        5 482 px² against 5 701 at δ = 9 and 5 740 at δ = 100, parts re-drawn on a posture switch, one
-        tracker seed each; papers/kwatra2002/history.md)."""
+        5 482 px² against 5 701 at δ = 9 and 5 740 at δ = 100, parts re-drawn on a posture
+        switch, one tracker seed each; papers/kwatra2002/history.md)."""
         sigma = np.asarray(standard_deviations, np.float64)
         if sigma.ndim != 1 or not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
             raise ValueError(f"standard_deviations must be a 1-D array of positive pixels, got "

@@ -125,8 +125,8 @@ class MixedStateModel(smc.StateSpaceModel):
             drifted beyond the likelihood's cutoff δ, where nothing pulls them back. Default 0,
             chosen on the validation clips with ``redraw_on_switch`` and the part likelihood's
             cutoff (``python -m papers.kwatra2002.mixed_state_evaluation``, 2026-11-27: at
-            δ = 25 and parts re-drawn on a switch, smoothed MSE over all parts 5 482 px² at 0 against
-            6 068 at 0.02).
+            δ = 25 and parts re-drawn on a switch, smoothed MSE over all parts 5 482 px² at 0
+            against 6 068 at 0.02).
         redraw_on_switch: whether a particle whose posture changes has its parts re-drawn
             about the new posture's hypotheses (velocity zero) instead of keeping them (the
             paper does not say). Kept, the parts of a particle that switches sit where the
