@@ -78,7 +78,7 @@ bench-gplvm-exact: $(STAMP)
 
 # tracking error and ms/frame of latent / CONDENSATION / MHT vs N (~15 minutes on 2 cores)
 bench-tracking: $(STAMP)
-	$(BIN)/python -m benchmarks.particle_counts --tracking
+	$(BIN)/python -m papers.tian2005.particle_sweep
 
 clean:
 	rm -rf $(VENV) build *.egg-info
