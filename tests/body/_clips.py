@@ -45,6 +45,20 @@ def knees_bend_backwards(motion: Motion, min_bend_degrees: float = 30.0) -> tupl
     return bent, agreeing
 
 
+def one_take_per_hdm05_actor(shared: dict) -> dict:
+    """``shared`` without HDM05's takes beyond the first of each actor (every HDM05 take is the
+    same rig and exporter; its 127 takes at 120 Hz would otherwise dominate a test's time)."""
+    kept, actors = {}, set()
+    for name, file in shared.items():
+        if name.startswith("hdm05_cut/"):
+            actor = name.rsplit("/", 1)[-1].split("_")[1]
+            if actor in actors:
+                continue
+            actors.add(actor)
+        kept[name] = file
+    return kept
+
+
 def shared_clip_params(shared: dict) -> list:
     """``pytest.param`` per shared clip, ``id="shared:<name>"``. HDM05's 127 takes share five
     skeletons and one exporter: one take per actor runs in the default suite, the rest are
