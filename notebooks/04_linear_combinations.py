@@ -26,7 +26,6 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from jaxtrack.experiments import linear_combination as lc
-from jaxtrack.likelihoods.contour_normals import FitnessSettings
 
 SMOKE = os.environ.get("JAXTRACK_SMOKE") == "1"
 HISTORY = "animateddrawings/history_c119d6b/"
@@ -41,7 +40,7 @@ else:
     SIZES = dict(views=(0, 1, 2, 3), num_contour=100, max_frames=None)
     CLUSTERS, PARTICLES, ITERATIONS, FRAMES = 20, 300, 5, 90
     SURFACE_CLUSTERS, SURFACE_SAMPLES = (10, 20, 40, 80), (20, 50, 100, 300)
-FITNESS = FitnessSettings()  # docs/linear-combination.md says how P and Q were chosen
+FITNESS = lc.DEFAULT_FITNESS  # P = 64, Q = 16, chosen on validation (docs/defaults.md)
 
 trained = lc.train(TRAIN, num_clusters=CLUSTERS, **SIZES)
 model = trained.model
@@ -102,7 +101,7 @@ for row, clusters in enumerate(SURFACE_CLUSTERS):
     for column, samples in enumerate(SURFACE_SAMPLES):
         run = lc.run_method("linear-combination", model_k, sequence.observations,
                             particles=samples, iterations=ITERATIONS, fitness=FITNESS,
-                            step=jnp.asarray(0.1))
+                            step=jnp.asarray(lc.DEFAULT_STEP))
         surface[row, column] = lc.skeleton_error(run["skeleton"], sequence.skeleton).mean()
 print("3-D error (m), rows: clusters", SURFACE_CLUSTERS, "columns: samples", SURFACE_SAMPLES)
 print(np.round(surface, 3))
