@@ -1,6 +1,7 @@
 """The log-evidence gradient that fitting ascends: against central finite differences with
 common random numbers, against Kalman's exact gradient, and a fit that finds Kalman's maximum;
-then through the detection density in a tracker's filter."""
+then through the detection density in a tracker's filter; and the fixed-lag smoother that
+reads a fitted filter's history."""
 
 import equinox as eqx
 import jax
@@ -142,3 +143,23 @@ def test_gradient_through_the_detection_density_matches_central_differences():
             difference = float((evaluate(theta + shift)[0] - evaluate(theta - shift)[0])
                                / (2 * step))
             assert abs(float(gradient[i]) - difference) < 1e-3 * max(1.0, abs(difference)), i
+
+
+def test_fixed_lag_smoother_runs_from_the_filter_to_the_whole_sequence(problem):
+    """``fixed_lag_ancestry`` with lag 0 is the filter's particles and weights; with a lag of
+    the whole sequence it is ``trace_ancestry``; between, frame t's particles descend to frame
+    t + lag's."""
+    base, truth, observations = problem
+    result = smc.run(jr.key(2), _model(truth, base), observations[:8], 50, keep_history=True)
+    none = smc.fixed_lag_ancestry(result, 0)
+    np.testing.assert_array_equal(np.asarray(none.particles), np.asarray(result.particles))
+    np.testing.assert_array_equal(np.asarray(none.log_weights), np.asarray(result.log_weights))
+    whole = smc.fixed_lag_ancestry(result, 20)
+    traced = smc.trace_ancestry(result)
+    np.testing.assert_array_equal(np.asarray(whole.particles), np.asarray(traced.paths))
+    np.testing.assert_allclose(np.asarray(whole.mean), np.asarray(traced.mean), rtol=1e-12)
+    lagged = smc.fixed_lag_ancestry(result, 2)
+    parents = np.asarray(result.ancestors)
+    index = parents[5][parents[6]]  # frame 4's ancestors of frame 6's particles
+    np.testing.assert_array_equal(np.asarray(lagged.particles[4]),
+                                  np.asarray(result.particles[4])[index])
