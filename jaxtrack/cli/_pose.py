@@ -16,14 +16,60 @@ __all__ = ["initialise", "manual_instead", "manual_markers", "manual_numbers", "
 MIN_TORSO_PX = 4.0  # a shorter neck-pelvis distance is no body the tracker can follow
 
 
-def read_keypoints(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """``--keypoints FILE``'s keypoints and confidences, or a one-line error naming it."""
+def read_keypoints(path: Path, person: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``--keypoints FILE_OR_FOLDER``'s keypoints and confidences of one person, one row per
+    video frame from the first, or a one-line error naming it.
+
+    A ``.npz`` with ``keypoints`` is one person's already (:mod:`jaxtrack.vision.keypoints`).
+    Any other detections file or folder (OpenPose JSON, COCO, MediaPipe, jaxtrack's own:
+    :func:`jaxtrack.vision.detections.load_detections`) may hold several people per frame: the
+    one inside ``--person x0,y0,x1,y1`` in the first frame with anyone (else the most
+    confident) is followed (:func:`jaxtrack.vision.detections.follow_person`); a file's frame
+    numbers count from its first, which is the video's first frame."""
+    from jaxtrack.body import UPPER_BODY_12
+    from jaxtrack.vision.detections import DetectionFileError, follow_person, load_detections
     from jaxtrack.vision.keypoints import KeypointFileError, read_keypoints
 
+    box = None if person is None else _person_box(person)
+    if path.suffix == ".npz" and path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as archive:
+                single = "keypoints" in archive.files
+        except (OSError, ValueError) as error:
+            raise UserError(f"--keypoints: {path}: not a readable .npz ({error})") from None
+        if single:
+            if box is not None:
+                raise UserError(f"--person picks one of several people; --keypoints {path} "
+                                f"holds one person's keypoints: leave --person out")
+            try:
+                return read_keypoints(path)
+            except KeypointFileError as error:
+                raise UserError(f"--keypoints: {error}") from None
+    if not path.exists():
+        raise UserError(f"--keypoints: {path}: no such file or folder")
     try:
-        return read_keypoints(path)
-    except KeypointFileError as error:
-        raise UserError(f"--keypoints: {error}") from None
+        detections = load_detections(path, markers=UPPER_BODY_12)
+        points, confidence = follow_person(detections, box)
+    except (DetectionFileError, ValueError) as error:
+        raise UserError(f"--keypoints: {' '.join(str(error).split())}") from None
+    rows = detections.frame_ids - detections.frame_ids[0]
+    keypoints = np.full((int(rows[-1]) + 1, len(UPPER_BODY_12), 2), np.nan)
+    confidences = np.zeros(keypoints.shape[:2])
+    keypoints[rows], confidences[rows] = points, confidence
+    return keypoints, confidences
+
+
+def _person_box(text: str) -> tuple[float, float, float, float]:
+    """``--person x0,y0,x1,y1``: four finite numbers, x0 < x1 and y0 < y1."""
+    try:
+        values = [float(value) for value in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 4 or not all(np.isfinite(values)) or values[2] <= values[0] or \
+            values[3] <= values[1]:
+        raise UserError(f"--person must be x0,y0,x1,y1 (a box in the first frame's pixels, "
+                        f"x0 < x1, y0 < y1), got {text!r}")
+    return tuple(values)
 
 
 def manual_numbers(text: str) -> np.ndarray:

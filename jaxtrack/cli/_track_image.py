@@ -167,7 +167,10 @@ def _check(args) -> tuple:
                               ("--init keypoints", args.init == "keypoints")):
             if given:
                 raise UserError(f"{option}: it reads a detector's keypoints; give --keypoints")
-    keypoints = None if args.keypoints is None else read_keypoints(args.keypoints)
+    if args.keypoints is None and getattr(args, "person", None) is not None:
+        raise UserError("--person picks the person to follow in --keypoints; give --keypoints")
+    keypoints = None if args.keypoints is None else read_keypoints(
+        args.keypoints, getattr(args, "person", None))
     options = tracker_options(args)
     return masks, keypoints, _likelihood(args, options, masks, keypoints), options
 

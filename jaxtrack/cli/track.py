@@ -111,12 +111,16 @@ def add_parser(subparsers) -> None:
                         help="latent, with --masks: also charge the masks for what the body "
                         "leaves unexplained, NU nats per unit of the coverage term "
                         "(jaxtrack.likelihoods.edges; default off)")
-    parser.add_argument("--keypoints", type=Path, default=None, metavar="FILE",
-                        help="latent: a per-frame detector's keypoints of the video, a .npz with "
-                        "'keypoints' (frames, 12, 2) in the video's pixels in SPM_MARKERS order "
-                        "(NaN where not found) and optionally 'confidence' (frames, 12), one "
-                        "row per video frame from the first (jaxtrack.vision.keypoints); the "
-                        "likelihood's keypoint term scores them")
+    parser.add_argument("--keypoints", type=Path, default=None, metavar="FILE_OR_FOLDER",
+                        help="latent, condensation, mht: a per-frame detector's keypoints of the "
+                        "video, one row per video frame from the first: a folder of OpenPose "
+                        "JSON, a COCO .json, MediaPipe's .npz, jaxtrack's detections .npz, or a "
+                        ".npz with one person's 'keypoints' (frames, 12, 2) in SPM_MARKERS "
+                        "order (jaxtrack.vision.keypoints); the likelihood's keypoint term "
+                        "scores them")
+    parser.add_argument("--person", default=None, metavar="x0,y0,x1,y1",
+                        help="with --keypoints of several people: the box around the person to "
+                        "follow in the first frame with anyone (default: the most confident)")
     parser.add_argument("--keypoint-weight", type=real(0.0), default=None, metavar="ETA",
                         help="latent, with --keypoints: the keypoint term's weight (default "
                         "1.5, the Cauchy density's own: jaxtrack.likelihoods.edges)")

@@ -23,7 +23,7 @@ from jaxtrack.trackers._options import (
     Refinement,
     options_record,
 )
-from jaxtrack.trackers._particles import ImageTracker
+from jaxtrack.trackers._particles import DetectionLikelihood, ImageTracker, detection_observations
 from jaxtrack.trackers._refinement import RefinementState, refine, score_pose, search_arms
 from jaxtrack.trackers._runner import TrackResult, track
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, VideoChunk, frame_at
@@ -53,12 +53,14 @@ from jaxtrack.trackers.mixed_state import MixedStateModel, MixedStateTracker
 __all__ = [
     "DEFAULT_ARM_GRID", "DEFAULT_ARM_MARGIN", "DEFAULT_ARM_MOMENTUM", "DEFAULT_ARM_SPAN",
     "DEFAULT_JUMP_PROBABILITY", "DEFAULT_REFINE_STEPS", "RESAMPLERS",
-    "ArmSearch", "ArmijoGaussNewton", "Engine", "CondensationModel", "CondensationState",
+    "ArmSearch", "ArmijoGaussNewton", "DetectionLikelihood", "Engine", "CondensationModel",
+    "CondensationState",
     "CondensationTracker", "FrameEstimate", "FrameInChunk", "ImageTracker", "LatentModel",
     "LatentState", "LatentTracker", "Likelihood", "LinearCombinationEstimate",
     "LinearCombinationTracker", "MHTModel", "MHTState", "MHTTracker", "MixedStateModel",
     "MixedStateTracker", "ModePool", "Refinement", "RefinementState", "TrackResult", "Tracker",
-    "VideoChunk", "condensation_tracker", "default_refinement", "frame_at", "latent_tracker",
+    "VideoChunk", "condensation_tracker", "default_refinement", "detection_observations",
+    "frame_at", "latent_tracker",
     "linear_combination_tracker", "mht_tracker",
     "options_record", "random_walk_tracker", "refine", "refine_pose", "refinement_cost",
     "score_pose", "search_arms", "track",

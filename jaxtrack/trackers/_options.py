@@ -242,6 +242,8 @@ def options_record(options) -> dict | None:
     """A JSON-able dict of an options module (nested modules become dicts; None stays None)."""
     if options is None:
         return None
+    if hasattr(options, "record"):  # a module that says how it is recorded (a likelihood)
+        return options.record()
     record = {}
     for field in dataclasses.fields(options):
         value = getattr(options, field.name)

@@ -27,7 +27,9 @@ Readers, one per format:
   ``confidence``, ``people``, ``markers``, ``layout``, ``frame_size`` (width, height; NaN when
   unknown) and ``frame_ids``; written atomically.
 
-:func:`load_detections` picks the reader from the path.
+:func:`load_detections` picks the reader from the path. :func:`follow_person` keeps one person
+through the frames (the one inside a box the user draws on the first frame), for a tracker that
+reads one person's keypoints.
 
 **The mapping** (:data:`MARKER_RULES`, :func:`mapping_table`). A marker the format has is
 taken as it is (shoulders, elbows, wrists, hips, knees, ankles; OpenPose's ``Neck``, BODY_25's
@@ -73,8 +75,8 @@ from jaxtrack.body import SPM_MARKERS
 
 __all__ = [
     "DETECTION_MARKERS", "LAYOUT_KEYPOINTS", "MARKER_RULES", "DetectionFileError", "Detections",
-    "load_detections", "map_keypoints", "mapping_table", "openpose_layout", "read_coco",
-    "read_detections", "read_mediapipe", "read_openpose", "write_detections",
+    "follow_person", "load_detections", "map_keypoints", "mapping_table", "openpose_layout",
+    "read_coco", "read_detections", "read_mediapipe", "read_openpose", "write_detections",
 ]
 
 DETECTION_MARKERS = (*SPM_MARKERS, "right_knee", "right_ankle", "left_knee", "left_ankle")
@@ -777,3 +779,93 @@ def load_detections(path: str | os.PathLike, **options) -> Detections:
         return read_mediapipe(path, **options)
     raise DetectionFileError(f"{path}: not a detections file (a folder of OpenPose JSON, a "
                              f"COCO .json, MediaPipe's .npz/.npy, or a detections .npz)")
+
+
+# -- one person through the frames ---------------------------------------------------------------
+
+def _box_of(points: np.ndarray) -> np.ndarray | None:
+    """``(x0, y0, x1, y1)`` of the finite rows of ``points`` ``(markers, 2)``, or None."""
+    found = points[np.all(np.isfinite(points), axis=-1)]
+    if len(found) == 0:
+        return None
+    return np.concatenate([found.min(axis=0), found.max(axis=0)])
+
+
+def _overlap(box: np.ndarray, other: np.ndarray) -> float:
+    """Intersection over the smaller box's area (a person's keypoint box inside a drawn one
+    scores 1 whatever the drawn box's margin)."""
+    width = min(box[2], other[2]) - max(box[0], other[0])
+    height = min(box[3], other[3]) - max(box[1], other[1])
+    if width <= 0 or height <= 0:
+        return 0.0
+    area = lambda b: max((b[2] - b[0]) * (b[3] - b[1]), 1e-9)  # noqa: E731
+    return float(width * height / min(area(box), area(other)))
+
+
+def follow_person(detections: Detections, box: tuple[float, float, float, float] | None = None,
+                  *, gate: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """One person's keypoints through the sequence, for a tracker that reads one person.
+
+    In the first frame where anyone is detected, the person is the one whose keypoints' box
+    overlaps ``box`` most (the overlap over the smaller box's area), or without ``box`` the one
+    of greatest total confidence. In each later frame it is the detected person nearest to
+    where it was last seen: the median distance over the markers both have, at most ``gate``
+    times the diagonal of its last keypoint box. A frame where nobody is that near, or nobody
+    is detected, has no keypoints for it (a passer-by is never taken for it).
+
+    Args:
+        detections: :class:`Detections` of the sequence.
+        box: ``(x0, y0, x1, y1)`` pixels around the person in the first frame with anyone.
+        gate: the largest jump between frames, as a fraction of the person's box diagonal.
+
+    Returns:
+        ``points (time, markers, 2)`` (NaN where absent) and ``confidence (time, markers)``
+        (0 where absent), in the order of ``detections.markers``.
+
+    Raises:
+        DetectionFileError: nobody is detected in any frame, or nobody lies inside ``box``.
+    """
+    count, _, num_markers, _ = detections.points.shape
+    points = np.full((count, num_markers, 2), np.nan)
+    confidence = np.zeros((count, num_markers))
+    frames = [t for t in range(count) if detections.people[t] > 0]
+    if not frames:
+        raise DetectionFileError(f"{detections.source or 'detections'}: nobody is detected in "
+                                 f"any frame")
+    first = frames[0]
+    people = detections.points[first, :detections.people[first]]
+    if box is not None:
+        drawn = np.asarray(box, np.float64)
+        if drawn.shape != (4,) or not np.all(np.isfinite(drawn)) or drawn[2] <= drawn[0] or \
+                drawn[3] <= drawn[1]:
+            raise ValueError(f"box must be (x0, y0, x1, y1) with x0 < x1 and y0 < y1, got {box}")
+        scores = [0.0 if (own := _box_of(person)) is None else _overlap(drawn, own)
+                  for person in people]
+        if max(scores) == 0.0:
+            raise DetectionFileError(
+                f"{detections.source or 'detections'}: nobody detected in frame "
+                f"{int(detections.frame_ids[first])} lies inside the box "
+                f"{', '.join(f'{v:g}' for v in drawn)}; give a box around the person")
+    else:
+        scores = detections.confidence[first, :detections.people[first]].sum(axis=-1)
+    chosen = int(np.argmax(scores))
+    last = people[chosen]
+    for t in frames:
+        candidates = detections.points[t, :detections.people[t]]
+        if t == first:
+            index = chosen
+        else:
+            size = _box_of(last)
+            diagonal = float(np.hypot(size[2] - size[0], size[3] - size[1]))
+            distances = []
+            for person in candidates:
+                both = np.all(np.isfinite(person), -1) & np.all(np.isfinite(last), -1)
+                distances.append(np.median(np.linalg.norm(person[both] - last[both], axis=-1))
+                                 if both.any() else np.inf)
+            index = int(np.argmin(distances))
+            if not distances[index] <= gate * max(diagonal, 1.0):
+                continue
+        points[t] = candidates[index]
+        confidence[t] = detections.confidence[t, index]
+        last = np.where(np.isfinite(candidates[index]), candidates[index], last)
+    return points, confidence
