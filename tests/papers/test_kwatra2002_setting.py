@@ -52,3 +52,6 @@ def test_bad_arguments_are_refused_in_one_line(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["--json", str(tmp_path / "out.txt")])
     assert "must end in .json" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--json", str(tmp_path / "out.json"), "--skip-paper-setting"])
+    assert "leaves nothing to compute" in capsys.readouterr().err
