@@ -7,9 +7,10 @@ a :class:`UserError` that names the argument and what is wrong, before any work 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 __all__ = ["ArgumentsError", "MAX_SEED", "OneLineParser", "TRAINING_FPS", "UserError",
@@ -17,8 +18,8 @@ __all__ = ["ArgumentsError", "MAX_SEED", "OneLineParser", "TRAINING_FPS", "UserE
            "check_clips", "check_held_out", "check_json_and_plots", "check_memory",
            "check_prior_file", "check_seed", "finite_json", "fit_mask_file", "format_bytes",
            "integer", "load_clip_sources", "model_or_default", "one_line", "output_directory",
-           "output_folder", "outputs_or_nothing", "pose2sim_cameras", "read_mask_files", "real",
-           "seed"]
+           "output_folder", "outputs_or_nothing", "pipeline_errors", "pose2sim_cameras",
+           "read_mask_files", "real", "seed"]
 
 MAX_SEED = 2**32 - 1
 """The largest seed. ``jax.random.key`` keeps only a seed's low 32 bits without 64-bit mode
@@ -110,6 +111,23 @@ seed = integer(0, MAX_SEED, reason="(a 32-bit seed: jax.random.key keeps only th
 def one_line(error: BaseException | str) -> str:
     """An error's message on one line."""
     return " ".join(str(error).split())
+
+
+@contextlib.contextmanager
+def pipeline_errors(other: str) -> Iterator[None]:
+    """Around :func:`jaxtrack.experiments.pipeline.track_video`: a video that cannot be read,
+    a mask file that does not fit, or inputs that disagree become one-line errors
+    (:class:`UserError`; ``other`` names the last kind's source, e.g. ``--video V``)."""
+    from jaxtrack.vision import MaskFileError, VideoError
+
+    try:
+        yield
+    except VideoError as error:
+        raise UserError(f"--video: {one_line(error)}") from None
+    except MaskFileError as error:
+        raise UserError(f"--masks {one_line(error)}") from None
+    except ValueError as error:
+        raise UserError(f"{other}: {one_line(error)}") from None
 
 
 def at_least(value: int | None, minimum: int, option: str, default):

@@ -24,6 +24,7 @@ from jaxtrack.cli._common import (
     model_or_default,
     one_line,
     output_directory,
+    pipeline_errors,
     read_mask_files,
 )
 from jaxtrack.cli._options import tracker_options
@@ -183,8 +184,6 @@ def run(args: argparse.Namespace) -> int:
     from jaxtrack.experiments.pipeline import track_video, tracking_scale, video_background
     from jaxtrack.experiments.protocol import video_tracker
     from jaxtrack.vision import (
-        MaskFileError,
-        VideoError,
         foreground_mask,
         masks_for_frames,
         read_video,
@@ -214,7 +213,8 @@ def run(args: argparse.Namespace) -> int:
         if last is not None and len(keypoints[0]) <= last:
             raise UserError(f"--keypoints: {args.keypoints} holds {len(keypoints[0])} frames; "
                             f"the video frames tracked run to frame {last}")
-    try:
+    # fewer than 3 frames for a median, a mask file's size: one line naming the video
+    with pipeline_errors(f"--video {args.video}"):
         probe = read_video(args.video, start=start, max_frames=1)
         size = probe.image_size
         if args.init.startswith("manual:"):  # against the video's own size, before any work
@@ -237,12 +237,6 @@ def run(args: argparse.Namespace) -> int:
             None if keypoints is None else (keypoints[0][start], keypoints[1][start]))
         grey_scene = (video_background(args.video, scale=scale, start=start, max_frames=count,
                                        grey=True) if options.foreground else None)
-    except VideoError as error:
-        raise UserError(f"--video: {one_line(error)}") from None
-    except MaskFileError as error:
-        raise UserError(f"--masks {one_line(error)}") from None
-    except ValueError as error:  # fewer than 3 frames for a median, a mask file's size
-        raise UserError(f"--video {args.video}: {one_line(error)}") from None
     fps = probe.fps if np.isfinite(probe.fps) else None
     try:
         tracker = video_tracker(args.method, prior, args.particles, fps=fps,
@@ -256,7 +250,7 @@ def run(args: argparse.Namespace) -> int:
              f"{init['foreground']}" if "score" in init else "") + ")", flush=True)
     init["markers"] = {name: [round(float(x), 2), round(float(y), 2)]
                        for name, (x, y) in zip(UPPER_BODY_12, pose, strict=True)}
-    try:
+    with pipeline_errors("jaxtrack track"):
         record = track_video(
             tracker, args.video, args.out, key=jr.PRNGKey(args.seed), initial_pose=pose,
             scale=scale, start=start, max_frames=count, masks=masks, keypoints=keypoints,
@@ -265,12 +259,6 @@ def run(args: argparse.Namespace) -> int:
                           "masks_file": None if args.masks is None else str(args.masks[0]),
                           "keypoints_file": None if args.keypoints is None
                           else str(args.keypoints)})
-    except VideoError as error:
-        raise UserError(f"--video: {one_line(error)}") from None
-    except MaskFileError as error:
-        raise UserError(f"--masks {one_line(error)}") from None
-    except ValueError as error:
-        raise UserError(f"jaxtrack track: {one_line(error)}") from None
     counts = ", ".join(f"{n} {name}" for name, n in record["status_counts"].items() if n)
     timings = record["timings"]
     print(f"tracked {record['frames_tracked']} frames: "

@@ -21,6 +21,7 @@ from jaxtrack.cli._common import (
     check_seed,
     one_line,
     output_directory,
+    pipeline_errors,
     read_mask_files,
 )
 from jaxtrack.cli._mixed_state import (
@@ -130,7 +131,7 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.experiments.pipeline import track_video
     from jaxtrack.priors.postures import POSTURE_NAMES
     from jaxtrack.trackers.mixed_state import MixedStateModel, MixedStateTracker
-    from jaxtrack.vision import MaskFileError, VideoError
+    from jaxtrack.vision import VideoError
     from jaxtrack.vision.parts import PART_NAMES
     from jaxtrack.vision.video import frame_count
 
@@ -152,7 +153,7 @@ def track(args: argparse.Namespace) -> int:
     tracker = MixedStateTracker(MixedStateModel(saved.model), particles, num_bins,
                                 keep_history=True)
     kinds: dict = {}
-    try:
+    with pipeline_errors(f"--video {video_path}"):
         record = track_video(
             tracker, video_path, args.out, key=jr.PRNGKey(args.seed), max_size=args.max_size,
             start=start, max_frames=None if stop is None else stop - start, masks=given_masks,
@@ -164,12 +165,6 @@ def track(args: argparse.Namespace) -> int:
                           "num_bins": num_bins, "posture_names": list(POSTURE_NAMES),
                           "part_names": list(PART_NAMES),
                           "posture_model": saved.description})
-    except VideoError as error:
-        raise UserError(f"--video: {one_line(error)}") from None
-    except MaskFileError as error:
-        raise UserError(f"--masks {one_line(error)}") from None
-    except ValueError as error:
-        raise UserError(f"--video {video_path}: {one_line(error)}") from None
     timings = record["timings"]
     counts = np.bincount(kinds["smoothed"][0], minlength=len(POSTURE_NAMES))
     shown = ", ".join(f"{name} {count}" for name, count in zip(POSTURE_NAMES, counts,
