@@ -27,9 +27,10 @@ test           AnimatedDrawings cmu_1006 (two waves); CMU 131 (stylised walk, st
 Real video has no validation subject: the only real videos with a reference show the test
 subject, so settings for real video are chosen on rendered validation clips.
 
-Postures are the exception: only CMU 75 sits and only DeepMimic's humanoid and CMU 139 lie
-down, so the mixed-state evaluation also holds clips of those training subjects out *by clip*
-(75_17 and the roll for validation, 75_20 for test; ``jaxtrack.experiments.mixed_state``).
+The mixed-state evaluation's clips (``jaxtrack.experiments.mixed_state``) follow this split
+too: HDM05 actor mm (with CMU 77 and 02) on the validation side, HDM05 actor tr and CMU 139 (with
+CMU 131) on the test side. Until 2026-11-29 clips of training subjects (CMU 75, DeepMimic) were
+held out by clip instead, for want of other people who sit and lie down.
 
     >>> from jaxtrack.data.splits import split_of, clips_in
     >>> split_of("animateddrawings/history_c119d6b/cmu_1006_wave_hello_2")
