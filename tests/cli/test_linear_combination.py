@@ -202,6 +202,7 @@ def test_track_two_views_selects_a_view_per_frame_by_the_chosen_rule(folder, mod
     assert np.abs(other.mean(axis=0) - (255, 224, 0)).max() > 60
 
 
+@pytest.mark.slow  # renders and tracks the test clips with three methods
 def test_evaluate_scores_three_methods_with_the_cached_model(folder, model, capsys):
     out = folder / "evaluation"
     out.mkdir()

@@ -49,6 +49,15 @@ def trained(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def bundled():
+    """The posture model the package ships (trained on training subjects' CMU clips): what
+    ``track`` uses without ``--model``."""
+    from jaxtrack.data.models import default_model
+
+    return default_model("mixed-state")
+
+
+@pytest.fixture(scope="module")
 def walk(tmp_path_factory):
     """A 30-frame side view of a real walk (CMU 07_01, bundled) as an mp4, its true markers
     and its drawn silhouettes: the walker crosses the image, so the median background is the
@@ -87,6 +96,7 @@ def posture_file(tmp_path):
     return save_posture_model(tmp_path / "postures.npz", model)
 
 
+@pytest.mark.slow  # trains a posture model from the shared clips
 def test_train_reuses_a_model_of_the_same_settings(trained, capsys, tmp_path):
     from jaxtrack.priors.postures import load_posture_model
 
@@ -103,13 +113,13 @@ def test_train_reuses_a_model_of_the_same_settings(trained, capsys, tmp_path):
     assert (tmp_path / "copy.npz").stat().st_mtime_ns == before
 
 
-def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp_path, capsys):
+def test_track_writes_an_overlay_and_postures_in_video_pixels(bundled, walk, tmp_path, capsys):
     from jaxtrack.vision import read_video
 
     video, markers, _ = walk
     out = tmp_path / "out"
     # tracked at 80x60: every position must come back in the 160x120 video's pixels
-    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
+    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", bundled,
                               "--video", video, "--out", out, "--particles", 64, "--max-size",
                               80, "--seed", 3)
     assert code == 0, error
@@ -139,7 +149,7 @@ def test_track_writes_an_overlay_and_postures_in_video_pixels(trained, walk, tmp
                for frame in record["frames"]) > 80
 
 
-def test_track_takes_the_silhouettes_from_masks_the_user_brings(trained, walk, tmp_path,
+def test_track_takes_the_silhouettes_from_masks_the_user_brings(bundled, walk, tmp_path,
                                                                  capsys):
     from jaxtrack.vision import write_masks
 
@@ -148,7 +158,7 @@ def test_track_takes_the_silhouettes_from_masks_the_user_brings(trained, walk, t
     masks[10:15] = False  # a segmenter that missed the person in five frames
     path = write_masks(tmp_path / "masks.npz", masks)
     out = tmp_path / "out"
-    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
+    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", bundled,
                               "--video", video, "--masks", path, "--out", out, "--particles",
                               64, "--max-size", 80, "--seed", 3)
     assert code == 0, error
@@ -163,7 +173,7 @@ def test_track_takes_the_silhouettes_from_masks_the_user_brings(trained, walk, t
     assert record["status_counts"] == {"ok": 25, "degenerate": 0, "no person": 5, "lost": 0}
     # masks for fewer frames than the video: refused in one line, nothing written
     write_masks(tmp_path / "short.npz", masks[:12])
-    code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", trained,
+    code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", bundled,
                          "--video", video, "--masks", tmp_path / "short.npz", "--out",
                          tmp_path / "short", "--max-size", 80)
     assert code == 2 and error.count("\n") == 1
@@ -172,6 +182,7 @@ def test_track_takes_the_silhouettes_from_masks_the_user_brings(trained, walk, t
     assert not (tmp_path / "short").exists()
 
 
+@pytest.mark.slow  # trains a posture model, renders and tracks the test clips
 def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, capsys):
     folder = tmp_path / "evaluation"
     folder.mkdir()

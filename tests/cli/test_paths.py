@@ -116,6 +116,7 @@ def test_train_command_trains_on_a_bvh_path(tmp_path, own_files, capsys):
     assert prior.description["num_poses"] == 20  # 80 frames at 119.9 Hz, taken at 30 fps
 
 
+@pytest.mark.slow  # trains a GPLVM per body part
 def test_train_command_trains_one_gplvm_per_part_with_parts(tmp_path, own_files, capsys):
     from jaxtrack.priors.gplvm import PartsGPLVM
 
@@ -157,6 +158,7 @@ def test_train_command_reads_an_asf_amc_pair_with_asf(tmp_path, own_files, monke
     assert load_prior(out).description["num_poses"] == 2 * 10  # 120 frames at 120 Hz, 10 fps
 
 
+@pytest.mark.slow  # trains, renders and tracks
 def test_evaluate_takes_a_bvh_and_an_asf_amc_pair(tmp_path, own_files, monkeypatch, capsys):
     trained = []
 

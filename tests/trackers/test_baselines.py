@@ -191,7 +191,7 @@ def test_condensation_follows_the_first_frames(wave, make):
     assert _errors(result.markers, truth).max() < 0.06 * wave["torso"]
 
 
-@pytest.mark.parametrize("nearest", [True, False])
+@pytest.mark.parametrize("nearest", [pytest.param(True, marks=pytest.mark.slow), False])
 def test_condensation_model_jit_matches_eager(wave, nearest):
     tracker = condensation_tracker(wave["template"], wave["states"], engine=Engine(4),
                                    likelihood=Likelihood(nearest=nearest))
@@ -251,7 +251,8 @@ def _refinement_problem(wave, dtype):
     return template, frame, templates, truth, state + perturbation
 
 
-@pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
+@pytest.mark.parametrize("dtype", [pytest.param(jnp.float32, marks=pytest.mark.slow),
+                                   jnp.float64])
 def test_refine_pose_reduces_the_ncc_cost(wave, dtype):
     template, frame, templates, truth, start = _refinement_problem(wave, dtype)
     wide = jnp.full(25, 10.0, dtype)  # a weak prior: the image decides
@@ -360,7 +361,10 @@ def test_marker_colours_never_put_two_markers_of_one_part_together():
         marker_colours([(0, 12)], 12)
 
 
-@pytest.mark.parametrize("likelihood", ["markers", "limbs+edges", "whole-pose terms"])
+@pytest.mark.parametrize("likelihood", ["markers",
+                                        pytest.param("limbs+edges", marks=pytest.mark.slow),
+                                        pytest.param("whole-pose terms",
+                                                     marks=pytest.mark.slow)])
 def test_the_parts_solver_takes_optimistix_steps(wave, likelihood):
     """``refine_pose(solver="parts")`` (Jacobian blocks per likelihood part, own Armijo loop)
     reaches the iterate of optimistix's Armijo Gauss–Newton from the same start (float64),
