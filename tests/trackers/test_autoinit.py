@@ -223,7 +223,7 @@ def test_track_cli_bad_input_is_a_clear_error(model_file, sequence, tmp_path, ca
             (("--keypoint-weight", "2"), "--keypoint-weight: it reads a detector's keypoints"),
             (("--init", "keypoints"), "--init keypoints: it reads a detector's keypoints"),
             (("--keypoints", str(tmp_path / "none.npz")),
-             "--keypoints: " + str(tmp_path / "none.npz") + ": no such keypoints file")):
+             "--keypoints: " + str(tmp_path / "none.npz") + ": no such file or folder")):
         code, error = run("--model", str(model_file), "--video", str(still), "--out", str(out),
                           *arguments)
         assert code == 2 and message in error, error
