@@ -20,6 +20,7 @@ import gc
 import os
 import shutil
 import tempfile
+from pathlib import Path
 
 import jax
 import pytest
@@ -54,6 +55,30 @@ HEAVY_FIRST = ("tests/trackers/test_tracker_contract.py", "tests/trackers/test_l
                "tests/papers/test_tian2005_tracking.py", "tests/smc/test_transformations.py",
                "tests/priors/test_gplvm.py", "tests/likelihoods/test_edges.py",
                "tests/cli/test_paths.py", "tests/trackers/test_baselines.py")
+
+
+SLOW_LIST = Path(__file__).with_name("slow.txt")
+"""Node ids of the tests measured slowest (``tests/slow.txt`` says how), marked ``slow`` here so
+that ``make test`` keeps within 10 minutes on 2 cores; ``pytest -m slow`` runs them."""
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m 'not slow'`` deselects by the marks
+def pytest_itemcollected(item):
+    """Mark the tests of :data:`SLOW_LIST` ``slow``."""
+    if item.nodeid in _slow_ids():
+        item.add_marker(pytest.mark.slow)
+
+
+def _slow_ids() -> frozenset[str]:
+    global _SLOW_IDS
+    if _SLOW_IDS is None:
+        lines = SLOW_LIST.read_text().splitlines()
+        _SLOW_IDS = frozenset(line.strip() for line in lines
+                              if line.strip() and not line.startswith("#"))
+    return _SLOW_IDS
+
+
+_SLOW_IDS = None
 
 
 def pytest_collection_modifyitems(config, items):
