@@ -11,6 +11,7 @@ raised before anything is computed or written.
 from __future__ import annotations
 
 import argparse
+import collections
 import time
 from pathlib import Path
 
@@ -57,7 +58,7 @@ def _load_model(path: Path):
     return saved
 
 
-def _annotate(estimates_kinds: dict):
+def _annotate(result, smoothed, factors):
     """The pipeline's ``annotate``: per frame the posture, its probability and the parts of each
     estimate (instantaneous, filtered, smoothed) in the video's pixels, and the smoothed posture
     as the overlay's label."""
@@ -67,39 +68,33 @@ def _annotate(estimates_kinds: dict):
     from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES
     from jaxtrack.vision.parts import PART_NAMES
 
-    def annotate(result, smoothed, factors):
-        filtered = result.estimates
-        ok = np.asarray(filtered.silhouette) == FRAME_OK
-        if not np.any(ok):
-            raise ValueError("no frame has a silhouette (a static camera and a person who "
-                             "moves are needed, or give --masks); nothing written")
-        kinds = {"instantaneous": (filtered.instant_posture, filtered.instant_parts, None),
-                 "filtered": (filtered.posture, filtered.markers,
-                              filtered.posture_probability),
-                 "smoothed": (smoothed.posture, smoothed.markers,
-                              smoothed.posture_probability)}
-        kinds = {kind: tuple(None if value is None else np.asarray(value) for value in values)
-                 for kind, values in kinds.items()}
-        entries, labels = [], []
-        for t in range(len(ok)):
-            entry = {"silhouette": STATUS_NAMES[int(filtered.silhouette[t])],
-                     "posture": {}, "posture_probability": {}, "parts": {}}
-            for kind, (posture, parts, probability) in kinds.items():
-                # the instantaneous estimate reads the frame's silhouette alone: none without one
-                known = kind != "instantaneous" or ok[t]
-                entry["posture"][kind] = POSTURE_NAMES[int(posture[t])] if known else None
-                entry["parts"][kind] = {
-                    name: [round(float(x), 2), round(float(y), 2)]
-                    for name, (x, y) in zip(PART_NAMES, parts[t] / factors, strict=True)
-                } if known else None
-                if probability is not None:
-                    entry["posture_probability"][kind] = round(float(probability[t]), 4)
-            entries.append(entry)
-            labels.append(POSTURE_NAMES[int(kinds["smoothed"][0][t])].replace("_", " "))
-        estimates_kinds.update(kinds, ok=ok)
-        return entries, labels
-
-    return annotate
+    filtered = result.estimates
+    ok = np.asarray(filtered.silhouette) == FRAME_OK
+    if not np.any(ok):
+        raise ValueError("no frame has a silhouette (a static camera and a person who moves are "
+                         "needed, or give --masks); nothing written")
+    kinds = {"instantaneous": (filtered.instant_posture, filtered.instant_parts, None),
+             "filtered": (filtered.posture, filtered.markers, filtered.posture_probability),
+             "smoothed": (smoothed.posture, smoothed.markers, smoothed.posture_probability)}
+    kinds = {kind: tuple(None if value is None else np.asarray(value) for value in values)
+             for kind, values in kinds.items()}
+    entries, labels = [], []
+    for t in range(len(ok)):
+        entry = {"silhouette": STATUS_NAMES[int(filtered.silhouette[t])],
+                 "posture": {}, "posture_probability": {}, "parts": {}}
+        for kind, (posture, parts, probability) in kinds.items():
+            # the instantaneous estimate reads the frame's silhouette alone: none without one
+            known = kind != "instantaneous" or ok[t]
+            entry["posture"][kind] = POSTURE_NAMES[int(posture[t])] if known else None
+            entry["parts"][kind] = {
+                name: [round(float(x), 2), round(float(y), 2)]
+                for name, (x, y) in zip(PART_NAMES, parts[t] / factors, strict=True)
+            } if known else None
+            if probability is not None:
+                entry["posture_probability"][kind] = round(float(probability[t]), 4)
+        entries.append(entry)
+        labels.append(entry["posture"]["smoothed"].replace("_", " "))
+    return entries, labels
 
 
 def track(args: argparse.Namespace) -> int:
@@ -126,12 +121,12 @@ def track(args: argparse.Namespace) -> int:
         raise UserError(f"--video {video_path}: no such video file")
 
     import jax.random as jr
-    import numpy as np
 
     from jaxtrack.experiments.pipeline import track_video
     from jaxtrack.priors.postures import POSTURE_NAMES
     from jaxtrack.trackers.mixed_state import MixedStateModel, MixedStateTracker
     from jaxtrack.vision import VideoError
+    from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES
     from jaxtrack.vision.parts import PART_NAMES
     from jaxtrack.vision.video import frame_count
 
@@ -140,11 +135,12 @@ def track(args: argparse.Namespace) -> int:
     except VideoError as error:
         raise UserError(f"--video: {one_line(error)}") from None
     if total is not None:  # the smoother keeps every frame's particles: checked before work
-        frames = max(0, (total if stop is None else min(stop, total)) - start)
+        end = total if stop is None else min(stop, total)  # one past the last frame tracked
+        frames = max(0, end - start)
         check_memory(int(BASE_BYTES + frames * particles * HISTORY_BYTES),
                      f"smoothing {frames} frames with {particles} particles",
                      "--particles/--frames")
-        last = (total if stop is None else min(stop, total)) - 1
+        last = end - 1
         if given_masks is not None and len(given_masks) <= last:
             raise UserError(f"--masks {masks_path}: holds {len(given_masks)} masks, but video "
                             f"frame {last} is tracked (one mask per video frame, from its "
@@ -152,13 +148,12 @@ def track(args: argparse.Namespace) -> int:
     num_bins = (saved.model.num_features - 1) // 2
     tracker = MixedStateTracker(MixedStateModel(saved.model), particles, num_bins,
                                 keep_history=True)
-    kinds: dict = {}
     with pipeline_errors(f"--video {video_path}"):
         record = track_video(
             tracker, video_path, args.out, key=jr.PRNGKey(args.seed), max_size=args.max_size,
             start=start, max_frames=None if stop is None else stop - start, masks=given_masks,
             marker_names=PART_NAMES, seed=args.seed, smooth=True,
-            annotate=_annotate(kinds),
+            annotate=_annotate,
             extra_record={"options": record_options, "model": str(args.model),
                           "silhouettes": ("median background" if masks_path is None
                                           else f"masks {masks_path}"),
@@ -166,10 +161,11 @@ def track(args: argparse.Namespace) -> int:
                           "part_names": list(PART_NAMES),
                           "posture_model": saved.description})
     timings = record["timings"]
-    counts = np.bincount(kinds["smoothed"][0], minlength=len(POSTURE_NAMES))
-    shown = ", ".join(f"{name} {count}" for name, count in zip(POSTURE_NAMES, counts,
-                                                               strict=True) if count)
-    print(f"tracked {record['frames_tracked']} frames ({int(kinds['ok'].sum())} with a "
+    frames = record["frames"]  # the per-frame entries _annotate wrote
+    counts = collections.Counter(frame["posture"]["smoothed"] for frame in frames)
+    shown = ", ".join(f"{name} {counts[name]}" for name in POSTURE_NAMES if counts[name])
+    silhouettes = sum(frame["silhouette"] == STATUS_NAMES[FRAME_OK] for frame in frames)
+    print(f"tracked {record['frames_tracked']} frames ({silhouettes} with a "
           f"silhouette): {1e3 * timings['seconds_per_frame']:.2f} ms/frame (compile "
           f"{timings['compile_seconds']:.1f} s); smoothed postures: {shown}; total "
           f"{time.perf_counter() - started:.1f} s")
