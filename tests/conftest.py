@@ -16,6 +16,7 @@ exits. Setting ``JAXTRACK_TEST_XLA_CACHE`` to a folder keeps the cache there acr
 """
 
 import atexit
+import functools
 import gc
 import os
 import shutil
@@ -69,16 +70,10 @@ def pytest_itemcollected(item):
         item.add_marker(pytest.mark.slow)
 
 
+@functools.cache
 def _slow_ids() -> frozenset[str]:
-    global _SLOW_IDS
-    if _SLOW_IDS is None:
-        lines = SLOW_LIST.read_text().splitlines()
-        _SLOW_IDS = frozenset(line.strip() for line in lines
-                              if line.strip() and not line.startswith("#"))
-    return _SLOW_IDS
-
-
-_SLOW_IDS = None
+    lines = SLOW_LIST.read_text().splitlines()
+    return frozenset(line.strip() for line in lines if line.strip() and not line.startswith("#"))
 
 
 def pytest_collection_modifyitems(config, items):
