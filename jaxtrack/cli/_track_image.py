@@ -97,6 +97,19 @@ def frame_range(text: str | None) -> tuple[int, int | None]:
     return first, last
 
 
+def tracked_end(video: Path, stop: int | None) -> int | None:
+    """One past the last video frame tracked: the frame count the container states, cut at
+    ``--frames``' ``stop``; None where the container states none. What per-frame inputs are
+    checked against before any work (a one-line error for an unreadable video)."""
+    from jaxtrack.vision.video import VideoError, frame_count
+
+    try:
+        total = frame_count(video)
+    except VideoError as error:
+        raise UserError(f"--video: {one_line(error)}") from None
+    return None if total is None else total if stop is None else min(stop, total)
+
+
 def options_record(args: argparse.Namespace) -> dict:
     """The command line's options as ``track.json`` records them (paths as text)."""
     record = {}
@@ -202,14 +215,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--keypoints: {args.keypoints} holds {len(keypoints[0])} frames; the "
                         f"video frames tracked start at frame {start}")
     if keypoints is not None:  # every frame tracked needs its row, checked before any work
-        from jaxtrack.vision.video import VideoError as _VideoError
-        from jaxtrack.vision.video import frame_count
-
-        try:
-            total = frame_count(args.video)
-        except _VideoError as error:
-            raise UserError(f"--video: {one_line(error)}") from None
-        last = None if total is None else (total if stop is None else min(stop, total)) - 1
+        end = tracked_end(args.video, stop)
+        last = None if end is None else end - 1
         if last is not None and len(keypoints[0]) <= last:
             raise UserError(f"--keypoints: {args.keypoints} holds {len(keypoints[0])} frames; "
                             f"the video frames tracked run to frame {last}")

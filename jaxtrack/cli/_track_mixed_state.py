@@ -99,7 +99,7 @@ def _annotate(result, smoothed, factors):
 
 def track(args: argparse.Namespace) -> int:
     """``jaxtrack track --method mixed-state``: posture and parts through one video."""
-    from jaxtrack.cli._track_image import frame_range, options_record
+    from jaxtrack.cli._track_image import frame_range, options_record, tracked_end
 
     started = time.perf_counter()
     record_options = options_record(args)
@@ -125,17 +125,11 @@ def track(args: argparse.Namespace) -> int:
     from jaxtrack.experiments.pipeline import track_video
     from jaxtrack.priors.postures import POSTURE_NAMES
     from jaxtrack.trackers.mixed_state import MixedStateModel, MixedStateTracker
-    from jaxtrack.vision import VideoError
     from jaxtrack.vision.histograms import FRAME_OK, STATUS_NAMES
     from jaxtrack.vision.parts import PART_NAMES
-    from jaxtrack.vision.video import frame_count
 
-    try:
-        total = frame_count(video_path)
-    except VideoError as error:
-        raise UserError(f"--video: {one_line(error)}") from None
-    if total is not None:  # the smoother keeps every frame's particles: checked before work
-        end = total if stop is None else min(stop, total)  # one past the last frame tracked
+    end = tracked_end(video_path, stop)  # one past the last frame tracked
+    if end is not None:  # the smoother keeps every frame's particles: checked before work
         frames = max(0, end - start)
         check_memory(int(BASE_BYTES + frames * particles * HISTORY_BYTES),
                      f"smoothing {frames} frames with {particles} particles",
