@@ -354,11 +354,12 @@ def main(argv=None) -> int:
     views = (0, 1, 2, 3)
     train_clips = list(args.train_clips or lc.TRAIN_CLIPS)
     try:
-        for clip in train_clips:
-            resolve_clip(clip)
-        check_disjoint(train_clips, [*VALIDATION, *lc.TEST_CLIPS])
         if args.clusters < 1:
             raise ValueError(f"--clusters must be a positive integer, got {args.clusters}")
+        # the split is read from the clips' names: refused before any file is looked up
+        check_disjoint(train_clips, [*VALIDATION, *lc.TEST_CLIPS])
+        for clip in train_clips:
+            resolve_clip(clip)
     except (ValueError, OSError) as error:
         parser.error(" ".join(str(error).split()))
     trained = lc.train(train_clips, views=views, num_clusters=args.clusters)
