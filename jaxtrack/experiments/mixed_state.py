@@ -420,7 +420,8 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
     through these real Pose2Sim cameras (0–3; :func:`render_posture_sequence`).
     ``backward_paths``: also score the two-pass smoother with that many paths (estimate
     ``backward``; :func:`track`). ``model_options``:
-    :class:`MixedStateModel`'s keywords, and ``part_cutoff``, the part likelihood's δ.
+    :class:`MixedStateModel`'s keywords, and ``part_cutoff``, the part likelihood's δ, and
+    ``part_scale``, a factor on its standard deviations σ_i (R_i = (scale σ_i)² I, eq. 7).
     """
     from jaxtrack.vision.histograms import FRAME_OK
 
@@ -428,10 +429,16 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
         raise ValueError(f"posture_model has {posture_model.num_features} features but "
                          f"num_bins={num_bins} gives {2 * num_bins + 1}")
     options = dict(model_options)
-    if "part_cutoff" in options:  # the part likelihood's δ (eq. 7), its σ_i the defaults
+    if "part_cutoff" in options or "part_scale" in options:  # eq. 7's δ and R_i
+        import inspect
+
         from jaxtrack.likelihoods.part_distances import PartDistances
 
-        options["part_likelihood"] = PartDistances(cutoff=options.pop("part_cutoff"))
+        defaults = inspect.signature(PartDistances).parameters  # σ_i and δ not given
+        sigma = np.asarray(defaults["standard_deviations"].default, np.float64)
+        options["part_likelihood"] = PartDistances(
+            float(options.pop("part_scale", 1.0)) * sigma,
+            cutoff=options.pop("part_cutoff", defaults["cutoff"].default))
     model = MixedStateModel(posture_model, **options)
     if sequences is None:
         sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed,
@@ -482,6 +489,6 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
                          "num_particles": num_particles, "lag": lag, "seed": seed,
                          "backward_paths": backward_paths,
                          "device": jax.devices()[0].device_kind,
-                         "model": {name: value if isinstance(value, bool) else float(value)
-                                   for name, value in model_options.items()}}}
+                         "model": {name: value if isinstance(value, (bool, str))
+                                   else float(value) for name, value in model_options.items()}}}
 

@@ -1,0 +1,308 @@
+"""The mixed-state tracker's settings chosen on the validation person (HDM05 actor mm) by a
+reduced search fixed before any run, then the test clips scored once with them beside the
+library's settings.
+
+    python -m papers.kwatra2002.mm_selection validation   # the search (JSON row by row)
+    python -m papers.kwatra2002.mm_selection test         # the test clips, once
+
+The full grid of ``python -m papers.kwatra2002.mixed_state_evaluation`` (every posture model ×
+δ × re-detection × switch rule on all validation clips from five azimuths) takes over an hour
+on the project's 2-core machine. This is the reduced search; its rule was written down, here,
+before its first run (2026-11-29):
+
+- **Validation**: actor mm's three clips of ``experiments.mixed_state.VALIDATION_CLIPS``
+  (lie-down 015, squat 037, crouch 019), rendered exactly as the evaluation renders them
+  (:data:`SEED` 1, the clip's index in ``VALIDATION_CLIPS``), both side views (±90°, the
+  paper's camera, as the evaluation's held-out run of 2026-11-29), 150 frames at most, clutter
+  background, 640 × 480. The posture model is the library's (``mixed_state_evaluation``'s
+  ``default_spec``: one Gaussian per posture, ridge 0.2, the training clips' level views).
+- **Measure**: the smoothed estimate's mean squared error over all parts, all frames of the six
+  sequences pooled (px²). The posture error is recorded, not used.
+- **Monte Carlo error**: the start (the library's settings) is run with filter keys 1, 2 and
+  3; ``s`` is the sample standard deviation of its three MSEs, and two single runs whose MSEs
+  differ by less than ``2 √2 s`` (:func:`tie_margin`) are tied. Every other run uses key 1.
+- **Coordinate search**, one pass in the order of :data:`COORDINATES`, each coordinate's
+  values tried with the others held at their current choice: the transition smoothing
+  (pseudocount α of T), the part proposal, the part likelihood's cutoff δ, the scale of its
+  standard deviations (R = diag(scale σ_i)²), the particles. At each coordinate, the values
+  within the tie margin of the lowest MSE are tied with it; if the current value is among
+  them it stays, else the cheapest of them is taken (:data:`COST`; equal cost: the lowest
+  MSE). k is not searched: it multiplies every particle's likelihood by the same constant
+  (eq. 4), so it changes no weight.
+- **Size**: the first run (the start, key 1) is timed, and coordinates are dropped from the
+  end of :data:`COORDINATES` until the predicted time of the rest (run time in proportion to
+  the particles) fits :data:`BUDGET_SECONDS`; the JSON says which were dropped.
+
+The test stage then scores ``experiments.mixed_state.TEST_CLIPS`` (CMU 139_16 and 131_01,
+HDM05 actor tr's lie-down, squat and crouch) from both side views, 150 frames, filter key 1,
+once with the library's settings and once with the chosen ones on the same rendering, with
+95 % bootstrap intervals over clips (``mixed_state_evaluation.clip_intervals``). Nothing is
+chosen on them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import device_description, write_json
+
+RESULTS = Path(__file__).parent / "results"
+OUT = RESULTS / "mm_selection.json"
+SEED = 1
+FRAMES = 150
+AZIMUTHS_DEGREES = (90.0, -90.0)
+START = {"pseudocount": 0.5, "part_proposal": "dynamics", "part_cutoff": 25.0,
+         "part_scale": 1.0, "particles": 500}
+"""The library's settings (2026-11-29): the search starts here."""
+COORDINATES = (("pseudocount", (0.5, 5.0, 25.0)),
+               ("part_proposal", ("dynamics", "posterior")),
+               ("part_cutoff", (9.0, 25.0, 100.0)),
+               ("part_scale", (1.0, 2.0)),
+               ("particles", (250, 500, 1000)))
+"""The values tried per coordinate, in the order they are searched."""
+COST = {"part_proposal": {"dynamics": 0, "posterior": 1},
+        "particles": {250: 0, 500: 1, 1000: 2}}
+"""Which value of a coordinate is cheaper to run (coordinates not named cost the same)."""
+START_KEYS = (1, 2, 3)
+BUDGET_SECONDS = 3300.0
+"""The search's time after its first run (the project's 2-core machine is shared)."""
+
+
+def tie_margin(start_mses) -> float:
+    """``2 √2 s``: about a 95 % bound on the difference of two single runs' MSEs, ``s`` the
+    sample standard deviation of the start's runs with different filter keys."""
+    return float(2.0 * np.sqrt(2.0) * np.std(np.asarray(start_mses, float), ddof=1))
+
+
+def choose(values: dict, current, coordinate: str, margin: float):
+    """The value a coordinate takes (module docstring's rule): ``values`` maps each value
+    tried to its MSE."""
+    best = min(values.values())
+    tied = [value for value, mse in values.items() if mse <= best + margin]
+    if current in tied:
+        return current
+    cost = COST.get(coordinate, {})
+    return min(tied, key=lambda value: (cost.get(value, 0), values[value]))
+
+
+def key_of(settings: dict, filter_key: int) -> str:
+    return json.dumps({**settings, "filter_key": filter_key}, sort_keys=True)
+
+
+def posture_model(pseudocount: float):
+    """The library's posture model (cached by ``mixed_state_evaluation.trained_models`` in
+    ``--cache``) with T re-estimated from its training transition counts with ``pseudocount``
+    (``fit_posture_model``'s T = (n_ij + α) / Σ_j (n_ij + α)); its first-frame prior too."""
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    from jaxtrack.priors.postures import load_posture_model
+    from papers.kwatra2002.mixed_state_evaluation import (
+        default_spec,
+        model_path,
+        trained_models,
+    )
+
+    spec = default_spec()
+    model = trained_models(CACHE, [spec])[spec]
+    description = load_posture_model(model_path(CACHE, spec)).description
+    fitted = float(description["pseudocount"])
+    if pseudocount == fitted:
+        return model
+    counts = np.asarray(description["transition_counts"], float) + pseudocount
+    transition = counts / counts.sum(axis=1, keepdims=True)
+    # the first labels' counts, recovered from the fitted prior (pi = (n + a) / (N + 5 a))
+    initial = np.exp(np.asarray(model.log_initial, float))
+    first = np.round(np.clip(initial * (_sequences(description) + len(initial) * fitted)
+                             - fitted, 0.0, None))
+    initial = (first + pseudocount + 1e-12) / (first + pseudocount + 1e-12).sum()
+    return eqx.tree_at(lambda m: (m.log_transition, m.log_initial), model,
+                       (jnp.asarray(np.log(transition)), jnp.asarray(np.log(initial))))
+
+
+def _sequences(description: dict) -> int:
+    """How many labelled sequences the posture model was fitted on (clips × views ×
+    backgrounds)."""
+    return (len(description["clips"]) * (len(description["azimuths"])
+                                         + len(description.get("pose2sim_cameras", [])))
+            * len(description["backgrounds"]))
+
+
+def tracker_options(settings: dict) -> dict:
+    """``experiments.mixed_state.evaluate``'s model keywords for ``settings``."""
+    return {"part_proposal": settings["part_proposal"], "part_cutoff": settings["part_cutoff"],
+            "part_scale": settings["part_scale"]}
+
+
+def run(settings: dict, sequences, clips, filter_key: int) -> dict:
+    """Track ``sequences`` with ``settings`` and filter key ``filter_key``; scores and time."""
+    from jaxtrack.experiments import mixed_state as ms
+
+    begin = time.perf_counter()
+    result = ms.evaluate(posture_model(settings["pseudocount"]), clips,
+                         num_particles=settings["particles"], seed=filter_key,
+                         sequences=sequences, **tracker_options(settings))
+    seconds = time.perf_counter() - begin
+    return {"result": result, "seconds": seconds}
+
+
+def _row(settings: dict, filter_key: int, outcome: dict) -> dict:
+    overall = outcome["result"]["overall"]
+    return {"settings": settings, "filter_key": filter_key, "seconds": outcome["seconds"],
+            **{kind: {"mse_all": overall[kind]["mse"]["all"],
+                      "mse": overall[kind]["mse"],
+                      "posture_error": overall[kind]["posture_error"],
+                      "head_within_20px": overall[kind]["within"]["head"]["20"]}
+               for kind in ("instantaneous", "filtered", "smoothed")}}
+
+
+def render(clips_all, clips) -> list:
+    """``clips`` (a subset of ``clips_all``) rendered exactly as ``render_sequences`` renders
+    ``clips_all`` (the same per-clip seeds), both side views, clutter."""
+    from jaxtrack.experiments import mixed_state as ms
+
+    azimuths = [float(np.radians(value)) for value in AZIMUTHS_DEGREES]
+    sequences = []
+    for clip in clips:
+        index = clips_all.index(clip)
+        for view, azimuth in enumerate(azimuths):
+            sequences.append(ms.render_posture_sequence(
+                clip, azimuth, image_size=(640, 480), background="clutter",
+                seed=SEED + 97 * index + view, max_frames=FRAMES))
+    return sequences
+
+
+def validation(out: Path) -> dict:
+    """The search (module docstring); writes ``out`` after every run and resumes from it."""
+    from jaxtrack.experiments import mixed_state as ms
+
+    clips = [clip for clip in ms.VALIDATION_CLIPS if "HDM_mm_" in clip]
+    state = json.loads(out.read_text()) if out.is_file() else {}
+    rows = {key_of(row["settings"], row["filter_key"]): row for row in state.get("rows", [])}
+    begin = time.perf_counter()
+    sequences = render(list(ms.VALIDATION_CLIPS), clips)
+    render_seconds = time.perf_counter() - begin
+    payload = {"command": "python -m papers.kwatra2002.mm_selection validation",
+               "device": device_description(), "clips": clips,
+               "azimuths_degrees": list(AZIMUTHS_DEGREES), "frames": FRAMES,
+               "render_seed": SEED, "render_seconds": render_seconds, "start": START,
+               "coordinates": [[name, list(values)] for name, values in COORDINATES],
+               "rule": __doc__.split("- **Validation**")[1].split("The test stage")[0].strip()}
+
+    def measured(settings: dict, filter_key: int) -> dict:
+        name = key_of(settings, filter_key)
+        if name not in rows:
+            rows[name] = _row(settings, filter_key, run(settings, sequences, clips, filter_key))
+            print(f"{settings} key {filter_key}: smoothed MSE all "
+                  f"{rows[name]['smoothed']['mse_all']:.1f}, posture error "
+                  f"{100 * rows[name]['smoothed']['posture_error']:.1f} %, "
+                  f"{rows[name]['seconds']:.0f} s", flush=True)
+            write_json(out, {**payload, "rows": list(rows.values())})
+        return rows[name]
+
+    first = measured(START, START_KEYS[0])
+    coordinates = list(COORDINATES)
+    dropped = []
+    per_unit = first["seconds"] / START["particles"]
+
+    def predicted(chosen) -> float:
+        total = first["seconds"] * (len(START_KEYS) - 1)
+        for name, values in chosen:
+            for value in values:
+                if value != START[name]:
+                    total += per_unit * (value if name == "particles" else START["particles"])
+        return total
+
+    while coordinates and predicted(coordinates) > BUDGET_SECONDS:
+        dropped.append(coordinates.pop()[0])
+    start_mses = [measured(START, key)["smoothed"]["mse_all"] for key in START_KEYS]
+    margin = tie_margin(start_mses)
+    current, steps = dict(START), []
+    for name, values in coordinates:
+        tried = {value: measured({**current, name: value}, START_KEYS[0])["smoothed"]["mse_all"]
+                 for value in values}
+        picked = choose(tried, current[name], name, margin)
+        steps.append({"coordinate": name, "tried": [[value, mse] for value, mse in tried.items()],
+                      "was": current[name], "chosen": picked})
+        current[name] = picked
+        print(f"{name}: {tried} -> {picked} (tie margin {margin:.1f})", flush=True)
+    payload.update(start_mses=start_mses, tie_margin=margin, dropped_coordinates=dropped,
+                   steps=steps, chosen=current, rows=list(rows.values()))
+    write_json(out, payload)
+    return payload
+
+
+def test(out: Path, validation_file: Path) -> dict:
+    """The test clips with the library's and the chosen settings (module docstring)."""
+    from jaxtrack.experiments import mixed_state as ms
+    from papers.kwatra2002.mixed_state_evaluation import clip_intervals
+
+    chosen = json.loads(validation_file.read_text()).get("chosen")
+    if chosen is None:
+        raise ValueError(f"{validation_file} has no chosen settings; run the validation stage "
+                         "to its end first")
+    clips = list(ms.TEST_CLIPS)
+    sequences = render(clips, clips)
+    entries = {}
+    for label, settings in (("library", START), ("chosen", chosen)):
+        if label == "chosen" and settings == START:
+            entries[label] = entries["library"]
+            continue
+        outcome = run(settings, sequences, clips, SEED)
+        result = outcome["result"]
+        entries[label] = {"settings": settings, "seconds": outcome["seconds"],
+                          "overall": result["overall"], "sequences": result["sequences"],
+                          "smoothed_confusion": result["smoothed_confusion"],
+                          "intervals": clip_intervals(result["sequences"], clips)}
+        for kind in ("instantaneous", "smoothed"):
+            scored = result["overall"][kind]
+            print(f"test, {label} settings, {kind}: MSE all {scored['mse']['all']:.1f}, posture "
+                  f"error {100 * scored['posture_error']:.1f} %", flush=True)
+    payload = {"command": "python -m papers.kwatra2002.mm_selection test",
+               "device": device_description(), "clips": clips,
+               "azimuths_degrees": list(AZIMUTHS_DEGREES), "frames": FRAMES,
+               "filter_key": SEED, **entries}
+    write_json(out, payload)
+    return payload
+
+
+CACHE = RESULTS
+
+
+def main(argv=None) -> int:
+    global CACHE
+    parser = argparse.ArgumentParser(prog="python -m papers.kwatra2002.mm_selection",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("stage", choices=("validation", "test"))
+    parser.add_argument("--out", default=None, help="JSON to write (default results/"
+                        "mm_selection.json for validation, results/mm_selection_test.json for "
+                        "test)")
+    parser.add_argument("--validation-file", default=str(OUT),
+                        help="the validation stage's JSON (test stage: its chosen settings)")
+    parser.add_argument("--cache", default=str(RESULTS),
+                        help="folder of the cached posture model (mixed_state_evaluation's)")
+    args = parser.parse_args(argv)
+    CACHE = Path(args.cache)
+    out = Path(args.out or (OUT if args.stage == "validation"
+                            else RESULTS / "mm_selection_test.json"))
+    if out.suffix != ".json" or not out.parent.is_dir():
+        parser.error(f"--out {out}: must end in .json in an existing folder")
+    try:
+        if args.stage == "validation":
+            validation(out)
+        else:
+            test(out, Path(args.validation_file))
+    except (FileNotFoundError, ValueError) as error:
+        print(f"python -m papers.kwatra2002.mm_selection: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
