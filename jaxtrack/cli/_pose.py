@@ -11,7 +11,8 @@ import numpy as np
 
 from jaxtrack.cli._common import UserError, one_line
 
-__all__ = ["initialise", "manual_instead", "manual_markers", "manual_numbers", "read_keypoints"]
+__all__ = ["initialise", "manual_instead", "manual_markers", "manual_numbers", "person_box",
+           "read_keypoints"]
 
 MIN_TORSO_PX = 4.0  # a shorter neck-pelvis distance is no body the tracker can follow
 
@@ -30,7 +31,7 @@ def read_keypoints(path: Path, person: str | None = None) -> tuple[np.ndarray, n
     from jaxtrack.vision.detections import DetectionFileError, follow_person, load_detections
     from jaxtrack.vision.keypoints import KeypointFileError, read_keypoints
 
-    box = None if person is None else _person_box(person)
+    box = None if person is None else person_box(person)
     if path.suffix == ".npz" and path.is_file():
         try:
             with np.load(path, allow_pickle=False) as archive:
@@ -59,7 +60,7 @@ def read_keypoints(path: Path, person: str | None = None) -> tuple[np.ndarray, n
     return keypoints, confidences
 
 
-def _person_box(text: str) -> tuple[float, float, float, float]:
+def person_box(text: str) -> tuple[float, float, float, float]:
     """``--person x0,y0,x1,y1``: four finite numbers, x0 < x1 and y0 < y1."""
     try:
         values = [float(value) for value in text.split(",")]

@@ -27,8 +27,20 @@ from jaxtrack.cli._common import (
     pipeline_errors,
     read_mask_files,
 )
+from jaxtrack.cli._detector import (
+    FIT_PARTICLES,
+    check_detection_options,
+    detect_video,
+    detection_tracker,
+)
 from jaxtrack.cli._options import tracker_options
-from jaxtrack.cli._pose import initialise, manual_markers, manual_numbers, read_keypoints
+from jaxtrack.cli._pose import (
+    initialise,
+    manual_markers,
+    manual_numbers,
+    person_box,
+    read_keypoints,
+)
 
 __all__ = ["BYTES_PER_PARTICLE", "IMAGE_METHODS", "LINEAR_COMBINATION_ONLY", "run"]
 
@@ -124,9 +136,10 @@ def options_record(args: argparse.Namespace) -> dict:
     return record
 
 
-def _likelihood(args, options, masks, keypoints):
-    """The likelihood with ``--coverage-weight`` and the keypoint term set; the other settings
-    are kept as they are."""
+def _likelihood(args, options, masks, detections: bool):
+    """The likelihood with ``--coverage-weight`` set; with detections, the detection density
+    times it (``jaxtrack.cli._detector``), or with ``--keypoint-weight`` its keypoint term; the
+    other settings are kept as they are."""
     likelihood, terms = options.likelihood, {}
     if masks is not None and not likelihood.needs_edges:
         raise UserError(f"--masks: the {likelihood.kind!r} likelihood has no foreground "
@@ -136,19 +149,21 @@ def _likelihood(args, options, masks, keypoints):
             raise UserError("--coverage-weight: the coverage term reads the person's masks; "
                             "give --masks")
         terms["coverage_weight"] = ("--coverage-weight", args.coverage_weight)
-    if keypoints is not None:
-        from jaxtrack.likelihoods.edges import CAUCHY_KEYPOINT_WEIGHT
-
+    if detections and args.keypoint_weight is not None:
         if not likelihood.needs_edges:
-            raise UserError(f"--keypoints: the {likelihood.kind!r} likelihood has no keypoint "
-                            f"term to read them (the default limbs+edges has)")
-        terms["keypoint_weight"] = ("--keypoint-weight", CAUCHY_KEYPOINT_WEIGHT
-                                    if args.keypoint_weight is None else args.keypoint_weight)
+            raise UserError(f"--keypoint-weight: the {likelihood.kind!r} likelihood has no "
+                            f"keypoint term (the default limbs+edges has)")
+        terms["keypoint_weight"] = ("--keypoint-weight", args.keypoint_weight)
     for name, (option, value) in terms.items():
         try:
             likelihood = dataclasses.replace(likelihood, **{name: value})
         except ValueError as error:
             raise UserError(f"{option}: {error}") from None
+    if detections and args.keypoint_weight is None:
+        from jaxtrack.likelihoods.detections import detection_model
+        from jaxtrack.trackers import DetectionLikelihood
+
+        return DetectionLikelihood(detection_model(), likelihood)
     return likelihood
 
 
@@ -176,17 +191,11 @@ def _check(args) -> tuple:
     elif args.init not in ("face", "keypoints"):
         raise UserError(f"--init must be face, keypoints or manual:x,y,... (24 numbers), got "
                         f"{args.init!r}")
-    if args.keypoints is None:
-        for option, given in (("--keypoint-weight", args.keypoint_weight is not None),
-                              ("--init keypoints", args.init == "keypoints")):
-            if given:
-                raise UserError(f"{option}: it reads a detector's keypoints; give --keypoints")
-    if args.keypoints is None and getattr(args, "person", None) is not None:
-        raise UserError("--person picks the person to follow in --keypoints; give --keypoints")
-    keypoints = None if args.keypoints is None else read_keypoints(
-        args.keypoints, getattr(args, "person", None))
+    check_detection_options(args)
+    keypoints = None if args.keypoints is None else read_keypoints(args.keypoints, args.person)
     options = tracker_options(args)
-    return masks, keypoints, _likelihood(args, options, masks, keypoints), options
+    detections = args.keypoints is not None or args.detector is not None
+    return masks, keypoints, _likelihood(args, options, masks, detections), options
 
 
 def run(args: argparse.Namespace) -> int:
@@ -196,6 +205,7 @@ def run(args: argparse.Namespace) -> int:
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.experiments.pipeline import track_video, tracking_scale, video_background
     from jaxtrack.experiments.protocol import video_tracker
+    from jaxtrack.trackers import DetectionLikelihood
     from jaxtrack.vision import (
         foreground_mask,
         masks_for_frames,
@@ -211,6 +221,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.model.is_file():
         raise UserError(f"--model {args.model}: no such file")
     count = None if stop is None else stop - start
+    detector = None
+    if args.detector is not None:  # the checks are done: the detector's work may start
+        args.keypoints, detector = detect_video(
+            args, start, count, None if args.person is None else person_box(args.person))
+        keypoints = read_keypoints(args.keypoints, args.person)
     if keypoints is not None and len(keypoints[0]) <= start:
         raise UserError(f"--keypoints: {args.keypoints} holds {len(keypoints[0])} frames; the "
                         f"video frames tracked start at frame {start}")
@@ -249,8 +264,15 @@ def run(args: argparse.Namespace) -> int:
         tracker = video_tracker(args.method, prior, args.particles, fps=fps,
                                 likelihood=likelihood, refinement=options.refinement,
                                 background=grey_scene)
+        fitter = video_tracker("condensation", prior, FIT_PARTICLES, fps=fps,
+                               likelihood=likelihood, background=grey_scene) \
+            if args.method == "mht" and isinstance(likelihood, DetectionLikelihood) else None
     except ValueError as error:
         raise UserError(f"--model {args.model}: {one_line(error)}") from None
+    density = None
+    if isinstance(likelihood, DetectionLikelihood):
+        tracker, density = detection_tracker(args, tracker, keypoints, factors, tracked, pose,
+                                             start, tracked_end(args.video, stop), fitter)
     print(f"{args.video}: {size[0]}x{size[1]}" + (f" at {fps:.0f} fps" if fps else "")
           + f", tracked at {tracked[0]}x{tracked[1]}; initialised ({init['method']}"
           + (f", {init['source']} box, overlap {init['score']:.2f} against the "
@@ -262,7 +284,9 @@ def run(args: argparse.Namespace) -> int:
             tracker, args.video, args.out, key=jr.PRNGKey(args.seed), initial_pose=pose,
             scale=scale, start=start, max_frames=count, masks=masks, keypoints=keypoints,
             marker_names=UPPER_BODY_12, seed=args.seed,
+            detector_seconds=None if detector is None else detector["seconds"],
             extra_record={"options": record_options, "model": str(args.model), "init": init,
+                          "detector": detector, "detections": density,
                           "masks_file": None if args.masks is None else str(args.masks[0]),
                           "keypoints_file": None if args.keypoints is None
                           else str(args.keypoints)})

@@ -30,6 +30,7 @@ import argparse
 from pathlib import Path
 
 from jaxtrack.cli._common import integer, model_or_default, real, seed
+from jaxtrack.cli._detector import add_detection_options
 from jaxtrack.cli._options import add_tracker_options
 from jaxtrack.cli._track_image import BYTES_PER_PARTICLE
 
@@ -116,14 +117,20 @@ def add_parser(subparsers) -> None:
                         "video, one row per video frame from the first: a folder of OpenPose "
                         "JSON, a COCO .json, MediaPipe's .npz, jaxtrack's detections .npz, or a "
                         ".npz with one person's 'keypoints' (frames, 12, 2) in SPM_MARKERS "
-                        "order (jaxtrack.vision.keypoints); the likelihood's keypoint term "
-                        "scores them")
+                        "order (jaxtrack.vision.keypoints); the detection density "
+                        "(jaxtrack.likelihoods.detections), fitted on them first, times the "
+                        "image likelihood scores them")
     parser.add_argument("--person", default=None, metavar="x0,y0,x1,y1",
                         help="with --keypoints of several people: the box around the person to "
-                        "follow in the first frame with anyone (default: the most confident)")
+                        "follow in the first frame with anyone (default: the most confident); "
+                        "with --detector: the person to detect (frames where the detector "
+                        "finds someone else or nobody are detected again around them)")
+    add_detection_options(parser)
     parser.add_argument("--keypoint-weight", type=real(0.0), default=None, metavar="ETA",
-                        help="latent, with --keypoints: the keypoint term's weight (default "
-                        "1.5, the Cauchy density's own: jaxtrack.likelihoods.edges)")
+                        help="with detections: score them by the image likelihood's keypoint "
+                        "term of weight ETA (a Cauchy density per marker, "
+                        "jaxtrack.likelihoods.edges; 1.5 is its own) instead of the detection "
+                        "density, which is fitted (the default)")
     parser.add_argument("--masks", type=Path, nargs="+", default=None, metavar="FILE",
                         help="the person's masks, one .npz ('masks') or .npy of (frames, height, "
                         "width) bool per --video, in order (a person segmenter's): the "

@@ -12,6 +12,11 @@ error model learned from the video itself.
 - :func:`track_detections`: detections in, ``(frames, markers, 2)`` estimates out: builds a
   tracker for the person detected in frame 0, fits its error model (``fit=True``), tracks or
   smooths. ``docs/detections.md``, "Tracking with detections", "Learning the error model".
+- :class:`ChunkDetections` and :func:`fit_on_keypoints`: what ``jaxtrack track --keypoints``
+  and ``--detector`` run on a video file: an image tracker whose likelihood is the detection
+  density (times its image likelihood) fed one person's keypoints a video chunk at a time by
+  :func:`jaxtrack.experiments.pipeline.track_video`, its density fitted first on the same
+  keypoints.
 """
 
 from __future__ import annotations
@@ -26,17 +31,18 @@ import numpy as np
 
 from jaxtrack import smc
 from jaxtrack.body import SPM_MARKERS, build_template, spm_initial_state
-from jaxtrack.likelihoods.detections import DetectionModel, detection_model
+from jaxtrack.likelihoods.detections import DetectionModel, DetectionsFrame, detection_model
 from jaxtrack.priors.dynamics import AR2Dynamics, default_noise_floor
-from jaxtrack.trackers import CondensationTracker, Engine, track
+from jaxtrack.trackers import CondensationTracker, Engine, Tracker, VideoChunk, track
 from jaxtrack.trackers._particles import (
     DetectionLikelihood,
     detection_observations,
     device_observation,
 )
 
-__all__ = ["DEFAULT_STEP", "DetectionFit", "detection_tracker", "fit_detection_model",
-           "initial_pose_of", "smooth_markers", "track_detections"]
+__all__ = ["DEFAULT_STEP", "ChunkDetections", "DetectionFit", "detection_tracker",
+           "fit_detection_model", "fit_on_keypoints", "fit_record", "initial_pose_of",
+           "keypoint_frames", "smooth_markers", "track_detections"]
 
 DEFAULT_STEP = 0.03
 """The random walk's starting step per frame in :func:`detection_tracker`: 0.03 in log scale,
@@ -302,6 +308,154 @@ def track_detections(detections, *, method: str = "condensation", fit: bool = Tr
                                    lag=None if smoothing == "ancestry" else smoothing)
     estimates = np.asarray(estimates, np.float64)
     return (estimates, result) if return_fit else estimates
+
+
+def keypoint_frames(points, confidence, frame_size: tuple[float, float]) -> DetectionsFrame:
+    """One person's keypoints as a sequence's :class:`DetectionsFrame` (one person per frame,
+    none where no keypoint was found), as the detection density reads them.
+
+    Args:
+        points: ``(time, 12, 2)`` pixels in ``SPM_MARKERS`` order, NaN where not found.
+        confidence: ``(time, 12)`` in ``[0, 1]``, 0 where not found.
+        frame_size: ``(width, height)`` of the frames the points are in.
+
+    Keypoints outside ``[−½, W − ½] × [−½, H − ½]`` are not found (the density's support, as
+    :func:`jaxtrack.likelihoods.detections_frames` takes them)."""
+    points = np.asarray(points, np.float64)
+    confidence = np.clip(np.nan_to_num(np.asarray(confidence, np.float64)), 0.0, 1.0)
+    width, height = (float(value) for value in frame_size)
+    inside = np.all(np.isfinite(points), -1) & (points[..., 0] >= -0.5) & \
+        (points[..., 0] <= width - 0.5) & (points[..., 1] >= -0.5) & \
+        (points[..., 1] <= height - 0.5)
+    found = inside & (confidence > 0)
+    return DetectionsFrame(np.where(found[..., None], points, 0.0)[:, None],
+                           np.where(found, confidence, 0.0)[:, None],
+                           found.any(-1).astype(np.int32),
+                           np.broadcast_to(np.array([width, height]), (len(points), 2)))
+
+
+class ChunkDetections(Tracker):
+    """An image tracker whose likelihood is a :class:`DetectionLikelihood`, reading the
+    detections from a video chunk's keypoints (one person, ``VideoChunk.keypoints``), so that
+    :func:`jaxtrack.experiments.pipeline.track_video` runs it on a video file as it runs any
+    tracker. Everything else is the wrapped tracker's.
+
+    Attributes:
+        tracker: the latent, CONDENSATION or MHT tracker.
+        frame_size: ``(width, height)`` of the tracked frames (the density's outlier area and
+            support).
+    """
+
+    tracker: Tracker
+    frame_size: tuple[float, float] = eqx.field(static=True)
+
+    def __check_init__(self):
+        if not isinstance(getattr(self.tracker, "likelihood", None), DetectionLikelihood):
+            raise ValueError("ChunkDetections wraps a tracker whose likelihood is a "
+                             "DetectionLikelihood")
+
+    @property
+    def likelihood(self) -> DetectionLikelihood:
+        return self.tracker.likelihood
+
+    @property
+    def reads(self) -> tuple[str, ...]:
+        return tuple(name for name in self.tracker.reads if name != "keypoints") + (
+            "keypoints",)
+
+    def observe(self, chunk: VideoChunk, out=None):
+        if chunk.keypoints is None:
+            raise ValueError("the detection density reads a detector's keypoints: give "
+                             "keypoints=...")
+        frames = keypoint_frames(*chunk.keypoints, self.frame_size)
+        image = self.likelihood.image
+        if image is None:
+            return detection_observations(frames)
+        return detection_observations(frames, grey=chunk.grey, likelihood=image,
+                                      masks=chunk.masks)
+
+    @property
+    def num_particles(self) -> int:
+        return self.tracker.num_particles
+
+    def start(self, key, first_frame, initial_pose):
+        return self.tracker.start(key, first_frame, initial_pose)
+
+    def first_estimate(self, state):
+        return self.tracker.first_estimate(state)
+
+    def update(self, key, state, frame):
+        return self.tracker.update(key, state, frame)
+
+    def options(self) -> dict:
+        return self.tracker.options()
+
+    def smooth(self, estimates):
+        return self.tracker.smooth(estimates)
+
+
+def fit_on_keypoints(tracker, key, points, confidence, frame_size: tuple[float, float],
+                     initial_pose, *, iterations: int, num_particles: int | None = None,
+                     fitting_tracker=None) -> tuple[object, DetectionFit]:
+    """Fit a tracker's detection density (and, for a particle filter, its dynamics' noise) on
+    one person's keypoints (:func:`fit_detection_model` on the detections alone: the image
+    likelihood, unnormalised, is not learned so), and return the tracker with the fitted
+    density, its image likelihood kept.
+
+    Args:
+        tracker: a latent, CONDENSATION or MHT tracker whose likelihood is a
+            :class:`DetectionLikelihood`.
+        key: PRNG key.
+        points, confidence: ``(time, 12, 2)`` and ``(time, 12)`` the frames tracked, in the
+            tracked frames' pixels (:func:`keypoint_frames`).
+        frame_size: ``(width, height)`` of those frames.
+        initial_pose: ``(12, 2)`` the first frame's pose, in the same pixels.
+        iterations: Adam steps.
+        num_particles: N per filter run of the fit (default the tracker's).
+        fitting_tracker: the particle filter to fit with where ``tracker`` keeps none (MHT):
+            its density is fitted (not its noise) and handed to ``tracker``.
+
+    Returns:
+        ``(tracker, fit)``.
+    """
+    likelihood = tracker.likelihood
+    if not isinstance(likelihood, DetectionLikelihood):
+        raise ValueError(f"fit_on_keypoints fits a DetectionLikelihood; the tracker's "
+                         f"likelihood is {type(likelihood).__name__}")
+    alone = DetectionLikelihood(likelihood.detections)
+    fitter = tracker if fitting_tracker is None else fitting_tracker
+    fitter = eqx.tree_at(lambda t: t.likelihood, fitter, alone)
+    observations = detection_observations(keypoint_frames(points, confidence, frame_size))
+    fitted, fit = fit_detection_model(fitter, key, observations, initial_pose,
+                                      iterations=iterations, num_particles=num_particles,
+                                      fit_noise=fitting_tracker is None)
+    base = tracker if fitting_tracker is not None else fitted
+    return eqx.tree_at(lambda t: t.likelihood, base,
+                       DetectionLikelihood(fit.detections, likelihood.image)), fit
+
+
+def fit_record(fit: DetectionFit, hand_set: DetectionModel) -> dict:
+    """``track.json``'s record of a fit: the fitted values beside the hand-set ones, and its
+    cost."""
+    def values(model: DetectionModel) -> dict:
+        scales = np.asarray(model.joint_scales, np.float64)
+        return {"joint_scales": dict(zip(SPM_MARKERS, np.round(scales, 5).tolist(),
+                                         strict=True)),
+                "pixel_noise": round(float(model.pixel_noise), 4),
+                "outlier_rate": round(float(model.outlier_rate), 5),
+                "swap_probability": float(model.swap_probability),
+                "absent_probability": float(model.absent_probability)}
+
+    fitted, given = values(fit.detections), values(hand_set)
+    fitted["noise_factor"], given["noise_factor"] = round(fit.noise_factor, 4), 1.0
+    evidence = np.asarray(fit.log_evidence, np.float64)
+    return {"fitted": fitted, "hand_set": given,
+            "iterations": int(evidence.size), "particles": int(fit.num_particles),
+            "seconds": round(fit.seconds, 3), "compile_seconds": round(fit.compile_seconds, 3),
+            "log_evidence_first": float(evidence[0]), "log_evidence_final": float(evidence[-1]),
+            "learned": "the detection density's f_k, sigma0, outlier rate and the dynamics' "
+                       "noise factor, by Adam ascent of the filter's log-evidence on the "
+                       "detections alone (jaxtrack.experiments.detection_tracking)"}
 
 
 def _pose2sim_view(setting, view: str, frame_size: tuple[float, float]):

@@ -1,0 +1,254 @@
+"""``jaxtrack track``'s detections for the image trackers (latent, CONDENSATION, MHT):
+``--detector mediapipe`` runs MediaPipe Pose over the video and writes its detections beside the
+outputs, and detections (``--keypoints`` or the detector's) are scored by the normalised
+detection density (:mod:`jaxtrack.likelihoods.detections`) times the image likelihood, its
+parameters fitted on the video first (``--no-fit``, ``--fit-iterations``:
+:func:`jaxtrack.experiments.detection_tracking.fit_on_keypoints`).
+
+The detector runs on full frames, decoded so that their longer side is at most ``--max-size``,
+through files (``jaxtrack.vision.mediapipe.detect_pose``, MediaPipe's video mode). With
+``--person``, frames where the full-frame detection is not the person (nobody found, or a
+detection that jumped away from the person's last detected pose, by the gate of
+:func:`jaxtrack.vision.detections.follow_person`) are detected again on a square region around
+the person's last detected pose (``region_around``; MediaPipe's single-person model then sees
+only the person), frame by frame through one worker (``MediaPipeDetector``). The region is
+guided by the last detection, not by the tracker's own prediction: the detector runs before the
+tracker, so that the video pipeline stays one pass.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jaxtrack.cli._common import UserError, integer, one_line
+
+__all__ = ["DETECTIONS_FILE", "FIT_ITERATIONS", "FIT_PARTICLES", "add_detection_options",
+           "check_detection_options", "detect_video", "detection_tracker"]
+
+DETECTIONS_FILE = "detections.npz"
+"""What ``--detector`` writes into ``--out`` (``jaxtrack.vision.detections.write_detections``;
+``--keypoints`` reads it)."""
+FIT_ITERATIONS = 15
+"""Adam steps of the fit by default: on the Pose2Sim demo's detections the log-evidence rises
+most in the first ten (docs/detections.md), and each is a filter run forward and backward."""
+FIT_PARTICLES = 200
+"""Particles per filter run of the fit (fewer where the tracker has fewer)."""
+GATE = 0.5
+"""A full-frame detection more than this many times the person's last keypoint box diagonal
+from its last detected pose (median over the markers) is not the person (as
+``follow_person``)."""
+
+
+def add_detection_options(parser: argparse.ArgumentParser) -> None:
+    """``--detector``, ``--no-fit`` and ``--fit-iterations``."""
+    parser.add_argument("--detector", choices=("mediapipe",), default=None,
+                        help="latent, condensation, mht: run a pose detector over the video "
+                        "first (MediaPipe Pose, in its own venv: make detector), write its "
+                        f"detections to DIR/{DETECTIONS_FILE} and track them as --keypoints")
+    parser.add_argument("--no-fit", action="store_true",
+                        help="with detections: keep the detection density's hand-set "
+                        "parameters instead of fitting them on the video")
+    parser.add_argument("--fit-iterations", type=integer(1), default=None, metavar="N",
+                        help="with detections: Adam steps of the fit of the detection "
+                        f"density's scales, outlier rate and dynamics noise by the filter's "
+                        f"log-evidence (default {FIT_ITERATIONS})")
+
+
+def check_detection_options(args: argparse.Namespace) -> None:
+    """Refuse, in one line and before any work, detection options without detections, both
+    sources at once, fit options beside ``--keypoint-weight`` (the image likelihood's keypoint
+    term, which is not fitted), and ``--detector`` without the detector's venv."""
+    from jaxtrack.vision.mediapipe import mediapipe_python
+
+    if args.keypoints is not None and args.detector is not None:
+        raise UserError("--detector: give --keypoints (detections you have) or --detector (run "
+                        "one), not both")
+    if args.keypoints is None and args.detector is None:
+        for option, given in (("--keypoint-weight", args.keypoint_weight is not None),
+                              ("--init keypoints", args.init == "keypoints"),
+                              ("--person", args.person is not None),
+                              ("--no-fit", args.no_fit),
+                              ("--fit-iterations", args.fit_iterations is not None)):
+            if given:
+                raise UserError(f"{option}: it reads a detector's keypoints; give --keypoints "
+                                f"FILE_OR_FOLDER or --detector mediapipe")
+    if args.keypoint_weight is not None:
+        for option, given in (("--no-fit", args.no_fit),
+                              ("--fit-iterations", args.fit_iterations is not None)):
+            if given:
+                raise UserError(f"{option}: --keypoint-weight scores the keypoints by the image "
+                                f"likelihood's keypoint term, which is not fitted; leave one "
+                                f"of them out")
+    python = mediapipe_python()
+    if args.detector == "mediapipe" and not python.exists():
+        raise UserError(f"--detector mediapipe: no MediaPipe python at {python}; run `make "
+                        f"detector` (or set JAXTRACK_MEDIAPIPE_PYTHON)")
+
+
+def _landmarks(result: dict) -> tuple[np.ndarray, np.ndarray]:
+    from jaxtrack.vision.mediapipe import detected_keypoints
+
+    return detected_keypoints(result)
+
+
+def _not_the_person(points: np.ndarray, last: np.ndarray | None) -> bool:
+    """Whether a frame's detected markers ``(12, 2)`` (NaN where absent) are not the person
+    last seen at ``last``."""
+    found = np.all(np.isfinite(points), -1)
+    if not found.any():
+        return True
+    if last is None:
+        return False
+    both = found & np.all(np.isfinite(last), -1)
+    if not both.any():
+        return True
+    known = last[np.all(np.isfinite(last), -1)]
+    diagonal = float(np.hypot(*(known.max(0) - known.min(0))))
+    distance = float(np.median(np.linalg.norm(points[both] - last[both], axis=-1)))
+    return distance > GATE * max(diagonal, 1.0)
+
+
+def detect_video(args: argparse.Namespace, start: int, count: int | None,
+                 box: tuple[float, float, float, float] | None) -> tuple[Path, dict]:
+    """Run ``--detector`` over the video's frames tracked; write ``DIR/detections.npz`` (one
+    row per video frame from the first: frames before ``start`` hold nobody). Returns its path
+    and the record of the run (``track.json``'s ``detector``)."""
+    from jaxtrack.body import UPPER_BODY_12
+    from jaxtrack.vision import mediapipe
+    from jaxtrack.vision.detections import Detections, write_detections
+    from jaxtrack.vision.video import VideoError, read_video
+
+    started = time.perf_counter()
+    try:
+        probe = read_video(args.video, start=start, max_frames=1)
+        width, height = probe.image_size
+        scale = min(1.0, args.max_size / max(width, height))
+        frames = read_video(args.video, start=start, max_frames=count, scale=scale).frames
+    except VideoError as error:
+        raise UserError(f"--video: {one_line(error)}") from None
+    decode_seconds = time.perf_counter() - started
+    factors = np.array([frames.shape[2] / width, frames.shape[1] / height])
+    try:
+        result = mediapipe.detect_pose(frames, worker=mediapipe.WORKER)
+    except mediapipe.DetectorUnavailableError as error:
+        raise UserError(f"--detector mediapipe: {one_line(error)}") from None
+    points, confidence = _landmarks(result)  # decoded pixels
+    seconds = float(result.get("first_seconds", 0.0)) + float(np.sum(result["seconds"]))
+    redetected, wall = [], float(result["wall_seconds"])
+    if box is not None:
+        points, confidence, redetected, more = _guided(frames, points, confidence, box,
+                                                       factors)
+        seconds, wall = seconds + more[0], wall + more[1]
+    # back to the video's own pixels (pixel centres: (p + 0.5) / factor - 0.5)
+    points = (points + 0.5) / factors - 0.5
+    total = start + len(frames)
+    all_points = np.full((total, 1, len(UPPER_BODY_12), 2), np.nan)
+    all_confidence = np.zeros((total, 1, len(UPPER_BODY_12)))
+    all_points[start:, 0], all_confidence[start:, 0] = points, confidence
+    people = (all_confidence[:, 0] > 0).any(-1).astype(np.int64)
+    path = Path(args.out) / DETECTIONS_FILE
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    write_detections(path, Detections(all_points, all_confidence, people, UPPER_BODY_12,
+                                      "MEDIAPIPE_33", (float(width), float(height)),
+                                      source=f"MediaPipe {result.get('version', '')}"))
+    record = {"name": "mediapipe", "version": str(result.get("version", "")),
+              "file": str(path), "frames": len(frames), "decoded_size": [frames.shape[2],
+                                                                          frames.shape[1]],
+              "frames_with_person": int(people[start:].sum()),
+              "redetected_frames": [start + index for index in redetected],
+              "seconds": round(seconds, 3), "wall_seconds": round(wall, 3),
+              "decode_seconds": round(decode_seconds, 3)}
+    print(f"{args.video}: MediaPipe found the person in {record['frames_with_person']} of "
+          f"{len(frames)} frames ({len(redetected)} detected again around the person) in "
+          f"{seconds:.1f} s of detector time ({wall:.1f} s with starting it); wrote {path}",
+          flush=True)
+    return path, record
+
+
+def _guided(frames, points, confidence, box, factors):
+    """Frames whose full-frame detection is not the person, detected again around the
+    person's last detected pose (module docstring). Returns the points and confidences, the
+    frames detected again, and ``(detector seconds, wall seconds)`` of doing so."""
+    from jaxtrack.vision import mediapipe
+    from jaxtrack.vision.detections import _box_of, _overlap
+
+    scaled = np.asarray(box, np.float64) * np.r_[factors, factors]
+    corners = scaled.reshape(2, 2)
+    size = (frames.shape[2], frames.shape[1])
+    own = _box_of(points[0])
+    last = points[0] if own is not None and _overlap(scaled, own) > 0 else None
+    redone, seconds, wall = [], 0.0, 0.0
+    detector = None
+    try:
+        for t in range(len(frames)):
+            if not (_not_the_person(points[t], last) or last is None):
+                last = np.where(np.isfinite(points[t]), points[t], last)
+                continue
+            if detector is None:
+                detector = mediapipe.MediaPipeDetector(static=True, worker=mediapipe.WORKER)
+            region = mediapipe.region_around(corners if last is None else last, size)
+            found = detector.detect(frames[t], region)
+            seconds, wall = seconds + float(found["seconds"]), wall + found["wall_seconds"]
+            again = {key: np.asarray(found[key])[None] for key in ("landmarks", "visibility")}
+            again["found"] = np.array([bool(found["found"])])
+            new_points, new_confidence = _landmarks(again)
+            if not _not_the_person(new_points[0], last) or (last is None and
+                                                            np.isfinite(new_points[0]).any()):
+                points[t], confidence[t] = new_points[0], new_confidence[0]
+                last = np.where(np.isfinite(points[t]), points[t], last if last is not None
+                                else points[t])
+            else:  # neither is the person: no detection of them here
+                points[t], confidence[t] = np.nan, 0.0
+            redone.append(t)
+    except mediapipe.DetectorUnavailableError as error:
+        raise UserError(f"--detector mediapipe: {one_line(error)}") from None
+    finally:
+        if detector is not None:
+            detector.close()
+    return points, confidence, redone, (seconds, wall)
+
+
+def detection_tracker(args, tracker, keypoints, factors, tracked_size, pose, start: int,
+                      end: int | None, fitting_tracker=None):
+    """The tracker the video pipeline runs on detections (``ChunkDetections``), its density
+    fitted on the frames tracked unless ``--no-fit``; and ``track.json``'s record of it."""
+    import jax.random as jr
+
+    from jaxtrack.experiments.detection_tracking import (
+        ChunkDetections,
+        fit_on_keypoints,
+        fit_record,
+    )
+
+    hand_set = tracker.likelihood.detections
+    record = {"likelihood": "detection density x " + tracker.likelihood.image.kind
+              if tracker.likelihood.image is not None else "detection density", "fit": None}
+    if not args.no_fit:
+        stop = len(keypoints[0]) if end is None else end
+        points = keypoints[0][start:stop] * factors
+        particles = min(FIT_PARTICLES, args.particles) if args.method != "mht" \
+            else FIT_PARTICLES
+        iterations = args.fit_iterations or FIT_ITERATIONS
+        print(f"fitting the detection density on {stop - start} frames ({iterations} "
+              f"iterations, {particles} particles)", flush=True)
+        try:
+            tracker, fit = fit_on_keypoints(
+                tracker, jr.fold_in(jr.PRNGKey(args.seed), 1), points,
+                keypoints[1][start:stop], tracked_size, np.asarray(pose) * factors,
+                iterations=iterations, num_particles=particles,
+                fitting_tracker=fitting_tracker)
+        except ValueError as error:
+            raise UserError(f"--keypoints: the fit failed: {one_line(error)}; give --no-fit"
+                            ) from None
+        record["fit"] = fit_record(fit, hand_set)
+        fitted = record["fit"]["fitted"]
+        print(f"  fitted in {fit.seconds:.1f} s (+ {fit.compile_seconds:.1f} s compiling): "
+              f"log-evidence {record['fit']['log_evidence_first']:.1f} -> "
+              f"{record['fit']['log_evidence_final']:.1f}; sigma0 {fitted['pixel_noise']:.2f} "
+              f"px, outlier rate {fitted['outlier_rate']:.3f}, noise "
+              f"x{fitted['noise_factor']:.2f}", flush=True)
+    return ChunkDetections(tracker, (float(tracked_size[0]), float(tracked_size[1]))), record
