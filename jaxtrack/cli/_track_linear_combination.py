@@ -23,28 +23,24 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
 
+import jax.random as jr
 import numpy as np
 
 from jaxtrack.cli._common import (
     UserError,
     at_least,
     check_seed,
-    finite_json,
-    fit_mask_file,
     one_line,
     output_directory,
-    outputs_or_nothing,
+    pipeline_errors,
     read_mask_files,
 )
-from jaxtrack.cli._train_linear_combination import frame_labels, load_model
+from jaxtrack.cli._train_linear_combination import load_model
 
 __all__ = ["track"]
 
 _PARTICLES, _ITERATIONS = 300, 5
-_ZOOM = 2  # overlay panels are drawn at twice the tracking resolution
-_MARKERS = ("head", "hand", "other_hand")
 
 
 def _skin(text: str | None):
@@ -126,13 +122,11 @@ def _probe_videos(args, cameras, start: int) -> list[tuple[float, tuple[int, int
 
 def track(args: argparse.Namespace) -> int:
     """``jaxtrack track --method linear-combination``."""
-    import jax.random as jr
-
-    from jaxtrack.cli._track_image import frame_range, options_record
+    from jaxtrack.cli._track_image import frame_range, options_record, tracked_end
     from jaxtrack.experiments import linear_combination as lc
+    from jaxtrack.experiments.pipeline import Window, track_video
     from jaxtrack.trackers import Engine
-    from jaxtrack.trackers.linear_combination import linear_combination_tracker, track_observations
-    from jaxtrack.vision import VideoError, read_video, write_views_video
+    from jaxtrack.trackers.linear_combination import linear_combination_tracker
 
     started = time.perf_counter()
     record_options = options_record(args)
@@ -163,101 +157,43 @@ def track(args: argparse.Namespace) -> int:
     cameras = _calibrated_cameras(args, len(args.video))
     probes = _probe_videos(args, cameras, start)
     fps_model = float(trained.description.get("fps", 30.0))
-
-    # every argument checked: decode (at the model's scale and frame rate), observe, track
-    tick = time.perf_counter()
-    videos, strides = [], []
-    for path, (scale, _, fps) in zip(args.video, probes, strict=True):
-        strides.append(max(1, round(fps / fps_model)) if math.isfinite(fps) else 1)
-        try:
-            videos.append(read_video(path, start=start, stride=strides[-1], scale=scale,
-                                     max_frames=None if stop is None else
-                                     -(-(stop - start) // strides[-1])))
-        except VideoError as error:
-            raise UserError(f"--video: {one_line(error)}") from None
-    count = min(video.num_frames for video in videos)
-    if count < 3:
-        raise UserError(f"--video: {count} frame(s) to track; the median background needs at "
-                        f"least 3")
-    decode_seconds = time.perf_counter() - tick
-    tick = time.perf_counter()
-    views = []
-    for index, video in enumerate(videos):
-        frames = video.frames[:count]
-        masks = None
-        if given_masks[index] is not None:
-            masks = fit_mask_file(given_masks[index], args.masks[index],
-                                  video.frame_indices[:count], video.image_size)
-        frames, background, masks, origin, people = lc.video_view(frames, masks,
-                                                                  cameras is not None)
-        observations, status = lc.observe(frames, background, skin_reference=skin, masks=masks)
-        height, width = video.frames.shape[1:3]
-        size = probes[index][1]
-        views.append({"frames": frames, "observations": observations, "status": status,
-                      "origin": origin, "people": people, "video": video,
-                      "stride": strides[index], "size": size,
-                      # per axis: the decoder rounds the scaled size
-                      "scale": np.array([width / size[0], height / size[1]]),
-                      "name": cameras[index].name if cameras else f"view{index}"})
-    observe_seconds = time.perf_counter() - tick
+    # each video at the model's frame rate: every stride-th frame
+    strides = [max(1, round(fps / fps_model)) if math.isfinite(fps) else 1
+               for _, _, fps in probes]
+    for index, (path, masks) in enumerate(zip(args.video, given_masks, strict=True)):
+        end = tracked_end(path, stop)  # one past the last video frame tracked
+        if masks is not None and end is not None and end > start:
+            last = start + (end - 1 - start) // strides[index] * strides[index]
+            if len(masks) <= last:
+                raise UserError(f"--masks {args.masks[index]}: holds {len(masks)} masks, but "
+                                f"video frame {last} is tracked (one mask per video frame, from "
+                                f"its first)")
     tracker = linear_combination_tracker(trained.model, engine=Engine(particles),
-                                         iterations=iterations)
-    for view in views:
-        # the same key for every view: views differ by what they see, not by their noise
-        view["run"] = track_observations(tracker, jr.PRNGKey(args.seed), view["observations"])
-    tick = time.perf_counter()
-    chosen, ambiguity = lc.select_tracked_views(trained,
-                                                [view["run"].estimates for view in views],
-                                                selection=_view_selection(args))
-    selection_seconds = time.perf_counter() - tick
-    skeletons = [_skeletons(view["run"].estimates, args) for view in views]
-    for view, skeleton in zip(views, skeletons, strict=True):
-        if not (np.all(np.isfinite(skeleton))
-                and np.all(np.isfinite(view["run"].estimates.log_fitness))):
-            raise UserError(f"tracking --video {view['video'].path} produced non-finite "
-                            f"skeletons; nothing written")
-    record = lc.track_record(
-        trained, cameras, views, skeletons, chosen, ambiguity, tracker, model=str(args.model),
+                                         iterations=iterations, skin_reference=skin)
+    selection, estimate = _view_selection(args), _skeleton_estimate(args)
+    report = lc.video_report(
+        trained, cameras, tracker, model=str(args.model),
         calibration=None if args.calibration is None else str(args.calibration),
-        masks=args.masks, skin=skin, seed=args.seed, view_selection=_view_selection(args),
-        skeleton_estimate=_skeleton_estimate(args))
-    record["options"] = record_options
-    with outputs_or_nothing(args.out) as written:
-        fps = videos[0].fps if math.isfinite(videos[0].fps) else fps_model
-        try:  # with several views: ambiguity bars, the selected view framed (Fig. 17)
-            written.append(write_views_video(
-                [view["frames"] for view in views],
-                [view["run"].estimates.contour for view in views],
-                [view["run"].estimates.best_markers for view in views],
-                args.out / "overlay.mp4", fps=fps, names=[view["name"] for view in views],
-                marker_names=_MARKERS, labels=[frame_labels(view["status"]) for view in views],
-                ambiguity=ambiguity, selected=None if ambiguity is None else chosen,
-                zoom=_ZOOM, skeletons=lc.shown_skeletons(skeletons, chosen, cameras),
-                skeleton_names=list(trained.description["skeleton"])))
-        except OSError as error:
-            raise UserError(f"cannot write {args.out / 'overlay.mp4'}: {error}") from None
-        record["seconds"] = {
-            "decode": round(decode_seconds, 3), "observe": round(observe_seconds, 3),
-            "view_selection": round(selection_seconds, 3),
-            "per_view": [{"compile": round(view["run"].compile_seconds, 3),
-                          "ms_per_frame": round(1e3 * view["run"].seconds_per_frame, 3)}
-                         for view in views],
-            "total": round(time.perf_counter() - started, 3)}
-        json_path = _write_json(args.out / "track.json", record)
-    observed = sum(int(np.sum(view["observations"].found)) for view in views)
-    speeds = ", ".join(f"{1e3 * view['run'].seconds_per_frame:.1f}" for view in views)
-    compile_seconds = sum(view["run"].compile_seconds for view in views)
-    print(f"tracked {count} frames in {len(views)} view(s) ({observed} view-frames observed; "
-          f"{speeds} ms/frame, compile {compile_seconds:.1f} s); total "
+        masks=args.masks, skin=skin, seed=args.seed, view_selection=selection,
+        skeleton_estimate=estimate)
+    with pipeline_errors("--video"):
+        record = track_video(
+            tracker, args.video, args.out, key=jr.PRNGKey(args.seed),
+            scale=[scale for scale, _, _ in probes], start=start, stride=strides,
+            max_frames=None if stop is None else -(-(stop - start) // max(strides)),
+            window=None if cameras is None else Window(lc.CROP_SIZE, locate=lc.locate_window),
+            masks=given_masks if len(args.video) > 1 else given_masks[0],
+            view_names=[camera.name for camera in cameras] if cameras else None,
+            progress=False, report=report, extra_record={"options": record_options})
+    runs = record["runs"]
+    observed = sum(int(np.sum(run.result.estimates.found)) for run in runs)
+    speeds = ", ".join(f"{1e3 * run.result.seconds_per_frame:.1f}" for run in runs)
+    compile_seconds = sum(run.result.compile_seconds for run in runs)
+    print(f"tracked {len(runs[0].frame_indices)} frames in {len(runs)} view(s) ({observed} "
+          f"view-frames observed; {speeds} ms/frame, compile {compile_seconds:.1f} s); total "
           f"{time.perf_counter() - started:.1f} s")
-    print(f"  wrote {args.out / 'overlay.mp4'}\n  wrote {json_path}")
+    print(f"  wrote {record['paths']['overlay']}\n  wrote {record['paths']['json']}")
     return 0
-
-
-def _write_json(path: Path, record: dict) -> Path:
-    from jaxtrack._files import write_json_atomically
-
-    return write_json_atomically(path, finite_json(record))
 
 
 def _view_selection(args) -> str:
@@ -272,9 +208,3 @@ def _skeleton_estimate(args) -> str:
     from jaxtrack.experiments import linear_combination as lc
 
     return getattr(args, "skeleton", None) or lc.DEFAULT_SKELETON_ESTIMATE
-
-
-def _skeletons(estimates, args) -> np.ndarray:
-    """``(time, joints, 3)`` the view's 3-D skeleton estimate that ``--skeleton`` names."""
-    return np.asarray(estimates.skeleton_3d if _skeleton_estimate(args) == "mean"
-                      else estimates.best_skeleton_3d, np.float64)

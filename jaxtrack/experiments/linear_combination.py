@@ -44,13 +44,15 @@ from jaxtrack.trackers._options import Engine
 from jaxtrack.trackers.linear_combination import observe_contours
 
 __all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_FITNESS", "DEFAULT_SKELETON_ESTIMATE",
-           "DEFAULT_STEP", "DEFAULT_VIEW_SELECTION", "METHODS", "SKELETON_ESTIMATES", "TEST_CLIPS",
-           "TRAIN_CLIPS", "VALIDATION_CLIPS",
+           "DEFAULT_STEP", "DEFAULT_VIEW_SELECTION", "METHODS", "OVERLAY_ZOOM",
+           "SKELETON_ESTIMATES", "TEST_CLIPS", "TRAIN_CLIPS", "VALIDATION_CLIPS",
            "VIEW_SELECTION",
-           "HybridSequence", "TrainedLinearCombinations", "cut_window", "evaluate", "load",
-           "multi_view", "observe", "pose2sim_cameras", "render_hybrid_sequences", "run_method",
-           "aligned_skeleton_error", "select_tracked_views", "shown_skeletons", "skeleton_error",
-           "subject_centre", "to_video_pixels", "track", "track_record", "train", "video_view"]
+           "HybridSequence", "TrainedLinearCombinations", "evaluate", "load",
+           "locate_window", "multi_view", "observe", "pose2sim_cameras",
+           "render_hybrid_sequences", "run_method", "aligned_skeleton_error",
+           "select_tracked_views", "shown_skeletons", "skeleton_error", "skeleton_estimates",
+           "subject_centre", "to_video_pixels", "track", "track_record", "train",
+           "video_report"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -227,22 +229,6 @@ def subject_centre(frames: np.ndarray, background: np.ndarray | None, *,
     x = 0.5 * (np.percentile(left, 10) + np.percentile(right, 90))
     y = np.median(top) + 0.33 * np.percentile(bottom - top, 90)
     return np.array([x, y]), len(boxes)
-
-
-def cut_window(images: np.ndarray, origin: np.ndarray, size: tuple[int, int], *,
-               mode: str = "edge") -> np.ndarray:
-    """``images[..., y0:y0+h, x0:x0+w, :]`` for ``origin`` ``(x0, y0)`` and ``size``
-    ``(w, h)``, the image's edge repeated where the window leaves it (the same for every frame
-    and the background, so it is never foreground); ``mode="constant"`` pads with zeros
-    instead (for masks: never the person)."""
-    x0, y0 = (int(v) for v in origin)
-    width, height = size
-    full_height, full_width = images.shape[-3:-1]
-    pad = [(0, 0)] * (images.ndim - 3) + [(max(0, -y0), max(0, y0 + height - full_height)),
-                                          (max(0, -x0), max(0, x0 + width - full_width)), (0, 0)]
-    padded = np.pad(images, pad, mode=mode)
-    x0, y0 = x0 + pad[-2][0], y0 + pad[-3][0]
-    return np.ascontiguousarray(padded[..., y0:y0 + height, x0:x0 + width, :])
 
 
 def render_hybrid_sequences(clip: str, *, views: tuple[int, ...] = (0, 1, 2, 3),
@@ -708,13 +694,23 @@ def track(trained: TrainedLinearCombinations, images: np.ndarray, background: np
     return run | {"status": status}
 
 
-# ``jaxtrack track --method linear-combination``'s record and overlay
+# ``jaxtrack track --method linear-combination``'s record and overlay, on the video pipeline
 
 
-def to_video_pixels(points: np.ndarray, view: dict) -> np.ndarray:
-    """Tracking pixels (inside the crop) -> the video's own pixels (pixel centres at
-    integers, as ``scale_camera``)."""
-    return (points + view["origin"] + 0.5) / view["scale"] - 0.5
+def locate_window(frames: np.ndarray, background: np.ndarray | None,
+                  masks: np.ndarray | None) -> tuple[np.ndarray, int]:
+    """Where a calibrated camera's frames are cut to :data:`CROP_SIZE` (the pipeline's
+    ``Window(CROP_SIZE, locate=locate_window)``): the window's origin ``(x0, y0)`` around the
+    subject (:func:`subject_centre` of frames spread over the video against its median
+    ``background``, or of their ``masks``), and the frames it was found from."""
+    centre, people = subject_centre(frames, background, masks=masks)
+    return np.round(centre - np.asarray(CROP_SIZE) / 2), people
+
+
+def to_video_pixels(points: np.ndarray, run) -> np.ndarray:
+    """Tracking pixels (inside the crop) of a view (a pipeline ``ViewRun``) -> the video's own
+    pixels (pixel centres at integers, as ``scale_camera``)."""
+    return (points + run.origin + 0.5) / run.factors - 0.5
 
 
 def _rounded(values, digits: int):
@@ -724,20 +720,37 @@ def _rounded(values, digits: int):
     return np.round(values, digits).tolist()
 
 
-def _view_statuses(view: dict) -> list:
+def _not_observed(run) -> np.ndarray:
+    """``(time,)`` the view's frames its observation gives a reason for (not observed)."""
+    return np.array([bool(text) for text in run.reasons])
+
+
+def _view_statuses(run) -> list:
     """Each frame's :class:`jaxtrack.trackers.status.FrameStatus` in one view: its head and hands
-    in the video's own pixels against the video's size, its best particle's log-fitness."""
+    in the video's own pixels against the video's size, ``no person`` where the observation
+    gives a reason it was not observed, its best particle's log-fitness."""
     from jaxtrack.trackers.status import frame_statuses
 
-    estimate = view["run"].estimates
-    points = to_video_pixels(np.asarray(estimate.best_markers, np.float64), view)
-    return frame_statuses(points, tuple(view["size"]),
+    estimate = run.result.estimates
+    points = to_video_pixels(np.asarray(estimate.best_markers, np.float64), run)
+    return frame_statuses(points, tuple(run.size),
                           degenerate=~(np.asarray(estimate.ess) > 0),
-                          no_person=~np.asarray(estimate.found, bool),
+                          no_person=_not_observed(run),
                           log_likelihood=np.asarray(estimate.log_fitness, np.float64))
 
 
-def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker, *,
+def skeleton_estimates(estimates, skeleton_estimate: str) -> np.ndarray:
+    """``(time, joints, 3)`` a view's 3-D skeleton of the estimate ``skeleton_estimate``
+    names (:data:`SKELETON_ESTIMATES`: ``"mean"``, the weighted mean's; ``"best"``, the best
+    particle's)."""
+    if skeleton_estimate not in SKELETON_ESTIMATES:
+        raise ValueError(f"skeleton_estimate must be one of {tuple(SKELETON_ESTIMATES)}, got "
+                         f"{skeleton_estimate!r}")
+    return np.asarray(estimates.skeleton_3d if skeleton_estimate == "mean"
+                      else estimates.best_skeleton_3d, np.float64)
+
+
+def track_record(trained, cameras, runs, skeletons, chosen, ambiguity, tracker, *,
                  model: str, calibration: str | None, masks: list | None, skin, seed: int,
                  view_selection: str, skeleton_estimate: str) -> dict:
     """``track.json`` of a linear-combination run (``jaxtrack track --method
@@ -747,9 +760,8 @@ def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker,
     Args:
         trained: the model (:class:`TrainedLinearCombinations`).
         cameras: the calibrated cameras, one per view, or None.
-        views: per view a dict with ``run`` (its ``TrackResult``), ``status`` (per frame why it
-            was not observed, or None), ``origin``, ``scale``, ``size``, ``video``, ``name``,
-            ``stride``, ``people`` and ``frames``.
+        runs: per view the pipeline's ``ViewRun`` (:class:`jaxtrack.experiments.pipeline.ViewRun`:
+            its ``TrackResult``, frames, window origin, scale, size, reasons).
         skeletons: per view ``(time, joints, 3)`` the skeleton reported.
         chosen, ambiguity: :func:`select_tracked_views`' selected view per frame and
             ``(time, views)`` ambiguities (None with one view).
@@ -765,20 +777,21 @@ def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker,
     )
 
     joints = list(trained.description["skeleton"])
-    view_statuses = [_view_statuses(view) for view in views]
+    view_statuses = [_view_statuses(run) for run in runs]
     frame_statuses = [FrameStatus.NO_PERSON if chosen[t] is None
                       else view_statuses[chosen[t]][t] for t in range(len(chosen))]
+    first = runs[0]
     frames = []
     for t in range(len(chosen)):
         entries = []
-        for index, view in enumerate(views):
-            estimate = view["run"].estimates
+        for index, run in enumerate(runs):
+            estimate = run.result.estimates
             found = bool(estimate.found[t])
             markers = np.asarray(estimate.best_markers[t], np.float64)
-            video_markers = to_video_pixels(markers, view) if found else None
+            video_markers = to_video_pixels(markers, run) if found else None
             skeleton = np.asarray(skeletons[index][t], np.float64)
             entry = {
-                "status": view["status"][t] or "observed", "observed": found,
+                "status": run.reasons[t] or "observed", "observed": found,
                 "frame_status": view_statuses[index][t].value,
                 "log_fitness": round(float(estimate.log_fitness[t]), 4),
                 "ambiguity": None if ambiguity is None else _rounded(ambiguity[t, index], 5),
@@ -791,13 +804,12 @@ def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker,
                 entry["skeleton_world_m"] = dict(zip(joints, np.round(world, 4).tolist(),
                                                      strict=True))
             entries.append(entry)
-        video = views[0]["video"]
-        index = int(video.frame_indices[t])
-        frames.append({"frame": index, "time_s": (round(index / video.source_fps, 4)
-                                                  if math.isfinite(video.source_fps) else None),
+        frame = int(first.frame_indices[t])
+        frames.append({"frame": frame, "time_s": (round(frame / first.fps, 4)
+                                                  if math.isfinite(first.fps) else None),
                        "status": frame_statuses[t].value,
                        "views": entries, "selected_view": chosen[t],
-                       "selected": None if chosen[t] is None else views[chosen[t]]["name"]})
+                       "selected": None if chosen[t] is None else runs[chosen[t]].name})
     return {
         "method": "linear-combination", "model": model,
         "statuses": status_legend(), "lost_rule": LOST_RULE,
@@ -806,22 +818,23 @@ def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker,
         "trained_on": {key: trained.description.get(key) for key in
                        ("clips", "views", "fps", "num_clusters", "frames")},
         "calibration": calibration,
-        "views": [{"video": str(view["video"].path), "camera": view["name"],
-                   "size": list(view["size"]), "fps": _rounded(view["video"].source_fps, 3),
-                   "stride": view["stride"],
-                   "scale": np.round(view["scale"], 5).tolist(),
-                   "crop_origin": np.round(view["origin"], 1).tolist(),
-                   "crop_from_silhouettes": view["people"],
+        "views": [{"video": str(run.video), "camera": run.name,
+                   "size": list(run.size), "fps": _rounded(run.fps, 3),
+                   "stride": run.stride,
+                   "scale": np.round(run.factors, 5).tolist(),
+                   "crop_origin": np.round(run.origin, 1).tolist(),
+                   "crop_from_silhouettes": (len(run.frame_indices) if run.located_from is None
+                                             else run.located_from),
                    "silhouettes": ("background subtraction against the median of the "
                                    "video's frames" if masks is None
                                    else f"masks {masks[index]}")}
-                  for index, view in enumerate(views)],
-        "tracked_size": list(views[0]["frames"].shape[2:0:-1]),
+                  for index, run in enumerate(runs)],
+        "tracked_size": list(first.tracked_size),
         "skin": "fixed chroma box" if skin is None else list(skin),
         "particles": tracker.num_particles, "iterations": tracker.iterations,
-        "view_selection": view_selection if len(views) > 1 else None,
+        "view_selection": view_selection if len(runs) > 1 else None,
         "skeleton_estimate": skeleton_estimate,
-        "seed": seed, "tracker": views[0]["run"].options, "joints": joints,
+        "seed": seed, "tracker": first.result.options, "joints": joints,
         "coordinates": "head and hands in the video's own pixels (hands ordered left to right "
                        "in the image); skeleton_m (the skeleton_estimate) in the camera's "
                        "frame, metres, relative to the neck",
@@ -829,7 +842,7 @@ def track_record(trained, cameras, views, skeletons, chosen, ambiguity, tracker,
 
 
 def shown_skeletons(skeletons: list[np.ndarray], chosen: list[int | None],
-                     cameras) -> np.ndarray:
+                    cameras) -> np.ndarray:
     """``(time, joints, 3)`` the 3-D skeleton the overlay draws each frame: the selected view's
     (the only view's) of each view's ``skeletons`` ``(time, joints, 3)``, x right, y up,
     metres from the neck; in the calibration's world axes when there is one (the same axes
@@ -849,32 +862,80 @@ def shown_skeletons(skeletons: list[np.ndarray], chosen: list[int | None],
     return shown
 
 
-def video_view(frames: np.ndarray, masks: np.ndarray | None, calibrated: bool):
-    """One video's frames as the tracker sees them (``jaxtrack track --method
-    linear-combination``): its empty scene is the median of its frames (a static camera)
-    unless the person's masks are given, and a calibrated view is cut to :data:`CROP_SIZE`
-    around the subject (:func:`subject_centre`).
+def _frame_labels(reasons: list[str]) -> list[str]:
+    """Per frame ``"3/40 no skin blobs"``: the frame's number and why it was not observed
+    (the first words of its reason)."""
+    return [f"{t + 1}/{len(reasons)} {text.split(':')[0].split('(')[0].strip()}".strip()
+            for t, text in enumerate(reasons)]
 
-    Args:
-        frames: ``(time, height, width, 3)`` uint8 at the model's scale.
-        masks: ``(time, height, width)`` bool person masks of those frames, or None.
-        calibrated: cut the frames to :data:`CROP_SIZE` around the subject (a calibrated
-            camera's whole image; an uncalibrated video is already such a crop).
+
+OVERLAY_ZOOM = 2
+"""The overlay's panels are drawn at this many times the tracking resolution."""
+
+
+def video_report(trained: TrainedLinearCombinations, cameras, tracker, *, model: str,
+                 calibration: str | None, masks: list | None, skin, seed: int,
+                 view_selection: str = DEFAULT_VIEW_SELECTION,
+                 skeleton_estimate: str = DEFAULT_SKELETON_ESTIMATE):
+    """The video pipeline's ``report`` hook for ``jaxtrack track --method linear-combination``
+    (:func:`jaxtrack.experiments.pipeline.track_video`): from the views tracked one by one, Ong
+    & Gong's view selection (§5.5–5.7, :func:`select_tracked_views`), the record
+    (:func:`track_record`, with its ``seconds``) and the overlay's writer: the views side by
+    side with their contours, head and hands, ambiguity bars and the selected view framed, and
+    the selected view's 3-D skeleton (Fig. 17;
+    :func:`jaxtrack.vision.overlay_views.write_views_stream`).
+
+    Args: as :func:`track_record` (``runs``, ``skeletons``, ``chosen`` and ``ambiguity`` come
+    from the pipeline's views).
 
     Returns:
-        ``(frames, background or None, masks or None, origin (2,) of the crop in the frames'
-        pixels, frames the crop's centre was found from)``.
+        ``report(runs, timings) -> (record, draw)``.
     """
-    from jaxtrack.vision import median_background
+    _check_selection(view_selection)
+    if skeleton_estimate not in SKELETON_ESTIMATES:
+        raise ValueError(f"skeleton_estimate must be one of {tuple(SKELETON_ESTIMATES)}, got "
+                         f"{skeleton_estimate!r}")
 
-    background = median_background(frames) if masks is None else None
-    origin, people = np.zeros(2), len(frames)
-    if calibrated:
-        centre, people = subject_centre(frames, background, masks=masks)
-        origin = np.round(centre - np.asarray(CROP_SIZE) / 2)
-        frames = cut_window(frames, origin, CROP_SIZE)
-        if masks is None:
-            background = cut_window(background, origin, CROP_SIZE)
-        else:
-            masks = cut_window(masks[..., None], origin, CROP_SIZE, mode="constant")[..., 0]
-    return frames, background, masks, origin, people
+    def report(runs, timings: dict):
+        from jaxtrack.vision.overlay_views import write_views_stream
+
+        estimates = [run.result.estimates for run in runs]
+        tick = time.perf_counter()
+        chosen, ambiguity = select_tracked_views(trained, estimates, selection=view_selection)
+        selection_seconds = time.perf_counter() - tick
+        skeletons = [skeleton_estimates(estimate, skeleton_estimate) for estimate in estimates]
+        for run, skeleton, estimate in zip(runs, skeletons, estimates, strict=True):
+            if not (np.all(np.isfinite(skeleton))
+                    and np.all(np.isfinite(np.asarray(estimate.log_fitness)))):
+                raise ValueError(f"tracking {run.video} produced non-finite skeletons; nothing "
+                                 f"written")
+        record = track_record(trained, cameras, runs, skeletons, chosen, ambiguity, tracker,
+                              model=model, calibration=calibration, masks=masks, skin=skin,
+                              seed=seed, view_selection=view_selection,
+                              skeleton_estimate=skeleton_estimate)
+        # decoding counts the pass that finds the background and window; total: up to the
+        # overlay (the tracking pass holds observing and tracking)
+        record["seconds"] = {
+            "decode": round(timings["background_seconds"]
+                            + timings["decode_and_prepare_seconds"], 3),
+            "observe": round(timings["observe_seconds"], 3),
+            "view_selection": round(selection_seconds, 3),
+            "per_view": [{"compile": round(run.result.compile_seconds, 3),
+                          "ms_per_frame": round(1e3 * run.result.seconds_per_frame, 3)}
+                         for run in runs],
+            "total": round(timings["background_seconds"] + timings["tracking_pass_seconds"]
+                           + selection_seconds, 3)}
+
+        def draw(frames, path, fps: float):
+            return write_views_stream(
+                frames, [estimate.contour for estimate in estimates],
+                [estimate.best_markers for estimate in estimates], path, fps=fps,
+                names=[run.name for run in runs], marker_names=("head", "hand", "other_hand"),
+                labels=[_frame_labels(run.reasons) for run in runs], ambiguity=ambiguity,
+                selected=None if ambiguity is None else chosen, zoom=OVERLAY_ZOOM,
+                skeletons=shown_skeletons(skeletons, chosen, cameras),
+                skeleton_names=list(trained.description["skeleton"]))
+
+        return record, draw
+
+    return report

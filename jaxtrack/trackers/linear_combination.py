@@ -42,10 +42,20 @@ from jaxtrack.trackers import _runner
 from jaxtrack.trackers._options import RESAMPLERS, Engine, options_record
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, Tracker, VideoChunk
 
-__all__ = ["LinearCombinationEstimate", "LinearCombinationSSM", "LinearCombinationState",
-           "LinearCombinationTrack", "LinearCombinationTracker", "linear_combination_tracker",
-           "nearest_neighbour", "propagate_particle", "release_compiled",
-           "track_observations"]
+__all__ = ["OBSERVATION_REASONS", "ContourFrames", "LinearCombinationEstimate",
+           "LinearCombinationSSM", "LinearCombinationState", "LinearCombinationTrack",
+           "LinearCombinationTracker", "linear_combination_tracker", "nearest_neighbour",
+           "propagate_particle", "reason_codes", "release_compiled", "track_observations"]
+
+OBSERVATION_REASONS = (
+    "",
+    "no silhouette (nothing differs from the background)",
+    "no silhouette (the mask is empty)",
+    "no skin blobs: too few skin pixels for a head and two hands",
+    "no skin blobs: the skin pixels form fewer than three blobs",
+    "not observed",
+)
+"""Why a frame was not observed, by the code :class:`ContourFrames` carries (0: observed)."""
 
 
 def propagate_particle(model: LinearCombinationModel, key: PRNGKeyArray,
@@ -118,6 +128,28 @@ class LinearCombinationSSM(smc.StateSpaceModel):
         return log_fitness(parts.contour, parts.hands, observation, self.fitness)
 
 
+class ContourFrames(ContourObservation):
+    """:class:`ContourObservation` with, per frame, why it was not observed: ``reason``, an
+    index into :data:`OBSERVATION_REASONS` (0 where observed); what
+    :meth:`LinearCombinationTracker.observe` gives, so that a pipeline reports it per frame."""
+
+    reason: Int[Array, ""]
+
+
+def reason_codes(status: list[str]) -> np.ndarray:
+    """``(time,)`` int32 codes (:data:`OBSERVATION_REASONS`) of :func:`observe_contours`'
+    per-frame status texts."""
+    codes = np.zeros(len(status), np.int32)
+    for t, text in enumerate(status):
+        if not text:
+            continue
+        if text.startswith("no silhouette"):
+            codes[t] = 2 if "mask" in text else 1
+        else:
+            codes[t] = 4 if "blobs" in text.split(":", 1)[-1] else 3
+    return codes
+
+
 class LinearCombinationEstimate(FrameEstimate):
     """:class:`FrameEstimate` with what this tracker recovers.
 
@@ -135,6 +167,8 @@ class LinearCombinationEstimate(FrameEstimate):
             its silhouette keeps several apart (the filter's own ambiguity of the frame).
         found: the frame had a silhouette and three skin blobs (else it was scored flat and the
             filter only predicted).
+        reason: why the frame was not observed, an index into :data:`OBSERVATION_REASONS` (0:
+            observed).
     """
 
     skeleton_3d: Float[Array, "joints 3"]
@@ -144,17 +178,20 @@ class LinearCombinationEstimate(FrameEstimate):
     log_fitness: Float[Array, ""]
     skeleton_spread: Float[Array, ""]
     found: Bool[Array, ""]
+    reason: Int[Array, ""]
 
 
 class LinearCombinationState(eqx.Module):
-    """What the tracker carries: the filter's state, the last frame's head and status (which
-    place its estimate in the image) and the best particle's log-fitness there."""
+    """What the tracker carries: the filter's state, the last frame's head, status and why it
+    was not observed (which place its estimate in the image) and the best particle's
+    log-fitness there."""
 
     filter: smc.FilterState
     info: smc.StepInfo
     head: Float[Array, " 2"]
     found: Bool[Array, ""]
     log_fitness: Float[Array, ""]
+    reason: Int[Array, ""]
 
 
 def _skeleton_spread(model: LinearCombinationModel, coefficients, log_weights, mean_skeleton):
@@ -269,19 +306,30 @@ class LinearCombinationTracker(Tracker):
     def reads(self) -> tuple[str, ...]:
         return ("colour", "background")  # or the person's masks in the background's place
 
-    def observe(self, chunk: VideoChunk, out=None) -> ContourObservation:
-        """The chunk's :class:`ContourObservation` (:func:`observe_contours`) from its colour
-        frames and the static scene's background, or the person's masks in its place."""
+    def observe(self, chunk: VideoChunk, out=None) -> ContourFrames:
+        """The chunk's observations (:func:`observe_contours`) from its colour frames and the
+        static scene's background, or the person's masks in its place, in the model's float
+        type, with each frame's reason code (:class:`ContourFrames`)."""
         if chunk.colour is None:
             raise ValueError("the linear-combination tracker reads colour frames: give "
                              "colour=... (time, height, width, 3) uint8 RGB")
         if chunk.background is None and chunk.masks is None:
             raise ValueError("the linear-combination tracker finds the silhouette against the "
                              "static scene: give background=... or the person's masks=...")
-        observations, _ = observe_contours(
+        observations, status = observe_contours(
             chunk.colour, chunk.background, skin_reference=self.skin_reference,
             threshold=self.background_threshold, masks=chunk.masks)
-        return observations
+        dtype = self.model.mean.dtype
+        return ContourFrames(np.asarray(observations.gradient, dtype),
+                             np.asarray(observations.head, dtype),
+                             np.asarray(observations.hands, dtype),
+                             np.asarray(observations.found, bool), reason_codes(status))
+
+    @property
+    def observation_reasons(self) -> tuple[str, ...]:
+        """What each reason code of :meth:`observe`'s frames means
+        (:data:`OBSERVATION_REASONS`)."""
+        return OBSERVATION_REASONS
 
     def options(self) -> dict:
         return {"method": "linear-combination" if self.constrained else "global-pca",
@@ -328,7 +376,7 @@ class LinearCombinationTracker(Tracker):
             cluster=best["cluster"], log_fitness=state.log_fitness,
             skeleton_spread=_skeleton_spread(model, particles["coefficients"], log_weights,
                                              mean_parts.skeleton_3d),
-            found=state.found)
+            found=state.found, reason=state.reason)
 
     def first_estimate(self, state: LinearCombinationState) -> LinearCombinationEstimate:
         return self._estimate(state)
@@ -343,8 +391,13 @@ class LinearCombinationTracker(Tracker):
     def _state(self, filtered: smc.FilterState, info: smc.StepInfo,
                observation: ContourObservation) -> LinearCombinationState:
         best = smc.best_particle(filtered.particles, filtered.log_weights)
+        # observations made without reasons (a plain ContourObservation): "not observed"
+        reason = getattr(observation, "reason", None)
+        if reason is None:
+            reason = jnp.where(observation.found, 0, len(OBSERVATION_REASONS) - 1)
         return LinearCombinationState(filtered, info, observation.head, observation.found,
-                                      self._ssm().log_likelihood(best, observation))
+                                      self._ssm().log_likelihood(best, observation),
+                                      jnp.asarray(reason, jnp.int32))
 
 
 @eqx.filter_jit

@@ -335,10 +335,10 @@ def test_the_overlay_draws_the_selected_views_skeleton_in_one_frame_of_axes():
 def test_the_skeleton_option_picks_the_weighted_mean_or_the_best_particle():
     from types import SimpleNamespace
 
-    from jaxtrack.cli._track_linear_combination import _skeletons
-
     estimates = SimpleNamespace(skeleton_3d=np.zeros((2, 12, 3)),
                                 best_skeleton_3d=np.ones((2, 12, 3)))
-    assert np.all(_skeletons(estimates, SimpleNamespace(skeleton=None)) == 0)  # the default
-    assert np.all(_skeletons(estimates, SimpleNamespace(skeleton="mean")) == 0)
-    assert np.all(_skeletons(estimates, SimpleNamespace(skeleton="best")) == 1)
+    assert lc.DEFAULT_SKELETON_ESTIMATE == "mean"
+    assert np.all(lc.skeleton_estimates(estimates, "mean") == 0)
+    assert np.all(lc.skeleton_estimates(estimates, "best") == 1)
+    with pytest.raises(ValueError, match="skeleton_estimate must be one of"):
+        lc.skeleton_estimates(estimates, "median")
