@@ -39,8 +39,11 @@ FIT_PARTICLES = 200
 """Particles per filter run of the fit (fewer where the tracker has fewer)."""
 GATE = 0.5
 """A full-frame detection more than this many times the person's last keypoint box diagonal
-from its last detected pose (median over the markers) is not the person (as
-``follow_person``)."""
+(at least :data:`MIN_SIZE` of the frame's) from its last detected pose (median over the
+markers) is not the person (as ``follow_person``)."""
+MIN_SIZE = 0.05
+"""The smallest person's keypoint box diagonal :data:`GATE` is taken of, as a fraction of the
+frame's diagonal (a person whose keypoints nearly coincide would otherwise move nowhere)."""
 
 
 def add_detection_options(parser: argparse.ArgumentParser) -> None:
@@ -95,9 +98,9 @@ def _landmarks(result: dict) -> tuple[np.ndarray, np.ndarray]:
     return detected_keypoints(result)
 
 
-def _not_the_person(points: np.ndarray, last: np.ndarray | None) -> bool:
+def _not_the_person(points: np.ndarray, last: np.ndarray | None, smallest: float) -> bool:
     """Whether a frame's detected markers ``(12, 2)`` (NaN where absent) are not the person
-    last seen at ``last``."""
+    last seen at ``last``, whose box diagonal is taken as ``smallest`` pixels at least."""
     found = np.all(np.isfinite(points), -1)
     if not found.any():
         return True
@@ -109,7 +112,7 @@ def _not_the_person(points: np.ndarray, last: np.ndarray | None) -> bool:
     known = last[np.all(np.isfinite(last), -1)]
     diagonal = float(np.hypot(*(known.max(0) - known.min(0))))
     distance = float(np.median(np.linalg.norm(points[both] - last[both], axis=-1)))
-    return distance > GATE * max(diagonal, 1.0)
+    return distance > GATE * max(diagonal, smallest)
 
 
 def detect_video(args: argparse.Namespace, start: int, count: int | None,
@@ -179,13 +182,14 @@ def _guided(frames, points, confidence, box, factors):
     scaled = np.asarray(box, np.float64) * np.r_[factors, factors]
     corners = scaled.reshape(2, 2)
     size = (frames.shape[2], frames.shape[1])
+    smallest = MIN_SIZE * float(np.hypot(*size))
     own = _box_of(points[0])
     last = points[0] if own is not None and _overlap(scaled, own) > 0 else None
     redone, seconds, wall = [], 0.0, 0.0
     detector = None
     try:
         for t in range(len(frames)):
-            if not (_not_the_person(points[t], last) or last is None):
+            if not (_not_the_person(points[t], last, smallest) or last is None):
                 last = np.where(np.isfinite(points[t]), points[t], last)
                 continue
             if detector is None:
@@ -196,7 +200,7 @@ def _guided(frames, points, confidence, box, factors):
             again = {key: np.asarray(found[key])[None] for key in ("landmarks", "visibility")}
             again["found"] = np.array([bool(found["found"])])
             new_points, new_confidence = _landmarks(again)
-            if not _not_the_person(new_points[0], last) or (last is None and
+            if not _not_the_person(new_points[0], last, smallest) or (last is None and
                                                             np.isfinite(new_points[0]).any()):
                 points[t], confidence[t] = new_points[0], new_confidence[0]
                 last = np.where(np.isfinite(points[t]), points[t], last if last is not None
