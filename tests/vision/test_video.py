@@ -69,6 +69,24 @@ def test_chunks_concatenate_to_the_whole(clip):
     assert [chunk.num_frames for chunk in uneven] == [5, 5, 2]
 
 
+def test_grey_chunks_equal_to_grey_of_the_rgb_frames_bit_for_bit(clip):
+    """The grey path skips the RGB copy but computes the same float32 sums in the same order;
+    a first chunk of its own size lines up with a tracker's set-up frame."""
+    whole = read_video(clip, start=1, scale=0.5)
+    chunks = list(iter_video_chunks(clip, 4, start=1, scale=0.5, grey=True,
+                                    first_chunk_size=5))
+    assert [chunk.num_frames for chunk in chunks] == [5, 4, 2]
+    grey = np.concatenate([chunk.frames for chunk in chunks])
+    assert grey.dtype == np.float32 and grey.shape == whole.frames.shape[:3]
+    np.testing.assert_array_equal(grey, to_grey(whole.frames))  # swapped weights would fail
+    np.testing.assert_array_equal(np.concatenate([c.frame_indices for c in chunks]),
+                                  whole.frame_indices)
+    colour = list(iter_video_chunks(clip, 4, first_chunk_size=5))
+    assert [chunk.num_frames for chunk in colour] == [5, 4, 3]
+    with pytest.raises(ValueError, match="first_chunk_size must be ≥ 1"):
+        iter_video_chunks(clip, 4, first_chunk_size=0)
+
+
 def test_missing_corrupt_and_non_video_files_raise_naming_the_file(tmp_path, clip):
     missing = tmp_path / "nowhere.mp4"
     with pytest.raises(VideoError, match="nowhere.mp4: no such video file"):
