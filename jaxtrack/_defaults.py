@@ -386,6 +386,21 @@ DEFAULTS: tuple[Default, ...] = (
             "jaxtrack.experiments.detections_evaluation:MIN_CONFIDENCE", 0.5, NONE,
             note="MediaPipe's own drawing threshold; the evaluation also reports the row "
             "without it (docs/detections.md).", group="Baselines on detections"),
+    # ---- jaxtrack track with detections -----------------------------------------------------
+    Default("--fit-iterations", "jaxtrack.cli._detector:FIT_ITERATIONS", 15, NONE,
+            note="Adam steps of the detection density's fit on the video; chosen for its cost "
+            "(each is a filter run forward and backward), not by a score.",
+            group="jaxtrack track with detections"),
+    Default("fit particles", "jaxtrack.cli._detector:FIT_PARTICLES", 200, NONE,
+            note="Particles per filter run of the fit (fewer where the tracker has fewer); "
+            "chosen for its cost.", group="jaxtrack track with detections"),
+    Default("--detector person gate", "jaxtrack.cli._detector:GATE", 0.5, NONE,
+            note="As jaxtrack.vision.detections.follow_person's gate: a detection further "
+            "than this times the person's keypoint box diagonal is detected again around the "
+            "person.", group="jaxtrack track with detections"),
+    Default("--detector smallest person", "jaxtrack.cli._detector:MIN_SIZE", 0.05, NONE,
+            note="The gate's box diagonal is at least this fraction of the frame's.",
+            group="jaxtrack track with detections"),
 )
 
 
