@@ -72,9 +72,11 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--video", required=True, type=Path, nargs="+", metavar="FILE",
                         help="the video to track (anything OpenCV's FFmpeg reads: mp4, avi, "
                         "mov); linear-combination: one per calibrated camera")
-    parser.add_argument("--init", default="face", metavar="face|keypoints|manual:x,y,...",
-                        help="first-frame pose: found automatically (face, the default), the "
-                        "first frame's --keypoints, or the 12 markers given by hand (see below)")
+    parser.add_argument("--init", default=None, metavar="face|keypoints|manual:x,y,...",
+                        help="first-frame pose: found automatically (face, the default without "
+                        "detections), the first frame's detections (keypoints, the default "
+                        "with --keypoints or --detector), or the 12 markers given by hand "
+                        "(see below)")
     parser.add_argument("--out", required=True, type=Path, metavar="DIR",
                         help="folder to write overlay.mp4 and track.json into (created)")
     parser.add_argument("--particles", type=integer(1), default=None,
@@ -146,6 +148,10 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """``jaxtrack track``: the method's tracker over the video (module docstring)."""
     args.model = model_or_default(args.model, args.method)
+    if args.init is None:  # the detections' first frame where there are any
+        detections = args.keypoints is not None or args.detector is not None
+        args.init = "keypoints" if detections and args.method in ("latent", "condensation",
+                                                                  "mht") else "face"
     if args.method == "linear-combination":
         from jaxtrack.cli import _track_linear_combination
 
