@@ -286,6 +286,13 @@ DEFAULTS: tuple[Default, ...] = (
             note="Ong & Gong 2002, eq. 9.", group="Linear combinations"),
     Default("hands weight R", f"{_FITNESS}(hands_weight)", 0.5, "paper",
             note="Ong & Gong 2002, eq. 9.", group="Linear combinations"),
+    Default("P (FitnessSettings field)", f"{_FITNESS}(contour_tolerance)", 64.0, "validation",
+            _LC_VALIDATED, "2026-11-26", "The same value as the tracker's P: FitnessSettings() "
+            "alone gives the validated settings (before 2026-11-29: 16).",
+            "Linear combinations"),
+    Default("Q (FitnessSettings field)", f"{_FITNESS}(hands_tolerance)", 16.0, "validation",
+            _LC_VALIDATED, "2026-11-26", "The same value as the tracker's Q (before 2026-11-29: "
+            "64).", "Linear combinations"),
     Default("normal search range L", f"{_FITNESS}(search_range)", 10, NONE,
             group="Linear combinations"),
     Default("edge threshold", f"{_FITNESS}(edge_threshold)", 0.05, NONE,

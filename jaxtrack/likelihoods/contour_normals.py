@@ -56,15 +56,16 @@ class FitnessSettings(eqx.Module):
 
     Attributes:
         contour_weight, hands_weight: O and R (Ong & Gong: 0.5 each).
-        contour_tolerance, hands_tolerance: P and Q, squared pixels.
+        contour_tolerance, hands_tolerance: P and Q, squared pixels (64 and 16: chosen on
+            the validation subject, docs/defaults.md).
         search_range: L, pixels searched on each side of a vertex.
         edge_threshold: the weakest gradient magnitude (of [0, 1]) that counts as an edge.
     """
 
     contour_weight: float = 0.5
     hands_weight: float = 0.5
-    contour_tolerance: float = 16.0
-    hands_tolerance: float = 64.0
+    contour_tolerance: float = 64.0
+    hands_tolerance: float = 16.0
     search_range: int = eqx.field(static=True, default=10)
     edge_threshold: float = 0.05
 

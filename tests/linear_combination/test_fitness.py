@@ -73,7 +73,8 @@ def test_fitness_is_eq9():
     contour = jnp.asarray(_square((0.0, 0.0), 30.0, 20))
     hands = jnp.array([[-20.0, 10.0], [20.0, 10.0]])
     observation = ContourObservation(gradient, head, hands + head, jnp.asarray(True))
-    settings = FitnessSettings(contour_weight=0.5, hands_weight=0.5, contour_tolerance=1e6)
+    settings = FitnessSettings(contour_weight=0.5, hands_weight=0.5, contour_tolerance=1e6,
+                               hands_tolerance=64.0)
     value = float(log_fitness(contour, hands, observation, settings))
     assert value == pytest.approx(np.log(1.0), abs=1e-5)
     shifted = hands + jnp.array([3.0, 4.0])
