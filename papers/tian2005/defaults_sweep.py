@@ -1,13 +1,15 @@
 """Choose again, on the validation subject, the defaults first tuned on a test subject's clip.
 
-    python -m papers.tian2005.defaults_sweep            # the whole sweep (resumes a stopped one)
-    python -m papers.tian2005.defaults_sweep --dry-run  # print the commands only
+    python -m papers.tian2005.defaults_sweep                  # the whole sweep (resumes)
+    python -m papers.tian2005.defaults_sweep --methods mht    # MHT's three only
+    python -m papers.tian2005.defaults_sweep --dry-run        # print the commands only
 
 The latent tracker's jump probability ε, the refinement's steps, the default likelihood's κ and
 angular tolerance and MHT's velocity weight, prior scale and pruning threshold were first tuned on
 ``cmu_1006_wave_hello_2`` (a clip of a test subject, papers/tian2005/history.md). Each is chosen
 here on the validation subject alone, one after the other in :data:`GRID`'s order, every later
-sweep running with the values already chosen. Grid and rule were fixed before any run:
+sweep running with the values already chosen (``--methods mht`` alone runs MHT's with κ and the
+tolerance as shipped). Grid and rule were fixed before any run:
 
 * **Runs.** Every value is one run of :mod:`papers.tian2005.tracking` (``--split validation
   --clips wide --views 1 --seeds 1 --max-frames 100``): the frontal view of all nine of the
@@ -24,8 +26,9 @@ sweep running with the values already chosen. Grid and rule were fixed before an
 
 Writes ``benchmarks/results/tracking/defaults/<method>/<settings>/`` (the tracking runs; a value
 whose settings were already run is read back, not run again) and
-``benchmarks/results/tracking/defaults/sweep.json`` (every value's mean ± 95 % half-width, the
-paired comparison, the choice and its command).
+``benchmarks/results/tracking/defaults/sweep-<method>.json`` (every value's mean ± 95 %
+half-width, the tied values, the choice and its command). The runs share one process, so a
+compiled tracker is reused by every value of a setting it takes as an input.
 """
 
 from __future__ import annotations
@@ -33,13 +36,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 
 from jaxtrack._files import write_json_atomically
+from papers.tian2005 import tracking
 from papers.tian2005.tracking import t_interval
 
 RESULTS = Path("benchmarks/results/tracking/defaults")
@@ -71,7 +73,7 @@ def command(method: str, settings: dict) -> tuple[list[str], Path]:
     """The tracking command of one configuration and its output folder."""
     tag = ",".join(f"{name}={settings[name]:g}" for name in SWEPT[method])
     out = RESULTS / method / tag
-    argv = [sys.executable, "-m", "papers.tian2005.tracking", *COMMON, *METHOD_ARGS[method]]
+    argv = [*COMMON, *METHOD_ARGS[method]]
     for name in SWEPT[method]:
         argv += ["--set", f"{name}={settings[name]:g}"]
     return argv + ["--out", str(out)], out
@@ -102,20 +104,27 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m papers.tian2005.defaults_sweep",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")
+    parser.add_argument("--methods", nargs="+", choices=tuple(METHOD_ARGS),
+                        default=list(METHOD_ARGS), help="whose settings to sweep")
     args = parser.parse_args(argv)
     chosen = {name: shipped for name, _, _, _, shipped in GRID}
-    record = []
+    record = {method: [] for method in args.methods}
     for name, values, prefer, method, shipped in GRID:
+        if method not in args.methods:
+            continue
         results, rows = {}, []
         for value in values:
             settings = {**chosen, name: value}
             argv_, out = command(method, settings)
+            line = " ".join(["python -m papers.tian2005.tracking", *argv_])
             if args.dry_run:
-                print(" ".join(argv_[1:]))
+                print(line)
                 continue
             if not (out / "summary.json").exists():
-                print(" ".join(["python", *argv_[1:]]), flush=True)
-                subprocess.run(argv_, check=True, stdout=subprocess.DEVNULL)
+                print(line, flush=True)
+                if tracking.main(argv_) != 0:
+                    print(f"{line} failed")
+                    return 1
             results[value] = errors(out)
             torso = list(results[value].values())
             summary = json.loads((out / "summary.json").read_text())
@@ -123,23 +132,23 @@ def main(argv=None) -> int:
                          "half_width": t_interval(torso),
                          "lost": sum(row["num_lost"] for row in summary["rows"]),
                          "ms_per_frame": summary["rows"][0]["ms_per_frame"],
-                         "command": " ".join(["python", *argv_[1:]])})
+                         "command": line})
         if args.dry_run:
             continue
         value, tied = choose(values, results, prefer)
         chosen[name] = value
-        record.append({"name": name, "method": method, "values": list(values),
+        record[method].append({"name": name, "method": method, "values": list(values),
                        "prefer": prefer, "shipped": shipped, "chosen": value, "tied": tied,
                        "rows": rows})
         print(f"{name}: " + ", ".join(f"{row['value']:g}: {100 * row['mean']:.2f} ± "
                                       f"{100 * row['half_width']:.2f} % ({row['lost']} lost)"
                                       for row in rows)
               + f"; tied {tied}; chosen {value:g} (shipped {shipped:g})", flush=True)
-        write_json_atomically(RESULTS / "sweep.json", {
+        write_json_atomically(RESULTS / f"sweep-{method}.json", {
             "grid": [{"name": n, "values": list(v), "prefer": p, "method": m}
-                     for n, v, p, m, _ in GRID],
+                     for n, v, p, m, _ in GRID if m == method],
             "rule": __doc__.split("* **Rule.** ")[1].split("\n\nWrites")[0].replace("\n  ", " "),
-            "record": record, "chosen": chosen})
+            "record": record[method], "chosen": chosen})
     return 0 if all(math.isfinite(value) for value in chosen.values()) else 1
 
 
