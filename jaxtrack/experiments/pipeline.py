@@ -370,7 +370,7 @@ class ViewRun:
 def _per_view(value, count: int, name: str) -> list:
     """``value`` for each of ``count`` videos: a list or tuple of one per video, or one value
     for all."""
-    if isinstance(value, list | tuple) and count > 1:
+    if isinstance(value, list | tuple):
         if len(value) != count:
             raise ValueError(f"{name} must be one per video ({count}), got {len(value)}")
         return list(value)
@@ -696,8 +696,10 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
                     raise ValueError(f"keypoints hold {len(given_keypoints[0])} frames, but "
                                      f"video frame {int(indices[-1])} is tracked (one row per "
                                      f"video frame, from its first)")
-                points = (given_keypoints[0][indices] * view["factors"] - view["origin"],
-                          given_keypoints[1][indices])
+                points = given_keypoints[0][indices] * view["factors"]
+                if window is not None:
+                    points = points - view["origin"]
+                points = (points, given_keypoints[1][indices])
             grey = None
             if "grey" in reads:
                 # frame by frame: the same values as to_grey(rgb), without its chunk-sized

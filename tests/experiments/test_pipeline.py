@@ -398,3 +398,141 @@ def test_chunks_made_ahead_come_in_order_and_carry_their_errors():
     next(endless)
     endless.close()
     assert not any(thread.name == "jaxtrack-decoder" for thread in threading.enumerate())
+
+
+SCENE = np.full((200, 400, 3), 30, np.uint8)  # the figure video's empty scene
+
+
+def _figure_x(frames) -> np.ndarray:
+    """The drawn figure's centroid x in the video's frames ``frames``."""
+    columns = np.nonzero(_figure_mask())[1]
+    return columns.mean() + 20 * np.asarray(frames)
+
+
+def test_a_stride_tracks_and_draws_every_nth_frame(figure_video, tmp_path):
+    out = tmp_path / "out"
+    record = track_video(Centroid(), figure_video, out, key=KEY, stride=3, chunk_frames=2,
+                         background=SCENE, progress=False)
+    frames = record["frames"]
+    assert [frame["frame"] for frame in frames] == [0, 3, 6] and record["stride"] == 3
+    assert [frame["time_s"] for frame in frames] == pytest.approx([0.0, 0.3, 0.6])
+    np.testing.assert_allclose([frame["markers"]["marker_0"][0] for frame in frames],
+                               _figure_x([0, 3, 6]), atol=1.0)
+    assert record["fps"] == pytest.approx(10.0 / 3)
+    assert _video_size(out / "overlay.mp4") == ((400, 200), 3)
+
+
+def test_a_window_is_cut_from_every_frame_and_markers_come_back_in_video_pixels(
+        figure_video, tmp_path):
+    """Where the window holds the whole figure, the centroid it gives, moved by the window's
+    origin, is the figure's in the video; where it cuts the figure, it is not."""
+    from jaxtrack.experiments.pipeline import Window
+
+    record = track_video(Centroid(), figure_video, tmp_path / "out", key=KEY, progress=False,
+                         background=SCENE, window=Window((300, 200), origin=(100, 0)))
+    assert record["tracked_size"] == [300, 200]
+    assert record["window"] == {"size": [300, 200], "origin": [100.0, 0.0],
+                                "located_from": None}
+    x = np.array([frame["markers"]["marker_0"][0] for frame in record["frames"]])
+    columns = np.nonzero(_figure_mask())[1]
+    moved = 20 * np.arange(FRAMES)
+    inside = (columns.min() + moved >= 100) & (columns.max() + moved < 400)
+    assert inside.any() and not inside.all()
+    np.testing.assert_allclose(x[inside], _figure_x(np.nonzero(inside)[0]), atol=1.0)
+    assert np.all(np.abs(x[~inside] - _figure_x(np.nonzero(~inside)[0])) > 1.0)
+    with pytest.raises(ValueError, match="origin=.* or locate=..., one of them"):
+        Window((360, 200))
+
+
+def test_a_window_is_located_from_frames_sampled_over_the_video(figure_video, tmp_path):
+    from jaxtrack.experiments.pipeline import Window
+
+    calls = []
+
+    def locate(frames, background, masks):
+        calls.append((frames.shape, None if background is None else background.shape, masks))
+        return np.array([40.0, 10.0]), 7
+
+    record = track_video(Centroid(), figure_video, tmp_path / "out", key=KEY, progress=False,
+                         window=Window((240, 160), locate=locate))
+    assert calls == [((FRAMES, 200, 400, 3), (200, 400, 3), None)]
+    assert record["window"] == {"size": [240, 160], "origin": [40.0, 10.0], "located_from": 7}
+    assert record["runs"][0].origin.tolist() == [40.0, 10.0]
+
+
+def test_several_views_are_tracked_alike_cut_to_the_shortest_and_reported_together(
+        figure_video, tmp_path):
+    from jaxtrack.experiments.pipeline import Window
+    from jaxtrack.vision import read_video, write_frames
+
+    frames = read_video(figure_video).frames
+    shorter = write_frames(frames[:6, :, ::-1], tmp_path / "mirrored.mp4", 10.0, (400, 200))
+    seen = {}
+
+    def report(runs, timings):
+        seen["runs"], seen["timings"] = runs, timings
+
+        def draw(views_frames, path, fps):
+            seen["fps"] = fps
+            images = [np.concatenate(views, axis=1) for views in views_frames]
+            seen["drawn"] = len(images)
+            return write_frames(images, path, fps, (images[0].shape[1], images[0].shape[0]))
+
+        return {"views": [run.name for run in runs]}, draw
+
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match="report="):
+        track_video(Centroid(), [figure_video, shorter], out, key=KEY, progress=False)
+    record = track_video(Centroid(), [figure_video, shorter], out, key=KEY, progress=False,
+                         stride=[1, 1], window=Window((400, 200), origin=(0, 0)),
+                         background=[SCENE, SCENE],
+                         view_names=["front", "mirror"], report=report,
+                         extra_record={"command": "test"})
+    assert record["runs"] == seen["runs"]
+    saved = json.loads((out / "track.json").read_text())
+    assert saved == {"views": ["front", "mirror"], "command": "test"}
+    runs = seen["runs"]
+    assert [run.name for run in runs] == ["front", "mirror"]
+    assert [run.frame_indices.tolist() for run in runs] == [list(range(6))] * 2
+    x = [np.asarray(run.result.markers)[:, 0, 0] for run in runs]
+    np.testing.assert_allclose(x[0], _figure_x(range(6)), atol=1.0)
+    np.testing.assert_allclose(x[1], 399 - _figure_x(range(6)), atol=1.0)  # mirrored
+    assert seen["timings"]["tracking_pass_seconds"] > 0 and seen["drawn"] == 6
+    assert _video_size(out / "overlay.mp4") == ((800, 200), 6)
+
+
+class Reasoned(FrameEstimate):
+    reason: jnp.ndarray
+
+
+class FarRight(Centroid):
+    """The centroid tracker whose observation says the frame was not observed (reason 1)
+    where the figure's centroid lies right of x = 170."""
+
+    @property
+    def observation_reasons(self):
+        return ("", "too far right")
+
+    def observe(self, chunk, out=None):
+        centroid = super().observe(chunk)
+        return np.concatenate([centroid, (centroid[:, :1] > 170).astype(np.float64)], axis=1)
+
+    def first_estimate(self, state):
+        point = state[None, :2]
+        return Reasoned(point, point, jnp.asarray(1.0), jnp.asarray(0.0), jnp.asarray(False),
+                        state[2].astype(jnp.int32))
+
+    def update(self, key, state, frame):
+        state = frame_at(frame)
+        return state, self.first_estimate(state)
+
+
+def test_the_observations_reasons_make_a_frame_no_person(figure_video, tmp_path):
+    record = track_video(FarRight(), figure_video, tmp_path / "out", key=KEY, progress=False)
+    far = _figure_x(range(FRAMES)) > 170
+    assert far.any() and not far.all()
+    assert [frame["status"] for frame in record["frames"]] == [
+        "no person" if value else "ok" for value in far]
+    assert [frame["observation"] for frame in record["frames"]] == [
+        "too far right" if value else "observed" for value in far]
+    assert record["runs"][0].reasons == ["too far right" if value else "" for value in far]
