@@ -57,6 +57,7 @@ from jaxtrack.vision.panels import (
     skeleton_panel,
     write_views_video,
 )
+from jaxtrack.vision.trc import TRC_HEADER_FIELDS, TrcFileError, read_trc, write_trc
 from jaxtrack.vision.video import (
     VideoError,
     VideoFrames,
@@ -67,7 +68,8 @@ from jaxtrack.vision.video import (
 )
 
 __all__ = [
-    "METHOD_COLOURS", "TRUTH_COLOUR", "DetectionFileError", "Detections",
+    "METHOD_COLOURS", "TRC_HEADER_FIELDS", "TRUTH_COLOUR", "DetectionFileError", "Detections",
+    "TrcFileError", "read_trc", "write_trc",
     "FaceDetectorUnavailableError", "KeypointFileError", "load_detections", "read_coco",
     "read_detections", "read_mediapipe", "read_openpose", "write_detections",
     "MaskFileError", "VideoError", "VideoFrames", "check_keypoints", "check_masks",
