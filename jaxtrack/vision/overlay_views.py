@@ -113,6 +113,6 @@ def write_views_stream(frames: Iterable[Sequence[np.ndarray]], contours: Sequenc
             yield frame(done, images)
             done += 1
         if done != count:
-            raise ValueError(f"frames yielded {done} frames, {count} were tracked")
+            raise ValueError(f"frames yielded {done} frames, not the {count} frames tracked")
 
     return write_frames(drawn(), path, fps, (first.shape[1], first.shape[0]))
