@@ -633,6 +633,13 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
             if view["scene"] is not None:
                 view["scene"] = cut_window(view["scene"], view["origin"], window.size)
     timings["background_seconds"] = time.perf_counter() - tick
+    per_chunk = chunk_frames
+    if report is not None and all(view["sample"] for view in views):
+        # the length is known: equal chunks, so that little of the last one is padding (as
+        # track() does for a video of known length)
+        known = min(view["seen"] for view in views)
+        if known > 1:
+            per_chunk = math.ceil((known - 1) / math.ceil((known - 1) / chunk_frames))
     pose = None
     if initial_pose is not None:
         pose = np.asarray(initial_pose, np.float64)
@@ -642,12 +649,12 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
         pose = pose * views[0]["factors"] - views[0]["origin"]
 
     def groups(view) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-        """``(frames, file indices)``: chunk_frames + 1 frames first, then chunk_frames at a
+        """``(frames, file indices)``: per_chunk + 1 frames first, then per_chunk at a
         time, so that track()'s compiled chunks (frame 0 is its set-up) line up with the
         chunks given to it and it never joins one chunk's observations to the next's."""
         pending: list[tuple[np.ndarray, int]] = []
-        target = chunk_frames + 1
-        for decoded in iter_video_chunks(view["path"], chunk_frames, start=start,
+        target = per_chunk + 1
+        for decoded in iter_video_chunks(view["path"], per_chunk, start=start,
                                          max_frames=count, stride=view["stride"],
                                          scale=view["resize"]):
             pending.extend(zip(decoded.frames, decoded.frame_indices.tolist(), strict=True))
@@ -655,7 +662,7 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
                 group, pending = pending[:target], pending[target:]
                 yield (np.stack([frame for frame, _ in group]),
                        np.array([index for _, index in group], np.int64))
-                target = chunk_frames
+                target = per_chunk
         if pending:
             yield (np.stack([frame for frame, _ in pending]),
                    np.array([index for _, index in pending], np.int64))
@@ -723,7 +730,7 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
         tick = time.perf_counter()
         stream = _ahead(chunks(view, frame_indices, no_person, prepare))
         try:
-            result = track(tracker, key, stream, pose, chunk_size=chunk_frames,
+            result = track(tracker, key, stream, pose, chunk_size=per_chunk,
                            progress=progress, description=f"tracking {view['path'].name}")
         finally:  # on an error too: stop the decoding thread and release the video
             stream.close()

@@ -461,13 +461,28 @@ def test_a_window_is_located_from_frames_sampled_over_the_video(figure_video, tm
 
 
 def test_several_views_are_tracked_alike_cut_to_the_shortest_and_reported_together(
-        figure_video, tmp_path):
+        figure_video, tmp_path, monkeypatch):
+    """Each view tracked with the same key, cut to the shortest's 6 frames, decoded in
+    chunks (never whole, the overlay's frames too), and reported by the hook."""
+    import jaxtrack.vision
     from jaxtrack.experiments.pipeline import Window
     from jaxtrack.vision import read_video, write_frames
 
     frames = read_video(figure_video).frames
     shorter = write_frames(frames[:6, :, ::-1], tmp_path / "mirrored.mp4", 10.0, (400, 200))
-    seen = {}
+    seen, sizes, chunks = {}, [], jaxtrack.vision.iter_video_chunks
+
+    def counted(*args, **kwargs):
+        for chunk in chunks(*args, **kwargs):
+            sizes.append(chunk.num_frames)
+            yield chunk
+
+    def first_only(*args, **kwargs):
+        assert kwargs.get("max_frames") == 1
+        return read_video(*args, **kwargs)
+
+    monkeypatch.setattr(jaxtrack.vision, "iter_video_chunks", counted)
+    monkeypatch.setattr(jaxtrack.vision, "read_video", first_only)
 
     def report(runs, timings):
         seen["runs"], seen["timings"] = runs, timings
@@ -486,8 +501,9 @@ def test_several_views_are_tracked_alike_cut_to_the_shortest_and_reported_togeth
     record = track_video(Centroid(), [figure_video, shorter], out, key=KEY, progress=False,
                          stride=[1, 1], window=Window((400, 200), origin=(0, 0)),
                          background=[SCENE, SCENE],
-                         view_names=["front", "mirror"], report=report,
+                         view_names=["front", "mirror"], report=report, chunk_frames=4,
                          extra_record={"command": "test"})
+    assert sizes and max(sizes) <= 4
     assert record["runs"] == seen["runs"]
     saved = json.loads((out / "track.json").read_text())
     assert saved == {"views": ["front", "mirror"], "command": "test"}
