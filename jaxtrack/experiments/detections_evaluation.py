@@ -34,6 +34,21 @@ the reference's torso (neck to pelvis: in the view's pixels for 2-D, in metres f
 frame where the estimate lacks a marker is not within; ``error_torso``: the mean error in
 torso lengths over the frames with every marker; ``error_px`` / ``error_mm`` likewise.
 
+Particle-filter rows (:func:`particle_filter_estimates`, ``--trackers``): per view, CONDENSATION
+in the SPM state on the detections alone (:func:`jaxtrack.experiments.detection_tracking.
+detection_tracker`), its detection density and dynamics' noise fitted on that view's
+detections by the log-evidence (:func:`~jaxtrack.experiments.detection_tracking.
+fit_detection_model`, the iteration count and N of ``track_detections``' defaults unless
+``--iterations`` / ``--particles`` say otherwise): the filter's estimate, the whole-sequence
+(ancestry) smoother and the fixed-lag smoother, each under two priors that differ in one thing,
+the random walk ``detection_tracker`` builds (AR(2) coefficients 1, 0) and a constant-velocity
+AR(2) (2, −1), same noise, same fit. ``condensation hand-set ×w`` rows: the random-walk filter
+with the density's hand-set defaults and every scale (f_k, σ₀) divided by √w, w in
+:data:`HAND_SET_WEIGHTS` (a weight w on the Gaussian's log-density is a scale 1/√w), unfitted:
+the learned-against-hand-set comparison. 3-D: ``dlt of ROW`` triangulates a row's four views
+(every view weighing 1). ``speed``: the fitted filter's time per frame at
+:data:`SPEED_PARTICLES` particles, compilation apart.
+
 More rows: :func:`evaluate` takes ``extra_2d`` (name → view → ``(frames, 12, 2)`` estimate of
 :attr:`Setting.frame_indices`) and ``extra_3d`` (name → ``(frames, 12, 3)`` world metres), so a
 tracker's estimates are scored as these are.
@@ -50,9 +65,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DEFAULT_DETECTIONS", "MIN_CONFIDENCE", "VIEWS", "Setting", "baseline_estimates",
-           "detect_views", "evaluate", "left_right_swaps", "load_setting", "main", "score_2d",
-           "score_3d", "table"]
+__all__ = ["DEFAULT_DETECTIONS", "HAND_SET_WEIGHTS", "MIN_CONFIDENCE", "PRIORS", "SPEED_PARTICLES",
+           "VIEWS", "Setting", "baseline_estimates", "detect_views", "evaluate", "left_right_swaps",
+           "load_setting", "main", "particle_filter_estimates", "score_2d", "score_3d", "table",
+           "targets", "triangulated"]
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 DEFAULT_DETECTIONS = (Path(__file__).resolve().parents[2] / "tests" / "data" / "detections"
@@ -65,6 +81,15 @@ DETECTOR_SCALE = 0.5
 """The videos are decoded at this scale for the detector (1080x1920 → 540x960)."""
 WITHIN = 0.15
 """The headline threshold, a fraction of the torso."""
+PRIORS = {"random walk": (1.0, 0.0), "constant velocity": (2.0, -1.0)}
+"""The particle filter's priors: AR(2) coefficients (x_t = a x_{t-1} + b x_{t-2} + noise) in
+the SPM state, the same noise for both."""
+HAND_SET_WEIGHTS = (1.0, 4.0, 16.0, 64.0)
+"""Hand-set weights on the detection density's Gaussian: its scales divided by √w."""
+SPEED_PARTICLES = 1000
+"""N at which the filter's time per frame is reported (issue 48's target)."""
+LAG = 5
+"""The fixed-lag smoother's lag in frames."""
 
 
 @dataclass(frozen=True)
@@ -256,6 +281,147 @@ def baseline_estimates(setting: Setting, *, min_confidence: float = MIN_CONFIDEN
     return rows, rows_3d, notes
 
 
+def _view_detections(setting: Setting, view: str):
+    """One view's detections as :class:`jaxtrack.vision.detections.Detections` (one person, or
+    none where MediaPipe found no one), in the camera's frame size."""
+    from jaxtrack.body import SPM_MARKERS
+    from jaxtrack.vision.detections import Detections
+
+    points, confidence = setting.detections[view]
+    found = np.all(np.isfinite(points), -1)
+    confidence = np.where(found, confidence, 0.0)
+    camera = setting.cameras[setting.views.index(view)]
+    return Detections(np.where(found[..., None], points, np.nan)[:, None], confidence[:, None],
+                      (confidence > 0).any(-1).astype(int), SPM_MARKERS, "markers",
+                      frame_size=tuple(float(v) for v in camera.image_size),
+                      frame_ids=np.asarray(setting.frame_indices), source=f"{view} detections")
+
+
+def _with_prior(tracker, coefficients: tuple[float, float]):
+    """The tracker with its AR(2) dynamics' coefficients set (the noise kept)."""
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    first = tracker.dynamics.first_coefficients
+    return eqx.tree_at(lambda t: (t.dynamics.first_coefficients, t.dynamics.second_coefficients),
+                       tracker, (jnp.full_like(first, coefficients[0]),
+                                 jnp.full_like(first, coefficients[1])))
+
+
+def _hand_set(tracker, weight: float):
+    """The tracker with the detection density's hand-set defaults, scales divided by √w."""
+    import equinox as eqx
+
+    from jaxtrack.likelihoods.detections import detection_model
+
+    base = detection_model(dtype=tracker.likelihood.detections.joint_scales.dtype)
+    scaled = eqx.tree_at(lambda d: (d.joint_scales, d.pixel_noise), base,
+                         (base.joint_scales / np.sqrt(weight), base.pixel_noise / np.sqrt(weight)))
+    return eqx.tree_at(lambda t: t.likelihood.detections, tracker, scaled)
+
+
+def _density_record(model) -> dict:
+    return {"joint_scales": [round(float(v), 4) for v in np.asarray(model.joint_scales)],
+            **{name: float(getattr(model, name)) for name in (
+                "pixel_noise", "outlier_rate", "swap_probability", "absent_probability")},
+            "swap_pairs": int(np.sum(np.asarray(model.swap) != np.arange(len(model.swap))) // 2)}
+
+
+def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
+                              iterations: int | None = None, lag: int = LAG,
+                              priors: Mapping = PRIORS, weights=HAND_SET_WEIGHTS,
+                              speed_particles: int | None = SPEED_PARTICLES, seed: int = 0,
+                              progress=None) -> tuple[dict, dict]:
+    """CONDENSATION on each view's detections alone (module docstring): ``(rows_2d, notes)``,
+    rows_2d name → view → ``(frames, 12, 2)``; notes: per prior and view the fitted density
+    beside the hand-set one, the fit's cost and log-evidence, each run's seconds, and the speed.
+
+    Args:
+        setting: :func:`load_setting`'s.
+        particles: N of the fit and the filters; default ``track_detections``'.
+        iterations: Adam iterations of the fit; default ``track_detections``'.
+        lag: the fixed-lag smoother's lag.
+        priors: name → AR(2) coefficients (:data:`PRIORS`); the first is the default prior,
+            and the hand-set rows and the speed use it.
+        weights: the hand-set weights (:data:`HAND_SET_WEIGHTS`); empty for none.
+        speed_particles: N of the speed run on the first view (None: no speed run).
+        seed: the PRNG seed (every view and prior the same keys).
+        progress: a tqdm-like object updated once per view and prior.
+    """
+    import inspect
+
+    import equinox as eqx
+    import jax.random as jr
+
+    from jaxtrack.experiments.detection_tracking import (
+        detection_tracker,
+        fit_detection_model,
+        initial_pose_of,
+        smooth_markers,
+        track_detections,
+    )
+    from jaxtrack.trackers import Engine, track
+    from jaxtrack.trackers._particles import detection_observations
+
+    defaults = inspect.signature(track_detections).parameters
+    particles = int(particles or defaults["num_particles"].default)
+    iterations = int(iterations or defaults["iterations"].default)
+    learning_rate = float(defaults["learning_rate"].default)
+    key_fit, key_track = jr.split(jr.key(seed))
+    rows, first = {}, next(iter(priors))
+    notes = {"particles": particles, "iterations": iterations, "learning_rate": learning_rate,
+             "lag": lag, "priors": {name: list(c) for name, c in priors.items()},
+             "hand_set_weights": list(weights), "fits": {}, "seconds": {}}
+
+    def timed(name, view, run, *args, **options):
+        tick = time.perf_counter()
+        rows.setdefault(name, {})[view] = np.asarray(run(*args, **options), np.float64)
+        notes["seconds"].setdefault(name, {})[view] = time.perf_counter() - tick
+
+    def filtered(tracker, observations, pose):
+        return track(tracker, key_track, observations, pose, progress=False).markers
+
+    for view in setting.views:
+        observations = detection_observations(_view_detections(setting, view))
+        pose = initial_pose_of(observations.detections)
+        plain = detection_tracker(pose, num_particles=particles)
+        for prior, coefficients in priors.items():
+            tracker = _with_prior(plain, coefficients)
+            fitted, fit = fit_detection_model(tracker, key_fit, observations, pose,
+                                              iterations=iterations, learning_rate=learning_rate)
+            notes["fits"].setdefault(prior, {})[view] = {
+                "fitted": _density_record(fit.detections),
+                "hand_set": _density_record(tracker.likelihood.detections),
+                "noise_factor": fit.noise_factor, "seconds": fit.seconds,
+                "compile_seconds": fit.compile_seconds,
+                "seconds_per_iteration": fit.seconds / max(iterations, 1),
+                "log_evidence_first": float(fit.log_evidence[0]),
+                "log_evidence_last": float(fit.log_evidence[-1])}
+            timed(f"condensation {prior}", view, filtered, fitted, observations, pose)
+            timed(f"condensation {prior} smoother", view, smooth_markers, fitted, key_track,
+                  observations, pose)
+            timed(f"condensation {prior} lag {lag}", view, smooth_markers, fitted, key_track,
+                  observations, pose, lag=lag)
+            if prior == first:
+                for weight in weights:
+                    timed(f"condensation hand-set x{weight:g}", view, filtered,
+                          _hand_set(tracker, weight), observations, pose)
+                if speed_particles and view == setting.views[0]:
+                    many = eqx.tree_at(lambda t: t.engine, fitted, Engine(int(speed_particles)))
+                    runs = [track(many, jr.fold_in(key_track, i), observations, pose,
+                                  progress=False) for i in range(2)]
+                    notes["speed"] = {
+                        "view": view, "particles": int(speed_particles),
+                        "frames": len(setting.frame_indices),
+                        "ms_per_frame": 1e3 * runs[1].seconds_per_frame,
+                        "ms_per_frame_first_run": 1e3 * runs[0].seconds_per_frame,
+                        "compile_seconds": runs[0].compile_seconds,
+                        "detector_ms_per_frame": setting.detector[view].get("ms_per_frame")}
+            if progress is not None:
+                progress.update(1)
+    return rows, notes
+
+
 def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
              extra_3d: Mapping | None = None, min_confidence: float = MIN_CONFIDENCE) -> dict:
     """Every row scored: ``{"rows_2d": {name: {view: score, "all": mean over views}},
@@ -281,6 +447,64 @@ def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
             "raw_left_right_swaps": swaps, "detector": setting.detector, "notes": notes,
             "frames": [int(i) for i in setting.frame_indices], "fps": setting.fps,
             "min_confidence": min_confidence}
+
+
+def triangulated(setting: Setting, per_view: Mapping) -> np.ndarray:
+    """A 2-D row's four views triangulated by the DLT, every view weighing 1 (a filtered track
+    has no confidence of its own): ``(frames, 12, 3)`` world metres."""
+    from jaxtrack.vision.triangulation import triangulate
+
+    return triangulate(np.stack([np.asarray(per_view[view]) for view in setting.views]),
+                       setting.cameras)[0]
+
+
+def targets(results: Mapping, row: str = "condensation random walk") -> dict:
+    """Issue 48's targets for the particle-filter row ``row`` (the filter with the defaults),
+    read from :func:`evaluate`'s results: each ``{"value", "target", "met"}``."""
+    rows_2d, rows_3d = results["rows_2d"], results["rows_3d"]
+    if row not in rows_2d:
+        raise ValueError(f"the results hold no row {row!r}: run with the particle filters")
+    views = [view for view in rows_2d[row] if view != "all"]
+    within = {view: rows_2d[row][view]["within_15"] for view in views}
+    butterworth = rows_2d["butterworth"]["all"]["error_torso"]
+    out = {"within_15_every_view": {"value": within, "target": ">= 0.95 in every view",
+                                    "met": all(value >= 0.95 for value in within.values())},
+           "error_against_butterworth": {
+               "value": rows_2d[row]["all"]["error_torso"] / butterworth,
+               "target": "<= 0.5 (mean error over the views / Butterworth's)"}}
+    out["error_against_butterworth"]["met"] = out["error_against_butterworth"]["value"] <= 0.5
+    if f"dlt of {row}" in rows_3d:
+        ratio = rows_3d[f"dlt of {row}"]["error_mm"] / rows_3d["dlt"]["error_mm"]
+        out["3d_against_dlt"] = {"value": ratio, "target": "<= 0.8 (error mm / raw DLT's)",
+                                 "met": ratio <= 0.8}
+    hand = [name for name in rows_2d if name.startswith("condensation hand-set")]
+    if hand:
+        per_view = {}
+        for view in views:
+            best = min(hand, key=lambda name: rows_2d[name][view]["error_torso"])
+            per_view[view] = {"fitted": rows_2d[row][view]["error_torso"], "best_hand_set": best,
+                              "best_hand_set_error": rows_2d[best][view]["error_torso"]}
+            per_view[view]["met"] = per_view[view]["fitted"] <= per_view[view][
+                "best_hand_set_error"]
+        out["fitted_against_hand_set"] = {
+            "value": per_view, "target": "fitted error <= the best hand-set weight's, every view",
+            "met": all(record["met"] for record in per_view.values())}
+    speed = results.get("notes", {}).get("particle_filters", {}).get("speed")
+    if speed:
+        out["speed"] = {"value": speed["ms_per_frame"], "target": "<= 5 ms per frame and view",
+                        "met": speed["ms_per_frame"] <= 5.0}
+    beaten = {}
+    for view in (*views, "all"):
+        mine = rows_2d[row][view]["error_torso"]
+        beaten[view] = [name for name, scored in rows_2d.items()
+                        if not name.startswith("condensation") and scored[view]["error_torso"]
+                        is not None and scored[view]["error_torso"] < mine]
+    out["baselines_beating_the_filter"] = beaten
+    out["baselines_beating_the_filter_3d"] = [
+        name for name, scored in rows_3d.items() if not name.startswith("dlt of condensation")
+        and f"dlt of {row}" in rows_3d
+        and scored["error_mm"] < rows_3d[f"dlt of {row}"]["error_mm"]]
+    return out
 
 
 def left_right_swaps(estimate, truth) -> dict:
@@ -349,9 +573,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--min-confidence", type=float, default=MIN_CONFIDENCE,
                         help="visibility below which the second Kalman row treats a marker "
                              "as missing")
+    parser.add_argument("--no-trackers", action="store_true",
+                        help="the baselines only, without the particle filters' rows")
+    parser.add_argument("--particles", type=int, default=None,
+                        help="N of the particle filters' fit and runs (default "
+                             "track_detections')")
+    parser.add_argument("--iterations", type=int, default=None,
+                        help="Adam iterations of each fit (default track_detections')")
+    parser.add_argument("--speed-particles", type=int, default=SPEED_PARTICLES,
+                        help="N of the timed run (0: none)")
     args = parser.parse_args(argv)
     if not 0 <= args.min_confidence <= 1:
         parser.error(f"--min-confidence must lie in [0, 1], got {args.min_confidence}")
+    for option in ("particles", "iterations"):
+        value = getattr(args, option)
+        if value is not None and value < 1:
+            parser.error(f"--{option} must be a positive integer, got {value}")
+    if args.speed_particles < 0:
+        parser.error(f"--speed-particles must be 0 or more, got {args.speed_particles}")
     if args.json is not None and args.json.suffix != ".json":
         parser.error(f"--json {args.json}: give a .json file name")
     from jaxtrack.vision.mediapipe import DetectorUnavailableError
@@ -362,10 +601,26 @@ def main(argv: list[str] | None = None) -> int:
     except (FileNotFoundError, DetectorUnavailableError) as error:
         parser.exit(1, f"{parser.prog}: {' '.join(str(error).split())}\n")
     started = time.perf_counter()
-    results = evaluate(setting, min_confidence=args.min_confidence)
+    extra_2d, extra_3d, filters = {}, {}, None
+    if not args.no_trackers:
+        with tqdm(total=len(setting.views) * len(PRIORS), desc="particle filters",
+                  file=sys.stderr) as progress:
+            extra_2d, filters = particle_filter_estimates(
+                setting, particles=args.particles, iterations=args.iterations,
+                speed_particles=args.speed_particles or None, progress=progress)
+        extra_3d = {f"dlt of {name}": triangulated(setting, per_view)
+                    for name, per_view in extra_2d.items()}
+    results = evaluate(setting, extra_2d=extra_2d, extra_3d=extra_3d,
+                       min_confidence=args.min_confidence)
+    if filters is not None:
+        results["notes"]["particle_filters"] = filters
+        results["targets"] = targets(results)
     results["seconds"] = time.perf_counter() - started
-    results["command"] = ("python -m jaxtrack.experiments.detections_evaluation"
-                          + (f" --json {args.json}" if args.json else ""))
+    options = [f"--{name.replace('_', '-')} {getattr(args, name)}"
+               for name in ("particles", "iterations") if getattr(args, name) is not None]
+    options += ["--no-trackers"] if args.no_trackers else []
+    results["command"] = " ".join(["python -m jaxtrack.experiments.detections_evaluation",
+                                   *options, *([f"--json {args.json}"] if args.json else [])])
     print(table(results))
     for view, record in setting.detector.items():
         print(f"{view}: MediaPipe {record['version']} {record['ms_per_frame']:.1f} ms/frame "
@@ -373,6 +628,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{record['frames_without_person']} frames without a person, left and right "
               f"exchanged in {results['raw_left_right_swaps'][view]['frames']} (undone: "
               f"{_cell(results['raw_left_right_swaps'][view]['error_torso_undone'])} % torso)")
+    for name, record in results.get("targets", {}).items():
+        print(f"target {name}: {record}")
     if args.json is not None:
         write_json_atomically(args.json, results)
         print(f"wrote {args.json}")

@@ -13,12 +13,18 @@ from jaxtrack.body import UPPER_BODY_12, look_at
 from jaxtrack.body._staging import project_numpy
 from jaxtrack.experiments.detections_evaluation import (
     Setting,
+    _hand_set,
+    _view_detections,
+    _with_prior,
     evaluate,
     left_right_swaps,
     main,
+    particle_filter_estimates,
     score_2d,
     score_3d,
     table,
+    targets,
+    triangulated,
 )
 
 NECK, PELVIS = UPPER_BODY_12.index("neck"), UPPER_BODY_12.index("pelvis")
@@ -103,10 +109,82 @@ def test_more_rows_are_scored_as_the_baselines_are():
         evaluate(setting, extra_2d={"half": {"v0": setting.truth_2d["v0"]}})
 
 
+def test_the_targets_are_read_from_the_scores():
+    setting = constructed_setting(6.0)
+    raw = {view: setting.detections[view][0] for view in setting.views}
+    # a "filter" that is the truth meets every target; one that is the raw detections shifted
+    # by 40 px in one view misses them there, and the baselines that beat it are named
+    shifted = {**raw, "v1": raw["v1"] + 40.0}
+    rows = {"condensation random walk": setting.truth_2d, "condensation hand-set x1": raw,
+            "condensation bad": shifted}
+    results = evaluate(setting, extra_2d=rows,
+                       extra_3d={f"dlt of {name}": triangulated(setting, per_view)
+                                 for name, per_view in rows.items()})
+    results["notes"]["particle_filters"] = {"speed": {"ms_per_frame": 7.5}}
+    good = targets(results)
+    assert good["within_15_every_view"]["met"] and good["error_against_butterworth"]["met"]
+    assert good["3d_against_dlt"]["met"] and good["3d_against_dlt"]["value"] < 1e-6
+    assert good["fitted_against_hand_set"]["met"] and not good["speed"]["met"]
+    assert good["baselines_beating_the_filter"]["all"] == []
+    bad = targets(results, "condensation bad")
+    assert not bad["error_against_butterworth"]["met"] and not bad["3d_against_dlt"]["met"]
+    assert bad["fitted_against_hand_set"]["value"]["v0"]["met"]  # the same as hand-set there
+    assert not bad["fitted_against_hand_set"]["value"]["v1"]["met"]
+    assert "butterworth" in bad["baselines_beating_the_filter"]["v1"]
+    assert "dlt" in bad["baselines_beating_the_filter_3d"]
+    with pytest.raises(ValueError, match="no row"):
+        targets(results, "condensation absent")
+
+
+def test_the_particle_filter_inputs():
+    setting = constructed_setting(0.0)
+    points = setting.detections["v0"][0].copy()
+    points[3] = np.nan  # a frame where the detector found no one
+    setting = Setting(setting.views, setting.frame_indices, setting.fps, setting.truth_2d,
+                      setting.truth_3d, {**setting.detections, "v0": (points,
+                                                                     setting.detections["v0"][1])},
+                      setting.cameras, setting.detector)
+    detections = _view_detections(setting, "v0")
+    assert detections.frame_size == (1080.0, 1920.0)
+    assert detections.people.tolist() == [1] * 3 + [0] + [1] * 36
+    assert np.all(detections.confidence[3] == 0)
+    from jaxtrack.experiments.detection_tracking import detection_tracker
+
+    tracker = detection_tracker(points[0], num_particles=8)
+    velocity = _with_prior(tracker, (2.0, -1.0))
+    assert np.all(np.asarray(velocity.dynamics.first_coefficients) == 2.0)
+    assert np.all(np.asarray(velocity.dynamics.second_coefficients) == -1.0)
+    assert np.array_equal(velocity.dynamics.noise_std, tracker.dynamics.noise_std)
+    sharp = _hand_set(tracker, 16.0).likelihood.detections
+    base = tracker.likelihood.detections
+    assert np.allclose(sharp.joint_scales, base.joint_scales / 4.0)
+    assert float(sharp.pixel_noise) == pytest.approx(float(base.pixel_noise) / 4.0)
+    assert float(sharp.swap_probability) == float(base.swap_probability) > 0
+
+
+@pytest.mark.slow
+def test_the_particle_filter_rows_follow_a_constructed_motion():
+    setting = constructed_setting(3.0)
+    rows, notes = particle_filter_estimates(setting, particles=200, iterations=2,
+                                            weights=(1.0,), speed_particles=None)
+    assert set(rows) == {"condensation random walk", "condensation random walk smoother",
+                         "condensation random walk lag 5", "condensation constant velocity",
+                         "condensation constant velocity smoother",
+                         "condensation constant velocity lag 5", "condensation hand-set x1"}
+    results = evaluate(setting, extra_2d=rows)
+    # the slow sway (at most 0.6 px per frame) is followed: most frames within 15 % of the torso
+    assert results["rows_2d"]["condensation random walk"]["all"]["within_15"] > 0.8
+    fit = notes["fits"]["random walk"]["v0"]
+    assert fit["fitted"]["swap_pairs"] == 4 and fit["fitted"]["swap_probability"] > 0
+
+
 def test_bad_arguments_are_refused_in_one_line(capsys):
     with pytest.raises(SystemExit):
         main(["--json", "out.txt"])
     assert "give a .json file name" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--iterations", "0"])
+    assert "--iterations must be a positive integer" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["--min-confidence", "2"])
     assert "--min-confidence must lie in [0, 1]" in capsys.readouterr().err
@@ -121,7 +199,7 @@ def test_the_pose2sim_videos_from_the_cached_detections(tmp_path):
     except FileNotFoundError as error:
         pytest.skip(str(error))
     out = tmp_path / "results.json"
-    assert main(["--json", str(out)]) == 0
+    assert main(["--no-trackers", "--json", str(out)]) == 0
     results = json.loads(out.read_text())
     assert set(results["rows_2d"]) == {"raw", "butterworth", "one-euro", "kalman-rts",
                                        "kalman-rts vis>=0.5"}
