@@ -401,6 +401,10 @@ DEFAULTS: tuple[Default, ...] = (
     Default("fit particles", "jaxtrack.cli._detector:FIT_PARTICLES", 200, NONE,
             note="Particles per filter run of the fit (fewer where the tracker has fewer); "
             "chosen for its cost.", group="jaxtrack track with detections"),
+    Default("fit learning rate", "jaxtrack.cli._detector:FIT_LEARNING_RATE", 0.1, NONE,
+            note="Adam's step in the logarithms of the fitted parameters; chosen so that 15 "
+            "steps can move a scale by a factor of about 4.",
+            group="jaxtrack track with detections"),
     Default("--detector person gate", "jaxtrack.cli._detector:GATE", 0.5, NONE,
             note="As jaxtrack.vision.detections.follow_person's gate: a detection further "
             "than this times the person's keypoint box diagonal is detected again around the "
