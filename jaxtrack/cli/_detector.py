@@ -37,6 +37,9 @@ FIT_ITERATIONS = 15
 most in the first ten (docs/detections.md), and each is a filter run forward and backward."""
 FIT_PARTICLES = 200
 """Particles per filter run of the fit (fewer where the tracker has fewer)."""
+FIT_LEARNING_RATE = 0.1
+"""Adam's step in the fitted parameters' logarithms (logit for the outlier rate): a scale can
+move by a factor of about e^1.5 in the default 15 steps."""
 GATE = 0.5
 """A full-frame detection more than this many times the person's last keypoint box diagonal
 (at least :data:`MIN_SIZE` of the frame's) from its last detected pose (median over the
@@ -52,6 +55,9 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
                         help="latent, condensation, mht: run a pose detector over the video "
                         "first (MediaPipe Pose, in its own venv: make detector), write its "
                         f"detections to DIR/{DETECTIONS_FILE} and track them as --keypoints")
+    parser.add_argument("--no-image", action="store_true",
+                        help="with detections: score them alone, without the image likelihood "
+                        "(--likelihood), so that no video frame is read by the tracker")
     parser.add_argument("--no-fit", action="store_true",
                         help="with detections: keep the detection density's hand-set "
                         "parameters instead of fitting them on the video")
@@ -74,13 +80,13 @@ def check_detection_options(args: argparse.Namespace) -> None:
         for option, given in (("--keypoint-weight", args.keypoint_weight is not None),
                               ("--init keypoints", args.init == "keypoints"),
                               ("--person", args.person is not None),
-                              ("--no-fit", args.no_fit),
+                              ("--no-fit", args.no_fit), ("--no-image", args.no_image),
                               ("--fit-iterations", args.fit_iterations is not None)):
             if given:
                 raise UserError(f"{option}: it reads a detector's keypoints; give --keypoints "
                                 f"FILE_OR_FOLDER or --detector mediapipe")
     if args.keypoint_weight is not None:
-        for option, given in (("--no-fit", args.no_fit),
+        for option, given in (("--no-fit", args.no_fit), ("--no-image", args.no_image),
                               ("--fit-iterations", args.fit_iterations is not None)):
             if given:
                 raise UserError(f"{option}: --keypoint-weight scores the keypoints by the image "
@@ -244,7 +250,7 @@ def detection_tracker(args, tracker, keypoints, factors, tracked_size, pose, sta
                 tracker, jr.fold_in(jr.PRNGKey(args.seed), 1), points,
                 keypoints[1][start:stop], tracked_size, np.asarray(pose) * factors,
                 iterations=iterations, num_particles=particles,
-                fitting_tracker=fitting_tracker)
+                learning_rate=FIT_LEARNING_RATE, fitting_tracker=fitting_tracker)
         except ValueError as error:
             raise UserError(f"--keypoints: the fit failed: {one_line(error)}; give --no-fit"
                             ) from None

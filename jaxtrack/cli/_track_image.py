@@ -163,7 +163,7 @@ def _likelihood(args, options, masks, detections: bool):
         from jaxtrack.likelihoods.detections import detection_model
         from jaxtrack.trackers import DetectionLikelihood
 
-        return DetectionLikelihood(detection_model(), likelihood)
+        return DetectionLikelihood(detection_model(), None if args.no_image else likelihood)
     return likelihood
 
 

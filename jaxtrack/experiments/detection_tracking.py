@@ -396,7 +396,8 @@ class ChunkDetections(Tracker):
 
 def fit_on_keypoints(tracker, key, points, confidence, frame_size: tuple[float, float],
                      initial_pose, *, iterations: int, num_particles: int | None = None,
-                     fitting_tracker=None) -> tuple[object, DetectionFit]:
+                     learning_rate: float = 0.05, fitting_tracker=None
+                     ) -> tuple[object, DetectionFit]:
     """Fit a tracker's detection density (and, for a particle filter, its dynamics' noise) on
     one person's keypoints (:func:`fit_detection_model` on the detections alone: the image
     likelihood, unnormalised, is not learned so), and return the tracker with the fitted
@@ -410,7 +411,7 @@ def fit_on_keypoints(tracker, key, points, confidence, frame_size: tuple[float, 
             tracked frames' pixels (:func:`keypoint_frames`).
         frame_size: ``(width, height)`` of those frames.
         initial_pose: ``(12, 2)`` the first frame's pose, in the same pixels.
-        iterations: Adam steps.
+        iterations, learning_rate: Adam's steps and step size.
         num_particles: N per filter run of the fit (default the tracker's).
         fitting_tracker: the particle filter to fit with where ``tracker`` keeps none (MHT):
             its density is fitted (not its noise) and handed to ``tracker``.
@@ -428,6 +429,7 @@ def fit_on_keypoints(tracker, key, points, confidence, frame_size: tuple[float, 
     observations = detection_observations(keypoint_frames(points, confidence, frame_size))
     fitted, fit = fit_detection_model(fitter, key, observations, initial_pose,
                                       iterations=iterations, num_particles=num_particles,
+                                      learning_rate=learning_rate,
                                       fit_noise=fitting_tracker is None)
     base = tracker if fitting_tracker is not None else fitted
     return eqx.tree_at(lambda t: t.likelihood, base,

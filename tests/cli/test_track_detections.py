@@ -77,6 +77,7 @@ def test_without_the_detectors_venv_it_is_one_line_naming_make_detector(tmp_path
 @pytest.mark.parametrize(("extra", "message"), [
     (["--no-fit"], "--no-fit: it reads a detector's keypoints"),
     (["--fit-iterations", "3"], "--fit-iterations: it reads a detector's keypoints"),
+    (["--no-image"], "--no-image: it reads a detector's keypoints"),
     (["--keypoints", "k.npz", "--detector", "mediapipe"], "not both"),
     (["--keypoints", "k.npz", "--keypoint-weight", "2", "--no-fit"], "not fitted"),
 ])
