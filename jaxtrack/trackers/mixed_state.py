@@ -86,6 +86,11 @@ __all__ = ["MixedStateEstimate", "MixedStateFrame", "MixedStateHistory", "MixedS
            "observations_from_silhouettes", "smooth", "smooth_backward", "smooth_fixed_lag"]
 
 FRAME_OK = 0  # jaxtrack.vision.histograms.FRAME_OK (imported lazily: vision needs OpenCV)
+KEYPOINT_CONFIDENCE = 0.5
+"""The least confidence of a detector's keypoint that replaces a silhouette's part hypothesis
+(:class:`MixedStateTracker`'s ``keypoint_confidence``): MediaPipe's own drawing threshold, as
+the detection baselines' (``jaxtrack.experiments.detections_evaluation.MIN_CONFIDENCE``); not
+chosen by a score."""
 
 
 class MixedStateFrame(eqx.Module):
@@ -689,12 +694,22 @@ class MixedStateTracker(Tracker):
     carries its particles, and :meth:`smooth` gives the whole-sequence smoother's estimate
     (§3.3, :func:`smooth`) from them; its memory grows with the video by
     ``particles × (2 × parts + 3)`` numbers a frame.
+
+    With ``keypoint_markers`` (the names of the keypoints' markers, in their order: e.g.
+    :data:`jaxtrack.vision.detections.DETECTION_MARKERS`) it also reads a detector's keypoints
+    (``VideoChunk.keypoints``, in tracking pixels), and each frame's part hypotheses are the
+    silhouette's with the detector's confident head, wrists and ankles in their place
+    (:func:`jaxtrack.vision.parts.detection_hypotheses`, keypoints of confidence at least
+    ``keypoint_confidence``); the posture evidence and a frame's status stay the silhouette's.
+    Without it (the default) the tracker is the paper's.
     """
 
     model: MixedStateModel
     particles: int = eqx.field(static=True)
     num_bins: int = eqx.field(static=True, default=16)
     keep_history: bool = eqx.field(static=True, default=False)
+    keypoint_markers: tuple[str, ...] | None = eqx.field(static=True, default=None)
+    keypoint_confidence: float = eqx.field(static=True, default=KEYPOINT_CONFIDENCE)
 
     @property
     def likelihood(self) -> PartDistances:
@@ -702,7 +717,7 @@ class MixedStateTracker(Tracker):
 
     @property
     def reads(self) -> tuple[str, ...]:
-        return ("masks",)
+        return ("masks",) if self.keypoint_markers is None else ("masks", "keypoints")
 
     def observe(self, chunk: VideoChunk, out=None) -> MixedStateFrame:
         """The chunk's :class:`MixedStateFrame` from the person's masks: each mask's largest
@@ -716,19 +731,49 @@ class MixedStateTracker(Tracker):
                              "masks=... (time, height, width) bool")
         masks = np.stack([largest_component(mask) for mask in np.asarray(chunk.masks, bool)])
         observations = observations_from_silhouettes(masks, num_bins=self.num_bins)
+        if self.keypoint_markers is not None:
+            from jaxtrack.vision.parts import detection_hypotheses
+
+            if chunk.keypoints is None:
+                raise ValueError("this mixed-state tracker reads a detector's keypoints "
+                                 "(keypoint_markers is set): give keypoints=... (points (time, "
+                                 "markers, 2), confidence (time, markers))")
+            points, confidence = (np.asarray(value) for value in chunk.keypoints)
+            if points.shape[1:2] != (len(self.keypoint_markers),):
+                raise ValueError(f"keypoints hold {points.shape[1:2]} markers per frame, but "
+                                 f"the tracker's keypoint_markers name "
+                                 f"{len(self.keypoint_markers)}")
+            observations = dataclasses.replace(observations, hypotheses=jnp.asarray(
+                detection_hypotheses(np.asarray(observations.hypotheses), points, confidence,
+                                     self.keypoint_markers,
+                                     min_confidence=self.keypoint_confidence)))
         return jax.tree.map(np.asarray, observations)
 
     def __check_init__(self):
         if self.particles < 1:
             raise ValueError(f"particles must be at least 1, got {self.particles}")
+        if self.keypoint_markers is not None:
+            from jaxtrack.vision.parts import DETECTION_PART_MARKERS
+
+            wanted = [name for names in DETECTION_PART_MARKERS for name in names]
+            if not isinstance(self.keypoint_markers, tuple) or not any(
+                    name in self.keypoint_markers for name in wanted):
+                raise ValueError(f"keypoint_markers must be a tuple of marker names holding "
+                                 f"some of {', '.join(wanted)}, got {self.keypoint_markers!r}")
+        if not 0.0 <= self.keypoint_confidence <= 1.0:
+            raise ValueError(f"keypoint_confidence must be in [0, 1], got "
+                             f"{self.keypoint_confidence}")
 
     @property
     def num_particles(self) -> int:
         return self.particles
 
     def options(self) -> dict:
+        keypoints = {} if self.keypoint_markers is None else {
+            "keypoint_markers": list(self.keypoint_markers),
+            "keypoint_confidence": self.keypoint_confidence}
         return {"method": "mixed-state", "particles": self.particles, "num_bins": self.num_bins,
-                **self.model.options()}
+                **self.model.options(), **keypoints}
 
     def start(self, key, first_frame: MixedStateFrame, initial_pose=None) -> MixedStateState:
         first_frame = jax.tree.map(jnp.asarray, first_frame)  # NumPy from track()

@@ -30,6 +30,10 @@ Every point is a foreground pixel (x, y) on the silhouette's boundary or inside 
 The nearest-point map (:func:`nearest_silhouette_points`) holds, for every pixel, the nearest
 foreground pixel (Euclidean distance transform); the tracker projects a predicted part that has
 left the silhouette by one gather from it. See ``docs/mixed-state.md``.
+
+A per-frame pose detector's keypoints are part hypotheses too (:func:`detection_hypotheses`):
+where the detector is confident, its head, wrists and ankles replace the silhouette's
+hypotheses of every posture, beside the silhouette's elsewhere.
 """
 
 from __future__ import annotations
@@ -39,11 +43,19 @@ import numpy as np
 from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES
 from jaxtrack.vision.histograms import FRAME_OK, _check_mask, bounding_box
 
-__all__ = ["NUM_PARTS", "PART_NAMES", "TALL_BENDING", "nearest_silhouette_points",
-           "part_hypotheses", "posture_hypotheses"]
+__all__ = ["DETECTION_PART_MARKERS", "NUM_PARTS", "PART_NAMES", "TALL_BENDING",
+           "detection_hypotheses", "nearest_silhouette_points", "part_hypotheses",
+           "posture_hypotheses"]
 
 PART_NAMES = ("head", "hand_1", "hand_2", "foot_1", "foot_2")
 NUM_PARTS = len(PART_NAMES)
+DETECTION_PART_MARKERS = (("head",), ("right_wrist", "left_wrist"),
+                          ("right_ankle", "left_ankle"))
+"""The detector's markers (:data:`jaxtrack.vision.detections.DETECTION_MARKERS` names) that
+stand for the head, the two hands and the two feet: ``head`` is the best head point the
+readers give (the base of the skull, by their stated rules, :data:`jaxtrack.vision.detections.
+MARKER_RULES`), the hands are the wrists and the feet the ankles (mapped when the readers are
+asked for ``markers=DETECTION_MARKERS``)."""
 TALL_BENDING = 1.2
 """A crawling/bending silhouette at least this many times as high as wide takes the standing
 head and feet and the sitting hands. Chosen on the validation clips of
@@ -203,3 +215,88 @@ def nearest_silhouette_points(mask: np.ndarray) -> np.ndarray:
         return np.stack([xs, ys], axis=-1).astype(np.int16)
     _, (rows, columns) = ndimage.distance_transform_edt(~mask, return_indices=True)
     return np.stack([columns, rows], axis=-1).astype(np.int16)
+
+
+def detection_hypotheses(hypotheses: np.ndarray, points: np.ndarray, confidence: np.ndarray,
+                         markers, *, min_confidence: float) -> np.ndarray:
+    """Every posture's part hypotheses with a detector's confident keypoints in place of the
+    silhouette's: Z_t of Kwatra et al. (2002, §2) with a second source of instantaneous
+    hypotheses beside Ghost's silhouette extremes.
+
+    The rule, per frame and posture q:
+
+    - the head: the detector's ``head`` marker (:data:`DETECTION_PART_MARKERS`), where its
+      confidence is at least ``min_confidence`` and its position finite, replaces z^q's head;
+    - the hands (wrists) and the feet (ankles), each pair on its own: of the two assignments of
+      the detected pair to q's two slots, the one of smaller squared distance to the
+      silhouette's own hypotheses of those slots is taken, and each confident, finite keypoint
+      replaces the slot it is assigned to (an unconfident one costs nothing in either
+      assignment, so a lone confident wrist takes the nearer slot);
+    - every other part (unconfident, NaN, or a marker ``markers`` does not hold) keeps the
+      silhouette's hypothesis.
+
+    Why: the detector labels the person's own left and right, while each posture orders its
+    slots by its own image convention (the image-left hand first when standing, the outer
+    quarter first when crawling, ...), and the tracker's particles follow the slots by that
+    convention (their parts move by constant velocity from frame to frame). Assigning the pair
+    to the slots it lies nearest keeps every posture's convention, so a particle's hand stays in
+    its slot whichever of the two hypotheses the hand came from; the detector's own left/right
+    swaps (a person seen from behind) do not move the slots either. Replacing, not adding, keeps
+    Z_t the paper's one hypothesis per posture and part, so the likelihood (eq. 4–7) and the
+    posterior proposal are unchanged; a posture whose silhouette heuristics are wrong still
+    gets the detector's parts, which is why every posture is replaced and not only the
+    likeliest.
+
+    Args:
+        hypotheses: ``(time, postures, parts, 2)`` the silhouette's hypotheses
+            (:func:`part_hypotheses`), pixels.
+        points: ``(time, markers, 2)`` the detector's keypoints in the same pixels (NaN where
+            absent).
+        confidence: ``(time, markers)`` their confidences (NaN counts as 0).
+        markers: the names of the ``markers`` axis (names of
+            :data:`jaxtrack.vision.detections.DETECTION_MARKERS`).
+        min_confidence: the least confidence of a keypoint that is taken.
+
+    Returns:
+        ``(time, postures, parts, 2)`` float64 hypotheses, finite wherever ``hypotheses`` is.
+    """
+    hypotheses = np.asarray(hypotheses, np.float64)
+    points = np.asarray(points, np.float64)
+    confidence = np.asarray(confidence, np.float64)
+    markers = tuple(markers)
+    if hypotheses.ndim != 4 or hypotheses.shape[2:] != (NUM_PARTS, 2):
+        raise ValueError(f"hypotheses must be (time, postures, {NUM_PARTS}, 2), got "
+                         f"{hypotheses.shape}")
+    time = hypotheses.shape[0]
+    if points.shape != (time, len(markers), 2) or confidence.shape != (time, len(markers)):
+        raise ValueError(f"points must be (time, markers, 2) and confidence (time, markers) "
+                         f"for {time} frames and {len(markers)} markers, got {points.shape} "
+                         f"and {confidence.shape}")
+    if not np.isfinite(min_confidence):
+        raise ValueError(f"min_confidence must be a finite number, got {min_confidence}")
+    usable = (np.nan_to_num(confidence, nan=0.0) >= min_confidence) & (
+        np.isfinite(points).all(axis=-1))
+    out = hypotheses.copy()
+    slot = 0
+    for names in DETECTION_PART_MARKERS:
+        slots = list(range(slot, slot + len(names)))
+        slot += len(names)
+        found = [markers.index(name) if name in markers else None for name in names]
+        detected = np.stack([np.zeros((time, 2)) if index is None else
+                             np.where(usable[:, index, None], points[:, index], 0.0)
+                             for index in found], axis=1)  # (time, n, 2), finite
+        taken = np.stack([np.zeros(time, bool) if index is None else usable[:, index]
+                          for index in found], axis=1)  # (time, n)
+        own = hypotheses[:, :, slots]  # (time, postures, n, 2)
+        if len(names) == 1:
+            assigned, chosen = detected[:, None], taken[:, None]
+        else:  # the cheaper of the two assignments of the pair to the posture's two slots
+            kept, swapped = (np.sum(np.where(
+                taken[:, None, order], np.sum((detected[:, None, order] - own) ** 2, axis=-1),
+                0.0), axis=-1) for order in ([0, 1], [1, 0]))
+            swap = swapped < kept  # (time, postures)
+            assigned = np.where(swap[..., None, None], detected[:, None, ::-1],
+                                detected[:, None])
+            chosen = np.where(swap[..., None], taken[:, None, ::-1], taken[:, None])
+        out[:, :, slots] = np.where(chosen[..., None], assigned, own)
+    return out
