@@ -139,3 +139,18 @@ def test_the_real_detector_finds_the_man_in_three_frames(tmp_path):
     # an upright man: head above the pelvis, in the video's own pixels
     assert np.all(points[:, detections.marker("head"), 1] <
                   points[:, detections.marker("pelvis"), 1] - 200)
+
+
+def test_one_persons_keypoints_become_the_densitys_frames_outside_and_missing_left_out():
+    from jaxtrack.experiments.detection_tracking import keypoint_frames
+
+    points = np.full((3, 12, 2), 10.0)
+    confidence = np.full((3, 12), 0.8)
+    points[0, 2] = np.nan           # not found
+    points[1, 3] = (79.6, 5.0)      # right of the 80-pixel-wide frame's last pixel centre
+    confidence[2] = 0.0             # nobody in frame 2
+    frames = keypoint_frames(points, confidence, (80, 60))
+    assert frames.points.shape == (3, 1, 12, 2) and frames.num_people.tolist() == [1, 1, 0]
+    assert frames.confidence[0, 0, 2] == 0 and frames.confidence[1, 0, 3] == 0
+    assert frames.confidence[0, 0, 1] == pytest.approx(0.8)
+    assert np.isfinite(frames.points).all() and frames.image_size.tolist() == [[80, 60]] * 3
