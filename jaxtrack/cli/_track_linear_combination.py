@@ -31,6 +31,7 @@ from jaxtrack.cli._common import (
     UserError,
     at_least,
     check_seed,
+    fit_mask_file,
     one_line,
     output_directory,
     pipeline_errors,
@@ -161,6 +162,8 @@ def track(args: argparse.Namespace) -> int:
     strides = [max(1, round(fps / fps_model)) if math.isfinite(fps) else 1
                for _, _, fps in probes]
     for index, (path, masks) in enumerate(zip(args.video, given_masks, strict=True)):
+        if masks is not None:  # the aspect ratio, on the first frame tracked
+            fit_mask_file(masks, args.masks[index], [start], probes[index][1])
         end = tracked_end(path, stop)  # one past the last video frame tracked
         if masks is not None and end is not None and end > start:
             last = start + (end - 1 - start) // strides[index] * strides[index]
