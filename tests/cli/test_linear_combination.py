@@ -342,3 +342,27 @@ def test_the_skeleton_option_picks_the_weighted_mean_or_the_best_particle():
     assert np.all(lc.skeleton_estimates(estimates, "best") == 1)
     with pytest.raises(ValueError, match="skeleton_estimate must be one of"):
         lc.skeleton_estimates(estimates, "median")
+
+
+def test_each_frame_not_observed_carries_its_reason_code():
+    """The tracker's observation gives each frame's reason (OBSERVATION_REASONS), which the
+    pipeline turns into 'no person' and the record's per-view status."""
+    from jaxtrack.trackers.linear_combination import (
+        OBSERVATION_REASONS,
+        observe_contours,
+        reason_codes,
+    )
+
+    scene = np.full((40, 30, 3), 90, np.uint8)
+    frames = np.stack([scene, scene.copy()])
+    frames[1, 10:30, 10:20] = (20, 200, 20)  # a green person: a silhouette without skin
+    _, status = observe_contours(frames, scene)
+    codes = reason_codes(status)
+    assert [OBSERVATION_REASONS[code] for code in codes] == [
+        "no silhouette (nothing differs from the background)",
+        "no skin blobs: too few skin pixels for a head and two hands"]
+    assert status[1].startswith("no skin blobs: 0 skin pixels")
+    _, status = observe_contours(frames, None, masks=np.zeros((2, 40, 30), bool))
+    assert reason_codes(status).tolist() == [2, 2]
+    assert reason_codes(["", "no skin blobs: the skin pixels form fewer than three blobs"]
+                        ).tolist() == [0, 4]
