@@ -39,10 +39,11 @@ before its first run (2026-11-29):
   before any other setting ran, and the rule above (five keys, paired differences) replaced it.
 
 The test stage then scores ``experiments.mixed_state.TEST_CLIPS`` (CMU 139_16 and 131_01,
-HDM05 actor tr's lie-down, squat and crouch) from both side views, 150 frames, filter key 1,
-once with the library's settings and once with the chosen ones on the same rendering, with
-95 % bootstrap intervals over clips (``mixed_state_evaluation.clip_intervals``). Nothing is
-chosen on them.
+HDM05 actor tr's lie-down, squat and crouch) from both side views, 150 frames, with the
+library's settings and with the chosen ones on the same rendering, filter keys 1–3 pooled
+(key 1 alone is the evaluation's run with ``--seed 1``), with 95 % bootstrap intervals over
+clips (all views and keys of a clip drawn together: ``mixed_state_evaluation.clip_intervals``).
+Nothing is chosen on them.
 """
 
 from __future__ import annotations
@@ -246,8 +247,31 @@ def validation(out: Path) -> dict:
     return payload
 
 
+TEST_KEYS = (1, 2, 3)
+"""The filter keys of the test stage: key 1 alone is the evaluation's own run (its
+``--seed 1``); the three pooled are the scores reported."""
+
+
+def pooled_scores(sequences: dict) -> dict:
+    """Frame-weighted means over ``sequences`` (``evaluate``'s per-sequence scores) of the MSE
+    over all parts, the posture error and the head's fraction within 20 px, per estimate."""
+    out = {}
+    for kind in ("instantaneous", "filtered", "smoothed"):
+        frames = np.array([scores[kind]["frames"] for scores in sequences.values()], float)
+        weights = frames / frames.sum()
+        out[kind] = {
+            "mse_all": float(np.dot(weights, [s[kind]["mse"]["all"] for s in sequences.values()])),
+            "posture_error": float(np.dot(weights, [s[kind]["posture_error"]
+                                                    for s in sequences.values()])),
+            "head_within_20px": float(np.dot(weights, [s[kind]["within"]["head"]["20"]
+                                                       for s in sequences.values()])),
+            "frames": int(frames.sum())}
+    return out
+
+
 def test(out: Path, validation_file: Path) -> dict:
-    """The test clips with the library's and the chosen settings (module docstring)."""
+    """The test clips with the library's and the chosen settings (module docstring), filter
+    keys :data:`TEST_KEYS`."""
     from jaxtrack.experiments import mixed_state as ms
     from papers.kwatra2002.mixed_state_evaluation import clip_intervals
 
@@ -262,22 +286,87 @@ def test(out: Path, validation_file: Path) -> dict:
         if label == "chosen" and settings == START:
             entries[label] = entries["library"]
             continue
-        outcome = run(settings, sequences, clips, SEED)
-        result = outcome["result"]
-        entries[label] = {"settings": settings, "seconds": outcome["seconds"],
-                          "overall": result["overall"], "sequences": result["sequences"],
-                          "smoothed_confusion": result["smoothed_confusion"],
-                          "intervals": clip_intervals(result["sequences"], clips)}
+        by_key, seconds = {}, 0.0
+        for key in TEST_KEYS:
+            outcome = run(settings, sequences, clips, key)
+            seconds += outcome["seconds"]
+            by_key[key] = outcome["result"]
+        keyed = {f"{name}_key{key}": scores for key, result in by_key.items()
+                 for name, scores in result["sequences"].items()}
+        first = by_key[TEST_KEYS[0]]
+        entries[label] = {"settings": settings, "seconds": seconds,
+                          "pooled": pooled_scores(keyed),
+                          "intervals": clip_intervals(keyed, clips),
+                          "overall": first["overall"], "sequences": keyed,
+                          "smoothed_confusion": first["smoothed_confusion"]}
         for kind in ("instantaneous", "smoothed"):
-            scored = result["overall"][kind]
-            print(f"test, {label} settings, {kind}: MSE all {scored['mse']['all']:.1f}, posture "
-                  f"error {100 * scored['posture_error']:.1f} %", flush=True)
+            scored = entries[label]["pooled"][kind]
+            print(f"test, {label} settings, {kind}, keys {TEST_KEYS}: MSE all "
+                  f"{scored['mse_all']:.1f}, posture error "
+                  f"{100 * scored['posture_error']:.1f} % (key {TEST_KEYS[0]}: "
+                  f"{first['overall'][kind]['mse']['all']:.1f})", flush=True)
     payload = {"command": "python -m papers.kwatra2002.mm_selection test",
                "device": device_description(), "clips": clips,
                "azimuths_degrees": list(AZIMUTHS_DEGREES), "frames": FRAMES,
-               "filter_key": SEED, **entries}
+               "filter_keys": list(TEST_KEYS),
+               "note": "overall and smoothed_confusion: filter key 1 alone (the evaluation's "
+                       "run with --seed 1); pooled and intervals: all keys",
+               **entries}
     write_json(out, payload)
     return payload
+
+
+def _clip_of(name: str, clips) -> str:
+    stems = [clip.split("/")[-1] for clip in clips]
+    return next(stem for stem in stems if name.startswith(stem + "_"))
+
+
+def summary(validation_file: Path, test_file: Path) -> str:
+    """Markdown tables of the search's steps and the test scores (what the README quotes)."""
+    lines = []
+    if validation_file.is_file():
+        found = json.loads(validation_file.read_text())
+        lines += ["| coordinate | value | smoothed MSE all, mean of keys " + "/".join(
+                      str(key) for key in found.get("keys", KEYS)) + " | per key | chosen |",
+                  "|---|---|---|---|---|"]
+        for step in found.get("steps", []):
+            for value, mses in step["tried"]:
+                mark = "**yes**" if value == step["chosen"] else ""
+                lines.append(f"| {step['coordinate']} | {value} | {np.mean(mses):,.0f} | "
+                             + " / ".join(f"{mse:,.0f}" for mse in mses) + f" | {mark} |")
+        instantaneous = {row["instantaneous"]["mse_all"] for row in found["rows"]}
+        lines.append(f"\nchosen: {found.get('chosen')}; skipped for time: "
+                     f"{found.get('skipped_coordinates')}; instantaneous MSE all "
+                     + ", ".join(f"{value:,.0f}" for value in sorted(instantaneous)))
+    if test_file.is_file():
+        found = json.loads(test_file.read_text())
+        lines += ["", "| settings | estimate | MSE all | 95 % | posture error | 95 % | "
+                  "head ≤ 20 px |", "|---|---|---|---|---|---|---|"]
+        for label in ("library", "chosen"):
+            entry = found[label]
+            for kind in ("instantaneous", "smoothed"):
+                scored, interval = entry["pooled"][kind], entry["intervals"][kind]
+                low, high = interval["mse_all_95"]
+                error_low, error_high = interval["posture_error_95"]
+                lines.append(f"| {label} | {kind} | {scored['mse_all']:,.0f} | {low:,.0f}–"
+                             f"{high:,.0f} | {100 * scored['posture_error']:.1f} % | "
+                             f"{100 * error_low:.1f}–{100 * error_high:.1f} % | "
+                             f"{100 * scored['head_within_20px']:.1f} % |")
+        lines += ["", "| settings | estimate | " + " | ".join(
+            clip.split("/")[-1] for clip in found["clips"]) + " |",
+            "|---|---|" + "---|" * len(found["clips"])]
+        for label in ("library", "chosen"):
+            for kind in ("instantaneous", "smoothed"):
+                sums = {}
+                for name, scores in found[label]["sequences"].items():
+                    clip = _clip_of(name, found["clips"])
+                    frames = scores[kind]["frames"]
+                    total, count = sums.get(clip, (0.0, 0))
+                    sums[clip] = (total + scores[kind]["mse"]["all"] * frames, count + frames)
+                lines.append(f"| {label} | {kind} | " + " | ".join(
+                    f"{sums[clip.split('/')[-1]][0] / max(sums[clip.split('/')[-1]][1], 1):,.0f}"
+                    for clip in found["clips"]) + " |")
+    return "\n".join(lines)
 
 
 CACHE = RESULTS
@@ -287,7 +376,8 @@ def main(argv=None) -> int:
     global CACHE
     parser = argparse.ArgumentParser(prog="python -m papers.kwatra2002.mm_selection",
                                      description=__doc__.split("\n\n")[0])
-    parser.add_argument("stage", choices=("validation", "test"))
+    parser.add_argument("stage", choices=("validation", "test", "summary"),
+                        help="summary: print the tables of the two stages' JSON")
     parser.add_argument("--out", default=None, help="JSON to write (default results/"
                         "mm_selection.json for validation, results/mm_selection_test.json for "
                         "test)")
@@ -301,6 +391,10 @@ def main(argv=None) -> int:
                             else RESULTS / "mm_selection_test.json"))
     if out.suffix != ".json" or not out.parent.is_dir():
         parser.error(f"--out {out}: must end in .json in an existing folder")
+    if args.stage == "summary":
+        print(summary(Path(args.validation_file), Path(args.out or RESULTS
+                                                        / "mm_selection_test.json")))
+        return 0
     try:
         if args.stage == "validation":
             validation(out)
