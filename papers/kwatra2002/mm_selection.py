@@ -30,8 +30,8 @@ before its first run (2026-11-29):
   them it stays, else the cheapest of them is taken (:data:`COST`; equal cost: the lowest
   mean). k is not searched: it multiplies every particle's likelihood by the same constant
   (eq. 4), so it changes no weight.
-- **Time**: a coordinate not begun :data:`BUDGET_SECONDS` after the search began is not
-  searched (its value stays the library's); the JSON says which.
+- **Time**: a coordinate not begun :data:`BUDGET_SECONDS` after the search began, or named
+  by ``--skip``, is not searched (its value stays the library's); the JSON says which.
 - **History of this rule**: the first version (committed before any run) ran every setting
   but the start with key 1 only, and called single runs tied within ``2 √2 s``, ``s`` the
   start's standard deviation over keys 1–3. Those three runs (13 922, 11 810 and
@@ -198,8 +198,9 @@ def render(clips_all, clips) -> list:
     return sequences
 
 
-def validation(out: Path) -> dict:
-    """The search (module docstring); writes ``out`` after every run and resumes from it."""
+def validation(out: Path, skip=()) -> dict:
+    """The search (module docstring); writes ``out`` after every run and resumes from it.
+    ``skip``: coordinates not searched (their values stay the library's), as for time."""
     from jaxtrack.experiments import mixed_state as ms
 
     clips = [clip for clip in ms.VALIDATION_CLIPS if "HDM_mm_" in clip]
@@ -229,7 +230,7 @@ def validation(out: Path) -> dict:
     began = time.perf_counter()
     current, steps, skipped = dict(START), [], []
     for name, values in COORDINATES:
-        if time.perf_counter() - began > BUDGET_SECONDS:
+        if name in skip or time.perf_counter() - began > BUDGET_SECONDS:
             skipped.append(name)
             continue
         tried = {value: [measured({**current, name: value}, key)["smoothed"]["mse_all"]
@@ -389,6 +390,9 @@ def main(argv=None) -> int:
                         "test)")
     parser.add_argument("--validation-file", default=str(OUT),
                         help="the validation stage's JSON (test stage: its chosen settings)")
+    parser.add_argument("--skip", nargs="*", default=[], metavar="COORDINATE",
+                        choices=[name for name, _ in COORDINATES],
+                        help="validation: coordinates not searched (kept at the library's)")
     parser.add_argument("--cache", default=str(RESULTS),
                         help="folder of the cached posture model (mixed_state_evaluation's)")
     args = parser.parse_args(argv)
@@ -403,7 +407,7 @@ def main(argv=None) -> int:
         return 0
     try:
         if args.stage == "validation":
-            validation(out)
+            validation(out, args.skip)
         else:
             test(out, Path(args.validation_file))
     except (FileNotFoundError, ValueError) as error:
