@@ -6,6 +6,14 @@ median background (or ``--masks``), the filter frame by frame, then the whole-se
 last). Per frame the JSON holds the posture and parts of the instantaneous estimate (the
 extended Ghost), the filter and the smoother. A bad argument is a one-line :class:`UserError`,
 raised before anything is computed or written.
+
+``--keypoints FILE_OR_FOLDER`` (with ``--person x0,y0,x1,y1`` where it holds several people)
+gives a per-frame detector's keypoints: where a keypoint is confident, its head, wrists and
+ankles replace the silhouette's part hypotheses of every posture
+(:func:`jaxtrack.vision.parts.detection_hypotheses`); elsewhere the silhouette's stay. A
+detections file or folder (OpenPose JSON, COCO, MediaPipe, jaxtrack's own) is read with the
+ankles (``markers=DETECTION_MARKERS``); a single person's ``.npz`` of ``keypoints`` holds the 12
+upper-body markers, so the feet stay the silhouette's.
 """
 
 from __future__ import annotations
@@ -14,6 +22,8 @@ import argparse
 import collections
 import time
 from pathlib import Path
+
+import numpy as np
 
 from jaxtrack.cli._common import (
     UserError,
@@ -58,6 +68,63 @@ def _load_model(path: Path):
     return saved
 
 
+def _read_detections(path: Path, person: str | None
+                     ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """``--keypoints``' points ``(rows, markers, 2)`` in video pixels (NaN where absent),
+    confidences ``(rows, markers)`` and the markers' names, one row per video frame from the
+    first, or a one-line error naming the file.
+
+    A single person's ``.npz`` of ``keypoints`` is read by :func:`jaxtrack.cli._pose.read_keypoints`
+    (its 12 markers); any other detections file or folder with the knees and ankles too
+    (:data:`jaxtrack.vision.detections.DETECTION_MARKERS`; jaxtrack's own ``.npz``: those of
+    them it holds), the person inside ``--person`` in
+    the first frame with anyone (else the most confident) followed
+    (:func:`jaxtrack.vision.detections.follow_person`)."""
+    from jaxtrack.body import UPPER_BODY_12
+    from jaxtrack.cli._pose import person_box, read_keypoints
+    from jaxtrack.vision.detections import (
+        DETECTION_MARKERS,
+        DetectionFileError,
+        follow_person,
+        load_detections,
+    )
+    from jaxtrack.vision.parts import DETECTION_PART_MARKERS
+
+    single, wanted = False, DETECTION_MARKERS
+    if path.suffix == ".npz" and path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as archive:
+                single = "keypoints" in archive.files
+                if "markers" in archive.files:  # jaxtrack's own: the markers it holds
+                    wanted = tuple(name for name in DETECTION_MARKERS
+                                   if name in {str(held) for held in archive["markers"]})
+        except (OSError, ValueError) as error:
+            raise UserError(f"--keypoints: {path}: not a readable .npz ({error})") from None
+    if single:
+        points, confidence = read_keypoints(path, person)
+        markers = tuple(UPPER_BODY_12)
+    else:
+        box = None if person is None else person_box(person)
+        if not path.exists():
+            raise UserError(f"--keypoints: {path}: no such file or folder")
+        try:
+            detections = load_detections(path, markers=wanted or None)
+            found, sure = follow_person(detections, box)
+        except (DetectionFileError, ValueError) as error:
+            raise UserError(f"--keypoints: {' '.join(str(error).split())}") from None
+        markers = detections.markers
+        frame_rows = detections.frame_ids - detections.frame_ids[0]
+        points = np.full((int(frame_rows[-1]) + 1, len(markers), 2), np.nan)
+        confidence = np.zeros(points.shape[:2])
+        points[frame_rows], confidence[frame_rows] = found, sure
+    if not any(name in markers for names in DETECTION_PART_MARKERS for name in names):
+        raise UserError(f"--keypoints: {path} holds none of the head, wrists and ankles "
+                        f"(it holds {', '.join(markers)}); the mixed-state tracker takes those")
+    points = np.asarray(points, np.float64)
+    confidence = np.nan_to_num(np.asarray(confidence, np.float64), nan=0.0)
+    return points, confidence, markers
+
+
 def _annotate(result, smoothed, factors):
     """The pipeline's ``annotate``: per frame the posture, its probability and the parts of each
     estimate (instantaneous, filtered, smoothed) in the video's pixels, and the smoothed posture
@@ -97,13 +164,33 @@ def _annotate(result, smoothed, factors):
     return entries, labels
 
 
+def _refuse_detection_options(args: argparse.Namespace) -> None:
+    """``--person`` needs ``--keypoints``; ``--detector`` and the detection density's fit
+    options are the image trackers' (one line each)."""
+    if getattr(args, "detector", None) is not None:
+        raise UserError("--detector does not apply to --method mixed-state; run it with "
+                        "--method latent (it writes DIR/detections.npz) and give that file "
+                        "as --keypoints")
+    for option, given in (("--no-fit", getattr(args, "no_fit", False)),
+                          ("--fit-iterations", getattr(args, "fit_iterations", None)
+                           is not None)):
+        if given:
+            raise UserError(f"{option} does not apply to --method mixed-state (its detections "
+                            f"replace part hypotheses; nothing is fitted)")
+    if getattr(args, "person", None) is not None and args.keypoints is None:
+        raise UserError("--person: it picks the person in --keypoints; give --keypoints "
+                        "FILE_OR_FOLDER")
+
+
 def track(args: argparse.Namespace) -> int:
     """``jaxtrack track --method mixed-state``: posture and parts through one video."""
     from jaxtrack.cli._track_image import frame_range, options_record, tracked_end
 
     started = time.perf_counter()
     record_options = options_record(args)
-    refuse_other_methods(args, "track")
+    # --keypoints is the other methods' option that mixed-state reads too (module docstring)
+    refuse_other_methods(argparse.Namespace(**{**vars(args), "keypoints": None}), "track")
+    _refuse_detection_options(args)
     if len(args.video) != 1:
         raise UserError(f"--video: --method mixed-state tracks one video, got "
                         f"{len(args.video)}")
@@ -117,6 +204,10 @@ def track(args: argparse.Namespace) -> int:
     output_directory(args.out, "--out")  # probed before any frame is read
     start, stop = frame_range(args.frames)
     saved = _load_model(args.model)
+    keypoints, markers = None, None
+    if args.keypoints is not None:
+        points, confidence, markers = _read_detections(args.keypoints, args.person)
+        keypoints = (points, confidence)
     if not video_path.exists():
         raise UserError(f"--video {video_path}: no such video file")
 
@@ -139,21 +230,31 @@ def track(args: argparse.Namespace) -> int:
             raise UserError(f"--masks {masks_path}: holds {len(given_masks)} masks, but video "
                             f"frame {last} is tracked (one mask per video frame, from its "
                             f"first)")
+    if keypoints is not None and end is not None and len(keypoints[0]) < end:
+        # frames past the detections' last: nothing detected there
+        missing = end - len(keypoints[0])
+        keypoints = (np.concatenate([keypoints[0], np.full((missing, *keypoints[0].shape[1:]),
+                                                           np.nan)]),
+                     np.concatenate([keypoints[1], np.zeros((missing, len(markers)))]))
     num_bins = (saved.model.num_features - 1) // 2
     tracker = MixedStateTracker(MixedStateModel(saved.model), particles, num_bins,
-                                keep_history=True)
+                                keep_history=True, keypoint_markers=markers)
     with pipeline_errors(f"--video {video_path}"):
         record = track_video(
             tracker, video_path, args.out, key=jr.PRNGKey(args.seed), max_size=args.max_size,
             start=start, max_frames=None if stop is None else stop - start, masks=given_masks,
-            marker_names=PART_NAMES, seed=args.seed, smooth=True,
+            keypoints=keypoints, marker_names=PART_NAMES, seed=args.seed, smooth=True,
             annotate=_annotate,
             extra_record={"options": record_options, "model": str(args.model),
                           "silhouettes": ("median background" if masks_path is None
                                           else f"masks {masks_path}"),
                           "num_bins": num_bins, "posture_names": list(POSTURE_NAMES),
                           "part_names": list(PART_NAMES),
-                          "posture_model": saved.description})
+                          "posture_model": saved.description,
+                          "detections": None if keypoints is None else {
+                              "file": str(args.keypoints), "markers": list(markers),
+                              "min_confidence": tracker.keypoint_confidence,
+                              "person": args.person}})
     timings = record["timings"]
     frames = record["frames"]  # the per-frame entries _annotate wrote
     counts = collections.Counter(frame["posture"]["smoothed"] for frame in frames)

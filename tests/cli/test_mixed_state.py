@@ -182,6 +182,42 @@ def test_track_takes_the_silhouettes_from_masks_the_user_brings(bundled, walk, t
     assert not (tmp_path / "short").exists()
 
 
+def test_track_takes_a_detectors_keypoints_as_part_hypotheses(bundled, walk, tmp_path, capsys):
+    from jaxtrack.body.markers import HUMANEVA_15
+    from jaxtrack.vision.detections import Detections, write_detections
+
+    video, markers, _ = walk
+    names = ("head", "right_wrist", "left_wrist", "right_ankle", "left_ankle")
+    points = markers[:, [HUMANEVA_15.index(name) for name in names]]
+    confidence = np.full(points.shape[:2], 0.9)
+    confidence[5:8, 1] = 0.2  # the right wrist unsure for three frames: the silhouette's there
+    path = write_detections(tmp_path / "detections.npz", Detections(
+        points[:, None], confidence[:, None], np.ones(len(points), int), names, "markers",
+        SIZE, np.arange(len(points))))
+    out = tmp_path / "out"
+    code, stdout, error = run(capsys, "track", "--method", "mixed-state", "--model", bundled,
+                              "--video", video, "--keypoints", path, "--out", out,
+                              "--particles", 64, "--max-size", 80, "--seed", 3)
+    assert code == 0, error
+    assert "tracked 30 frames (30 with a silhouette)" in stdout
+    record = json.loads((out / "track.json").read_text())
+    assert record["detections"]["markers"] == list(names)
+    assert record["detections"]["file"] == str(path)
+    # the instantaneous hands are the confident wrists, in each posture's own slots
+    for t, frame in enumerate(record["frames"]):
+        hands = np.array([frame["parts"]["instantaneous"][name] for name in ("hand_1",
+                                                                           "hand_2")])
+        truth = points[t, 1:3]
+        error = np.minimum(np.abs(hands - truth).sum(), np.abs(hands[::-1] - truth).sum())
+        if t not in (5, 6, 7):
+            assert error < 2.0, (t, hands, truth)
+    # the smoothed parts on the walker (the silhouette and the keypoints hold them there)
+    low, high = markers.min(axis=1) - 12, markers.max(axis=1) + 12
+    for t, frame in enumerate(record["frames"]):
+        parts = np.array(list(frame["parts"]["smoothed"].values()))
+        assert np.all((parts >= low[t]) & (parts <= high[t])), (t, parts)
+
+
 @pytest.mark.slow  # trains a posture model, renders and tracks the test clips
 def test_evaluate_prints_table_1_and_writes_json_and_plots(trained, tmp_path, capsys):
     folder = tmp_path / "evaluation"
@@ -242,8 +278,9 @@ def _gplvm_file(path):
     ("out is a file", "--out {tmp}/v.mp4 is a file; give a folder"),
     ("two masks", "--masks: one file per --video, got 2 for 1"),
     ("not masks", "--masks {tmp}/v.mp4: not a .npz or .npy file"),
-    ("keypoints", "--keypoints does not apply to --method mixed-state (it is read by the "
-                  "latent tracker's likelihood)"),
+    ("keypoints", "--keypoints: {tmp}/v.mp4: not a detections file"),
+    ("person", "--person: it picks the person in --keypoints; give --keypoints FILE_OR_FOLDER"),
+    ("detector", "--detector does not apply to --method mixed-state"),
 ])
 def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, case, message):
     (tmp_path / "v.mp4").write_text("not a video")
@@ -269,6 +306,10 @@ def test_track_refuses_bad_input_in_one_line(tmp_path, capsys, posture_file, cas
         extra = ["--masks", tmp_path / "v.mp4"]
     elif case == "keypoints":
         extra = ["--keypoints", tmp_path / "v.mp4"]
+    elif case == "person":
+        extra = ["--person", "1,1,5,5"]
+    elif case == "detector":
+        extra = ["--detector", "mediapipe"]
     before = sorted(tmp_path.iterdir())
     code, _, error = run(capsys, "track", "--method", "mixed-state", "--model", model,
                          "--video", *videos, "--out", out, *extra)

@@ -12,7 +12,12 @@ import pytest
 from jaxtrack.priors.postures import NUM_POSTURES, POSTURE_NAMES, PostureModel
 from jaxtrack.trackers import track
 from jaxtrack.trackers._tracker import VideoChunk
-from jaxtrack.trackers.mixed_state import MixedStateModel, MixedStateTracker
+from jaxtrack.trackers.mixed_state import (
+    MixedStateModel,
+    MixedStateTracker,
+    observations_from_silhouettes,
+    with_detections,
+)
 from jaxtrack.vision.detections import DETECTION_MARKERS
 from jaxtrack.vision.parts import detection_hypotheses
 
@@ -60,6 +65,22 @@ def test_keypoints_replace_confident_parts_in_each_postures_own_slots():
     np.testing.assert_array_equal(out[..., 3:5, :], hypotheses[..., 3:5, :])
     with pytest.raises(ValueError, match="points must be"):
         detection_hypotheses(hypotheses, points[:1], confidence, MARKERS, min_confidence=0.5)
+
+
+def test_parts_are_projected_onto_the_silhouette_and_the_confident_keypoints():
+    masks = np.zeros((1, 20, 30), bool)
+    masks[0, 5:15, 5:10] = True
+    observations = observations_from_silhouettes(masks, num_bins=4)
+    points = np.array([[[25.0, 10.0], [20.0, 3.0], [np.nan, np.nan], [1.0, 1.0], [28, 18]]])
+    confidence = np.array([[0.9, 0.9, 0.9, 0.1, 0.9]])  # the right ankle unconfident
+    merged = with_detections(observations, points, confidence, MARKERS, min_confidence=0.5)
+    nearest = np.asarray(merged.nearest[0])
+    np.testing.assert_array_equal(nearest[10, 24], [25, 10])  # next to the detected head
+    np.testing.assert_array_equal(nearest[3, 20], [20, 3])  # the detected wrist is itself
+    np.testing.assert_array_equal(nearest[19, 29], [28, 18])  # the confident ankle
+    np.testing.assert_array_equal(nearest[10, 12], [9, 10])  # the silhouette still
+    np.testing.assert_array_equal(nearest[1, 1], [5, 5])  # not the unconfident ankle
+    assert np.asarray(merged.hypotheses)[0, :, 0].tolist() == [[25.0, 10.0]] * NUM_POSTURES
 
 
 def _flat_postures(features: int, standing: float = 0.96) -> PostureModel:
