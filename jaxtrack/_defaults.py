@@ -331,6 +331,11 @@ DEFAULTS: tuple[Default, ...] = (
             "2026-11-29: smoothed MSE 6 496 against 6 053 px² (python -m papers.kwatra2002 "
             "--json papers/kwatra2002/results/kwatra2002.json --validation "
             "--skip-paper-setting).", group="Mixed state"),
+    Default("keypoint confidence (--keypoints)",
+            "jaxtrack.trackers.mixed_state:KEYPOINT_CONFIDENCE", 0.5, NONE,
+            note="The least confidence of a detector's keypoint that replaces the silhouette's "
+            "part hypothesis; MediaPipe's drawing threshold, as the detection baselines'; not "
+            "chosen by a score.", group="Mixed state"),
     Default("part cutoff δ", "jaxtrack.likelihoods.part_distances:PartDistances(cutoff)", 25.0,
             "validation", _MIXED_STATE, "2026-11-27", "Against 9 and 100. " + _MIXED_STATE_NOTE,
             "Mixed state"),
