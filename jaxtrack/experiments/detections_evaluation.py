@@ -66,9 +66,9 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["DEFAULT_DETECTIONS", "HAND_SET_WEIGHTS", "MIN_CONFIDENCE", "PRIORS", "SPEED_PARTICLES",
-           "VIEWS", "Setting", "baseline_estimates", "detect_views", "evaluate", "left_right_swaps",
-           "load_setting", "main", "particle_filter_estimates", "score_2d", "score_3d", "table",
-           "targets", "triangulated"]
+           "VIEWS", "Setting", "baseline_estimates", "detect_views", "evaluate", "filter_check",
+           "left_right_swaps", "load_setting", "main", "particle_filter_estimates", "score_2d",
+           "score_3d", "table", "targets", "triangulated", "walk_steps"]
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 DEFAULT_DETECTIONS = (Path(__file__).resolve().parents[2] / "tests" / "data" / "detections"
@@ -422,6 +422,73 @@ def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
     return rows, notes
 
 
+def walk_steps(points, step: float = 0.03) -> dict:
+    """How far a ``(frames, 12, 2)`` motion moves per frame in the random walk's own units:
+    each frame's SPM state (the template of frame 0, :func:`jaxtrack.body.spm_initial_state`),
+    its per-frame change divided by the walk's std
+    (:func:`jaxtrack.priors.dynamics.default_noise_floor` at ``step``). Returns
+    ``beyond_3_sigma`` (the share of frames where some component moves more than 3 std) and
+    ``largest`` (the five components with the largest 95th percentile, in std)."""
+    import jax.numpy as jnp
+
+    from jaxtrack.body import SPM_STATE_NAMES, build_template, spm_initial_state
+    from jaxtrack.priors.dynamics import default_noise_floor
+
+    points = np.asarray(points, np.float64)
+    template = build_template(points[:1])
+    states = np.stack([np.asarray(spm_initial_state(jnp.asarray(pose), template))
+                       for pose in points])
+    change = np.diff(states, axis=0)
+    change[:, 3:] = (change[:, 3:] + np.pi) % (2 * np.pi) - np.pi  # angles wrap
+    ratio = np.abs(change) / default_noise_floor(float(np.exp(states[0, 0])), relative=step)
+    high = np.percentile(ratio, 95, axis=0)
+    return {"beyond_3_sigma": float(np.mean((ratio > 3).any(1))),
+            "largest": {SPM_STATE_NAMES[k]: float(high[k]) for k in np.argsort(-high)[:5]}}
+
+
+def filter_check(setting: Setting, view: str, *, steps=(0.03, 0.1), weight: float = 16.0,
+                 swap_probabilities=(0.05, 0.0), particles: int = 500, seed: int = 1) -> list:
+    """The random-walk filter (hand-set density, scales divided by √``weight``, unfitted) given
+    the reference's own markers as detections (confidence 0.9), then MediaPipe's, for each
+    random-walk step and swap probability: does the filter lose what its input holds?
+
+    Returns:
+        rows ``{"input", "step", "swap_probability", "error_px", "error_torso", "within_15",
+        "left_right_swaps"}``.
+    """
+    import dataclasses
+
+    import equinox as eqx
+    import jax.numpy as jnp
+    import jax.random as jr
+
+    from jaxtrack.experiments.detection_tracking import detection_tracker, initial_pose_of
+    from jaxtrack.trackers import track
+    from jaxtrack.trackers._particles import detection_observations
+
+    truth = setting.truth_2d[view]
+    exact = dataclasses.replace(setting, detections={
+        **setting.detections, view: (truth, np.full(truth.shape[:2], 0.9))})
+    rows = []
+    for name, source in (("reference", exact), ("mediapipe", setting)):
+        observations = detection_observations(_view_detections(source, view))
+        pose = initial_pose_of(observations.detections)
+        for step in steps:
+            tracker = _hand_set(detection_tracker(pose, num_particles=particles, step=step),
+                                weight)
+            for swap in swap_probabilities:
+                swapped = eqx.tree_at(lambda t: t.likelihood.detections.swap_probability,
+                                      tracker, jnp.asarray(swap, tracker.dynamics.noise_std.dtype))
+                estimate = np.asarray(track(swapped, jr.key(seed), observations, pose,
+                                            progress=False).markers, np.float64)
+                scored = score_2d(estimate, truth)
+                rows.append({"input": name, "step": step, "swap_probability": swap,
+                             **{key: scored[key] for key in ("error_px", "error_torso",
+                                                             "within_15")},
+                             "left_right_swaps": left_right_swaps(estimate, truth)["frames"]})
+    return rows
+
+
 def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
              extra_3d: Mapping | None = None, min_confidence: float = MIN_CONFIDENCE) -> dict:
     """Every row scored: ``{"rows_2d": {name: {view: score, "all": mean over views}},
@@ -582,6 +649,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="Adam iterations of each fit (default track_detections')")
     parser.add_argument("--speed-particles", type=int, default=SPEED_PARTICLES,
                         help="N of the timed run (0: none)")
+    parser.add_argument("--filter-check", choices=VIEWS, default=None,
+                        help="instead: the hand-set filter on this view given the reference's "
+                             "own markers, then MediaPipe's (filter_check); prints a table")
     args = parser.parse_args(argv)
     if not 0 <= args.min_confidence <= 1:
         parser.error(f"--min-confidence must lie in [0, 1], got {args.min_confidence}")
@@ -600,6 +670,21 @@ def main(argv: list[str] | None = None) -> int:
             setting = load_setting(args.data, args.detections, progress)
     except (FileNotFoundError, DetectorUnavailableError) as error:
         parser.exit(1, f"{parser.prog}: {' '.join(str(error).split())}\n")
+    if args.filter_check is not None:
+        print(f"{args.filter_check}: the random-walk filter, hand-set density x16, N = 500")
+        print("| input | step | swap probability | error px | % torso | within 15 % | "
+              "frames left/right exchanged |\n|---|---|---|---|---|---|---|")
+        for row in filter_check(setting, args.filter_check):
+            print(f"| {row['input']} | {row['step']:g} | {row['swap_probability']:g} | "
+                  f"{row['error_px']:.1f} | {_cell(row['error_torso'])} | "
+                  f"{_cell(row['within_15'], digits=0)} | {row['left_right_swaps']} |")
+        for name, points in (("reference", setting.truth_2d[args.filter_check]),
+                             ("mediapipe", setting.detections[args.filter_check][0])):
+            steps = walk_steps(points)
+            print(f"{name}: frames with a step beyond 3 std of the walk (step 0.03): "
+                  f"{_cell(steps['beyond_3_sigma'], digits=0)} %; 95th percentile, std: "
+                  + ", ".join(f"{key} {value:.1f}" for key, value in steps["largest"].items()))
+        return 0
     started = time.perf_counter()
     extra_2d, extra_3d, filters = {}, {}, None
     if not args.no_trackers:
