@@ -47,7 +47,14 @@ with the density's hand-set defaults and every scale (f_k, σ₀) divided by √
 :data:`HAND_SET_WEIGHTS` (a weight w on the Gaussian's log-density is a scale 1/√w), unfitted:
 the learned-against-hand-set comparison. 3-D: ``dlt of ROW`` triangulates a row's four views
 (every view weighing 1). ``speed``: the fitted filter's time per frame at
-:data:`SPEED_PARTICLES` particles, compilation apart.
+:data:`SPEED_PARTICLES` particles, compilation apart. Issue 48's targets are read from the
+scores by :func:`targets` (``"targets"`` in the JSON).
+
+    python -m jaxtrack.experiments.detections_evaluation --filter-check cam01
+
+checks the filter itself (:func:`filter_check`): the hand-set random-walk filter given the
+reference's own markers as detections, then MediaPipe's, per walk step and swap probability,
+and how far each moves per frame in the walk's std (:func:`walk_steps`).
 
 More rows: :func:`evaluate` takes ``extra_2d`` (name → view → ``(frames, 12, 2)`` estimate of
 :attr:`Setting.frame_indices`) and ``extra_3d`` (name → ``(frames, 12, 3)`` world metres), so a
