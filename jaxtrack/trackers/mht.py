@@ -280,7 +280,9 @@ class MHTTracker(ImageTracker):
     modes: int = eqx.field(static=True)
     step_std: tuple[float, ...] | None = eqx.field(static=True, default=None)
     min_step_std: tuple[float, ...] | None = eqx.field(static=True, default=None)
-    velocity_weight: float = eqx.field(static=True, default=0.5)
+    # 0 (constant position) chosen on the validation subject over {0, 0.5, 1}: tied with 0.5,
+    # the simpler prediction (python -m papers.tian2005.defaults_sweep, docs/defaults.md)
+    velocity_weight: float = eqx.field(static=True, default=0.0)
     prior_scale: float = eqx.field(static=True, default=4.0)
     refill_spread: float = eqx.field(static=True, default=2.0)
     merge_radius: float | None = eqx.field(static=True, default=None)
@@ -371,7 +373,7 @@ def mht_tracker(
     refinement: Refinement | None = None,
     background: Float[ArrayLike, "height width"] | None = None,
     step_std: Float[ArrayLike, " 25"] | None = None,
-    velocity_weight: float = 0.5,
+    velocity_weight: float = 0.0,
     prior_scale: float = 4.0,
     refill_spread: float = 2.0,
     merge_radius: float | None = None,
