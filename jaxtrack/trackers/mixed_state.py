@@ -630,9 +630,10 @@ def with_detections(observations: MixedStateFrame, points: np.ndarray, confidenc
     fragments of the person (a person who barely moves is in the median background), the
     detected hands and feet lie outside them, and particles projected onto the silhouette
     alone never reach them. The body is then the silhouette and the confident keypoints
-    (``python -m papers.kwatra2002.detections_real_video``, 2026-11-29, cam01, 500 particles:
-    smoothed MSE over all parts 10 976 px² projected onto the silhouette, 345 not projected,
-    258 onto the silhouette and the keypoints; MediaPipe's own keypoints 250).
+    (``python -m papers.kwatra2002.detections_real_video --cameras cam01 --projections``,
+    2026-11-29, 500 particles, silhouettes against the median background: smoothed MSE over
+    all parts 10 976 px² projected onto the silhouette, 345 not projected, 257 onto the
+    silhouette and the keypoints; MediaPipe's own keypoints 250).
 
     Args:
         observations: :func:`observations_from_silhouettes`' (a ``time`` axis).

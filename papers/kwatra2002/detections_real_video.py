@@ -21,12 +21,15 @@ Estimates, each scored on the frames with a silhouette (the tracker's frames):
   with_detections`), as ``jaxtrack track --method mixed-state --keypoints`` runs it;
 - ``silhouette+detections posterior``: the same with the parts drawn from the posterior
   (``part_proposal="posterior"``, not the default);
+- with ``--projections``, the same tracker with the parts projected onto the silhouette alone
+  (``silhouette+detections silhouette-projection``, the paper's step) or not projected
+  (``silhouette+detections no-projection``): what chose the projection of ``with_detections``;
 - ``mediapipe``: MediaPipe's own head (the base of the skull by the readers' rule, the best head
   point they give; the truth is the head's top), wrists and ankles;
 - ``mediapipe butterworth``: those after Pose2Sim's Butterworth filter (filtfilt, 6 Hz, order 4).
 
     python -m papers.kwatra2002.detections_real_video [--particles 500] [--max-size 640]
-        [--cameras cam01 ...] [--min-confidence 0.5] [--seed 1]
+        [--cameras cam01 ...] [--min-confidence 0.5] [--seed 1] [--projections]
 
 Prints a table per camera and over all cameras (MSE per part in px² at the tracked size, the
 fraction of parts within 20 px), names every baseline that beats the tracker with detections,
@@ -85,9 +88,12 @@ def _score(parts: np.ndarray, truth: np.ndarray, valid: np.ndarray) -> dict:
 
 
 def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles: int,
-                  seed: int, min_confidence: float) -> dict:
+                  seed: int, min_confidence: float, projections: bool = False) -> dict:
     """Track one camera with the silhouette alone and with the detections; score them and the
     detector's own keypoints against the reference."""
+    import dataclasses
+
+    import jax.numpy as jnp
     import jax.random as jr
 
     from jaxtrack.evaluation.reference import TRC_FILES, load_reference, read_trc
@@ -123,6 +129,16 @@ def camera_scores(folder: Path, camera: str, model, *, max_size: int, particles:
                "silhouette+detections": ms.track(jr.PRNGKey(seed), model, merged, particles),
                "silhouette+detections posterior": ms.track(jr.PRNGKey(seed), posterior,
                                                            merged, particles)}
+    if projections:
+        height, width = masks.shape[1:]
+        ys, xs = np.mgrid[:height, :width]
+        itself = np.broadcast_to(np.stack([xs, ys], axis=-1).astype(np.int16),
+                                 np.shape(observations.nearest))
+        for name, nearest in (("silhouette-projection", observations.nearest),
+                              ("no-projection", jnp.asarray(itself))):
+            variant = dataclasses.replace(merged, nearest=nearest)
+            tracked[f"silhouette+detections {name}"] = ms.track(jr.PRNGKey(seed), model,
+                                                                variant, particles)
     ok = np.asarray(tracked["silhouette"]["status"])[indices] == FRAME_OK
     estimates, postures = {}, {}
     for name, result in tracked.items():
@@ -204,6 +220,9 @@ def main(argv=None) -> int:
     parser.add_argument("--min-confidence", type=float, default=None,
                         help="the least visibility of a keypoint that replaces the silhouette's "
                         "hypothesis (default: the tracker's keypoint_confidence)")
+    parser.add_argument("--projections", action="store_true",
+                        help="also the tracker with detections projecting the parts onto the "
+                        "silhouette alone, and not projecting them")
     parser.add_argument("--out", default=str(RESULTS / "detections_real_video.json"))
     args = parser.parse_args(argv)
     from jaxtrack.data.models import default_model
@@ -226,7 +245,8 @@ def main(argv=None) -> int:
         tick = time.perf_counter()
         per_camera[camera] = camera_scores(folder, camera, model, max_size=args.max_size,
                                            particles=args.particles, seed=args.seed,
-                                           min_confidence=min_confidence)
+                                           min_confidence=min_confidence,
+                                           projections=args.projections)
         result = per_camera[camera]
         print(f"\n{camera}: {result['frames']} frames at {result['size'][0]}x"
               f"{result['size'][1]}, {result['frames_with_silhouette']} with a silhouette; "
