@@ -119,6 +119,12 @@ def _swept(method: str, **settings: str) -> str:
 _MIXED_STATE = "python -m papers.kwatra2002.mixed_state_evaluation"
 _MIXED_STATE_NOTE = ("Smoothed MSE over all parts on the validation clips (docs/mixed-state.md; "
                      "the docstring of the code quotes the numbers).")
+_MM = "python -m papers.kwatra2002.mm_selection validation"
+_MM_NOTE = ("Kept by the coordinate search on HDM05 actor mm's validation takes (both side "
+            "views, 150 frames, 500 particles; smoothed MSE over all parts, mean of filter keys "
+            "1-5; a value replaces the library's only if it is lower beyond twice the standard "
+            "error of the paired differences): the library's {library} px², {others}; every "
+            "difference within Monte Carlo error (papers/kwatra2002/README.md).")
 _ARM_NOTE = ("On the Bandai validation splits, prior trained on other Bandai takes "
              "(docs/trackers.md, \"Why the defaults are what they are\"; "
              "the measurement log, git show 561ec54:docs/measurement-log.md); the record "
@@ -348,8 +354,9 @@ DEFAULTS: tuple[Default, ...] = (
     Default("redraw_on_switch", f"{_MIXED}(redraw_on_switch)", True, "validation",
             _MIXED_STATE, "2026-11-27", "Re-drawn against kept at δ = 9, 25 and 100. "
             + _MIXED_STATE_NOTE, "Mixed state"),
-    Default("part proposal", f"{_MIXED}(part_proposal)", "dynamics", "paper",
-            note="The paper's (§3.2: the parts drawn from the prediction). 'posterior' (the "
+    Default("part proposal", f"{_MIXED}(part_proposal)", "dynamics", "validation", _MM,
+            "2026-11-29", _MM_NOTE.format(library="13 795", others="'posterior' 13 815")
+            + " The paper's (§3.2: the parts drawn from the prediction). 'posterior' (the "
             "prediction times the part likelihood, reweighted exactly) averages white "
             "hypothesis noise that the paper's does not (python -m papers.kwatra2002.diagnosis "
             "--synthetic) but scored worse on HDM05 actor bd's held-out validation takes, "
@@ -362,11 +369,15 @@ DEFAULTS: tuple[Default, ...] = (
             "part hypothesis; MediaPipe's drawing threshold, as the detection baselines'; not "
             "chosen by a score.", group="Mixed state"),
     Default("part cutoff δ", "jaxtrack.likelihoods.part_distances:PartDistances(cutoff)", 25.0,
-            "validation", _MIXED_STATE, "2026-11-27", "Against 9 and 100. " + _MIXED_STATE_NOTE,
-            "Mixed state"),
+            "validation", _MM, "2026-11-29",
+            _MM_NOTE.format(library="13 795", others="δ = 9 14 038, δ = 100 13 401")
+            + f" First chosen on 2026-11-27 against 9 and 100 ({_MIXED_STATE}) on the earlier "
+            "validation clips. " + _MIXED_STATE_NOTE, "Mixed state"),
     Default("part standard deviations (px)",
             "jaxtrack.likelihoods.part_distances:PartDistances(standard_deviations)",
-            (8.0, 12.0, 12.0, 10.0, 10.0), NONE, group="Mixed state"),
+            (8.0, 12.0, 12.0, 10.0, 10.0), "validation", _MM, "2026-11-29",
+            _MM_NOTE.format(library="13 795", others="all doubled 13 004"),
+            group="Mixed state"),
     Default("log k", "jaxtrack.likelihoods.part_distances:PartDistances(log_k)", 0.0, NONE,
             group="Mixed state"),
     Default("fixed lag (command line)", "jaxtrack.cli._mixed_state:DEFAULT_LAG", 10, NONE,
@@ -394,8 +405,10 @@ DEFAULTS: tuple[Default, ...] = (
             (), "validation", _MIXED_STATE, "2026-11-27",
             "Level views only, the same run.", "Posture model"),
     Default("transition pseudocount α",
-            "jaxtrack.priors.postures:fit_posture_model(pseudocount)", 0.5, NONE,
-            group="Posture model"),
+            "jaxtrack.priors.postures:fit_posture_model(pseudocount)", 0.5, "validation", _MM,
+            "2026-11-29", _MM_NOTE.format(library="13 795", others="α = 5 13 374, α = 25 13 248")
+            + " T and the first-frame prior re-estimated from the library posture model's "
+            "training counts.", group="Posture model"),
     # ---- GPLVM --------------------------------------------------------------------------------
     Default("GPLVM outer iterations T", "jaxtrack.priors.gplvm._fit:fit_gplvm(iterations)", 2,
             "validation", _GPLVM, "2026-11-26",
