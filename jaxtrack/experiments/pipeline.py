@@ -648,34 +648,38 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
                              f"{pose.shape}")
         pose = pose * views[0]["factors"] - views[0]["origin"]
 
+    def grey_only(view) -> bool:
+        """Whether the tracker needs the view's grey frames alone (no colour, no foreground
+        made from the colour frames): then they are decoded straight to grey."""
+        return "grey" in reads and "colour" not in reads and not view["needs_masks"]
+
     def groups(view) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """``(frames, file indices)``: per_chunk + 1 frames first, then per_chunk at a
         time, so that track()'s compiled chunks (frame 0 is its set-up) line up with the
-        chunks given to it and it never joins one chunk's observations to the next's."""
-        pending: list[tuple[np.ndarray, int]] = []
-        target = per_chunk + 1
+        chunks given to it and it never joins one chunk's observations to the next's. The
+        frames are RGB, or grey levels (``to_grey``'s, bit for bit) where :func:`grey_only`:
+        decoding straight to grey makes no RGB copy, and costs several times less."""
         for decoded in iter_video_chunks(view["path"], per_chunk, start=start,
                                          max_frames=count, stride=view["stride"],
-                                         scale=view["resize"]):
-            pending.extend(zip(decoded.frames, decoded.frame_indices.tolist(), strict=True))
-            if len(pending) >= target:
-                group, pending = pending[:target], pending[target:]
-                yield (np.stack([frame for frame, _ in group]),
-                       np.array([index for _, index in group], np.int64))
-                target = per_chunk
-        if pending:
-            yield (np.stack([frame for frame, _ in pending]),
-                   np.array([index for _, index in pending], np.int64))
+                                         scale=view["resize"], grey=grey_only(view),
+                                         first_chunk_size=per_chunk + 1):
+            yield decoded.frames, decoded.frame_indices
 
     def chunks(view, frame_indices, no_person, prepare) -> Iterator[VideoChunk]:
         decoder = groups(view)
         given_masks, scene = view["masks"], view["scene"]
+        decoded_grey = grey_only(view)
         while True:
             tick = time.perf_counter()
             group = next(decoder, None)
             if group is None:
                 return
             rgb, indices = group
+            grey = None
+            if decoded_grey:
+                grey, rgb = rgb, None
+                if window is not None:
+                    grey = cut_window(grey[..., None], view["origin"], window.size)[..., 0]
             frame_indices.append(indices)
             person = None
             if given_masks is not None:
@@ -690,7 +694,7 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
                 if window is not None:  # outside the frame: never the person
                     person = cut_window(person[..., None], view["origin"], window.size,
                                         mode="constant")[..., 0]
-            if window is not None:
+            if window is not None and rgb is not None:
                 rgb = cut_window(rgb, view["origin"], window.size)
             if given_masks is None and view["needs_masks"]:
                 person = np.stack([foreground_mask(image, scene) for image in rgb])
@@ -707,8 +711,7 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
                 if window is not None:
                     points = points - view["origin"]
                 points = (points, given_keypoints[1][indices])
-            grey = None
-            if "grey" in reads:
+            if "grey" in reads and grey is None:
                 # frame by frame: the same values as to_grey(rgb), without its chunk-sized
                 # temporaries (two float copies of the chunk, page faults that cost several
                 # times the arithmetic)
