@@ -7,7 +7,7 @@ The top library layer: it assembles a prior (``jaxtrack.priors.train``), the ren
 Nothing below it imports it.
 """
 
-from jaxtrack.experiments.pipeline import track_video, video_background
+from jaxtrack.experiments.pipeline import ViewRun, Window, track_video, video_background
 from jaxtrack.experiments.protocol import (
     AR_TRAINING_FRAMES,
     BASELINE_DYNAMICS,
@@ -21,5 +21,5 @@ from jaxtrack.experiments.protocol import (
 )
 
 __all__ = ["AR_TRAINING_FRAMES", "BASELINE_DYNAMICS", "DEFAULT_PARTICLES", "METHODS",
-           "TestSequence", "baseline_training_states", "build_tracker", "render_test_sequences",
-           "run_method", "track_video", "video_background"]
+           "TestSequence", "ViewRun", "Window", "baseline_training_states", "build_tracker",
+           "render_test_sequences", "run_method", "track_video", "video_background"]
