@@ -10,8 +10,9 @@ particles' weighted mean (``--skeleton mean``, chosen on validation) or the best
 least ambiguity over ±5 frames (chosen on validation with the weighted mean), of greatest
 fitness over ±5 frames (``--view-selection fitness``), or of greatest fitness × 1/ambiguity
 (``--view-selection paper``, §5.5–5.7). Writes
-``overlay.mp4`` and, last, ``track.json``. The model fixes the tracking scale, so
-``--max-size`` and the latent tracker's options are not used. Why these choices:
+``overlay.mp4``, ``track.json`` and, with calibrated views, ``track.trc`` (the selected
+view's neck-relative 3-D skeleton, OpenSim's and Pose2Sim's format). The model fixes the
+tracking scale, so ``--max-size`` and the latent tracker's options are not used. Why these choices:
 ``docs/linear-combination.md``.
 
 Every argument is checked before any work; a bad one raises :class:`UserError` (one line).
@@ -196,7 +197,26 @@ def track(args: argparse.Namespace) -> int:
           f"view-frames observed; {speeds} ms/frame, compile {compile_seconds:.1f} s); total "
           f"{time.perf_counter() - started:.1f} s")
     print(f"  wrote {record['paths']['overlay']}\n  wrote {record['paths']['json']}")
+    if cameras is not None:
+        print(f"  wrote {_write_trc(record, args.out / 'track.trc', fps_model)}")
     return 0
+
+
+def _write_trc(record: dict, path, fps_model: float):
+    """The selected view's 3-D skeleton of every frame (``skeleton_world_m``: the calibration's
+    world axes, Y up, metres, relative to the neck) as a ``.trc`` file, blank where no view
+    was selected; at the tracked frame rate (the model's where the video states none)."""
+    from jaxtrack.vision import write_trc
+
+    joints = list(record["joints"])
+    skeletons = np.full((len(record["frames"]), len(joints), 3), np.nan)
+    for t, frame in enumerate(record["frames"]):
+        if frame["selected_view"] is not None:
+            world = frame["views"][frame["selected_view"]]["skeleton_world_m"]
+            skeletons[t] = [world[joint] for joint in joints]
+    view = record["views"][0]
+    rate = view["fps"] / view["stride"] if view["fps"] else fps_model
+    return write_trc(path, skeletons, joints, rate, first_frame=record["frames"][0]["frame"] + 1)
 
 
 def _view_selection(args) -> str:

@@ -125,6 +125,15 @@ def test_track_one_calibrated_view_in_video_pixels(folder, model, full_video):
         # a rotation: the same distances from the neck in the world's axes
         np.testing.assert_allclose(np.linalg.norm(world, axis=1),
                                    np.linalg.norm(skeleton, axis=1), atol=2e-4)
+    # the 3-D track as a .trc: the selected view's world skeleton per frame, blank before
+    from jaxtrack.vision import read_trc
+
+    positions, names, _ = read_trc(out / "track.trc")
+    assert list(names) == list(record["joints"]) and len(positions) == len(frames)
+    assert np.isnan(positions[:EMPTY]).all()
+    world = np.array([[frame["views"][0]["skeleton_world_m"][joint]
+                       for joint in record["joints"]] for frame in frames[EMPTY:]])
+    np.testing.assert_allclose(positions[EMPTY:], world, atol=1e-4)
 
 
 def test_track_takes_the_silhouettes_from_masks_the_user_brings(folder, model, full_video):
