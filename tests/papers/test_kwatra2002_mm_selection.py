@@ -45,3 +45,19 @@ def test_the_transition_smoothing_is_what_a_refit_with_that_pseudocount_gives():
     assert changed.log_transition.shape == (NUM_POSTURES, NUM_POSTURES)
     with pytest.raises(ValueError, match="pseudocount must be"):
         with_pseudocount(fitted, description, -1.0)
+
+
+def test_bad_arguments_are_refused_in_one_line(tmp_path, capsys):
+    from papers.kwatra2002.mm_selection import main
+
+    assert main(["test", "--validation-file", str(tmp_path / "none.json"),
+                 "--out", str(tmp_path / "test.json")]) == 2
+    message = capsys.readouterr().err.strip()
+    assert "none.json" in message and len(message.splitlines()) == 1
+    (tmp_path / "unfinished.json").write_text('{"rows": []}')
+    assert main(["test", "--validation-file", str(tmp_path / "unfinished.json"),
+                 "--out", str(tmp_path / "test.json")]) == 2
+    assert "run the validation stage to its end" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["validation", "--out", str(tmp_path / "out.txt")])
+    assert "must end in .json" in capsys.readouterr().err
