@@ -56,9 +56,10 @@ _OTHER_METHODS = {
 _COMMAND_DEFAULTS = {"train": {"views": 5, "iterations": 3}, "evaluate": {"views": 2}}
 
 
-_COMMAND_TAKES = {"evaluate": {"cameras"}}
+_COMMAND_TAKES = {"evaluate": {"cameras"}, "track": {"keypoints"}}
 """Options of :data:`_OTHER_METHODS` a command does take for --method mixed-state
-(``evaluate --cameras``: the test clips also through these Pose2Sim cameras)."""
+(``evaluate --cameras``: the test clips also through these Pose2Sim cameras; ``track
+--keypoints``: the detections as part hypotheses)."""
 
 
 def refuse_other_methods(args: argparse.Namespace, command: str) -> None:

@@ -138,10 +138,15 @@ def track(args: argparse.Namespace) -> int:
     if args.init != "face":
         raise UserError("--init is not used by --method linear-combination (it starts from the "
                         "model's clusters)")
-    for name in ("coverage_weight", "keypoints", "keypoint_weight"):  # refused, not ignored
+    for name in ("coverage_weight", "keypoints", "keypoint_weight", "person", "detector",
+                 "fit_iterations"):  # refused, not ignored
         if getattr(args, name, None) is not None:
             raise UserError(f"--{name.replace('_', '-')} does not apply to --method "
-                            f"linear-combination (it is the latent tracker's likelihood's)")
+                            f"linear-combination (the image trackers take detections)")
+    for name in ("no_fit", "no_image"):
+        if getattr(args, name, False):
+            raise UserError(f"--{name.replace('_', '-')} does not apply to --method "
+                            f"linear-combination (the image trackers take detections)")
     skin = _skin(args.skin)
     start, stop = frame_range(args.frames)
     output_directory(args.out, "--out")  # probed before any frame is read

@@ -189,7 +189,7 @@ def track(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     record_options = options_record(args)
     # --keypoints is the other methods' option that mixed-state reads too (module docstring)
-    refuse_other_methods(argparse.Namespace(**{**vars(args), "keypoints": None}), "track")
+    refuse_other_methods(args, "track")
     _refuse_detection_options(args)
     if len(args.video) != 1:
         raise UserError(f"--video: --method mixed-state tracks one video, got "
