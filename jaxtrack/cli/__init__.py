@@ -1,4 +1,4 @@
-"""Command line: ``jaxtrack demo | render | evaluate | train | track | clips``.
+"""Command line: ``jaxtrack demo | render | evaluate | train | track | triangulate | clips``.
 
 One module per command, each with ``add_parser(subparsers)`` that registers its parser and
 handler; the handlers import their heavy dependencies lazily so ``jaxtrack --help`` stays fast
@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import sys
 
-from jaxtrack.cli import clips, demo, evaluate, render, track, train
+from jaxtrack.cli import clips, demo, evaluate, render, track, train, triangulate
 from jaxtrack.cli._common import ArgumentsError, OneLineParser, UserError
 
 __all__ = ["INTERRUPTED", "UserError", "build_parser", "main"]
@@ -27,7 +27,7 @@ __all__ = ["INTERRUPTED", "UserError", "build_parser", "main"]
 INTERRUPTED = 130
 """The exit status after Ctrl-C (128 + SIGINT, as shells report it)."""
 
-_COMMANDS = (demo, render, evaluate, train, track, clips)
+_COMMANDS = (demo, render, evaluate, train, track, triangulate, clips)
 
 
 def build_parser() -> OneLineParser:

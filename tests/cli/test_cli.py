@@ -6,7 +6,7 @@ import pytest
 
 from jaxtrack.cli import build_parser, main
 
-COMMANDS = ("demo", "render", "evaluate", "train", "track", "clips")
+COMMANDS = ("demo", "render", "evaluate", "train", "track", "triangulate", "clips")
 
 
 def test_each_command_is_served_by_its_own_module():

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from jaxtrack.body import UPPER_BODY_12, project, read_qca
-from jaxtrack.cli import _triangulate as triangulate
+from jaxtrack.cli import triangulate
 from jaxtrack.cli._common import OneLineParser, UserError
 from jaxtrack.vision.trc import read_trc
 
