@@ -115,13 +115,15 @@ def add_parser(subparsers) -> None:
                         "leaves unexplained, NU nats per unit of the coverage term "
                         "(jaxtrack.likelihoods.edges; default off)")
     parser.add_argument("--keypoints", type=Path, default=None, metavar="FILE_OR_FOLDER",
-                        help="latent, condensation, mht: a per-frame detector's keypoints of the "
+                        help="latent, condensation, mht, mixed-state: a per-frame detector's "
+                        "keypoints of the "
                         "video, one row per video frame from the first: a folder of OpenPose "
                         "JSON, a COCO .json, MediaPipe's .npz, jaxtrack's detections .npz, or a "
                         ".npz with one person's 'keypoints' (frames, 12, 2) in SPM_MARKERS "
                         "order (jaxtrack.vision.keypoints); the detection density "
                         "(jaxtrack.likelihoods.detections), fitted on them first, times the "
-                        "image likelihood scores them")
+                        "image likelihood scores them. mixed-state: the confident head, "
+                        "wrists and ankles become part hypotheses beside the silhouette's")
     parser.add_argument("--person", default=None, metavar="x0,y0,x1,y1",
                         help="with --keypoints of several people: the box around the person to "
                         "follow in the first frame with anyone (default: the most confident); "
