@@ -17,20 +17,24 @@ __all__ = ["initialise", "manual_instead", "manual_markers", "manual_numbers", "
 MIN_TORSO_PX = 4.0  # a shorter neck-pelvis distance is no body the tracker can follow
 
 
-def read_keypoints(path: Path, person: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def read_keypoints(path: Path, person: str | None = None, markers: tuple[str, ...] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """``--keypoints FILE_OR_FOLDER``'s keypoints and confidences of one person, one row per
     video frame from the first, or a one-line error naming it.
 
-    A ``.npz`` with ``keypoints`` is one person's already (:mod:`jaxtrack.vision.keypoints`).
-    Any other detections file or folder (OpenPose JSON, COCO, MediaPipe, jaxtrack's own:
-    :func:`jaxtrack.vision.detections.load_detections`) may hold several people per frame: the
-    one inside ``--person x0,y0,x1,y1`` in the first frame with anyone (else the most
-    confident) is followed (:func:`jaxtrack.vision.detections.follow_person`); a file's frame
-    numbers count from its first, which is the video's first frame."""
+    A ``.npz`` with ``keypoints`` is one person's already (:mod:`jaxtrack.vision.keypoints`,
+    the 12 ``UPPER_BODY_12`` markers). Any other detections file or folder (OpenPose JSON,
+    COCO, MediaPipe, jaxtrack's own: :func:`jaxtrack.vision.detections.load_detections`) may
+    hold several people per frame: the one inside ``--person x0,y0,x1,y1`` in the first frame
+    with anyone (else the most confident) is followed
+    (:func:`jaxtrack.vision.detections.follow_person`); a file's frame numbers count from its
+    first, which is the video's first frame. ``markers``: the markers read from such a file,
+    in that order (default ``UPPER_BODY_12``)."""
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.vision.detections import DetectionFileError, follow_person, load_detections
     from jaxtrack.vision.keypoints import KeypointFileError, read_keypoints
 
+    markers = tuple(UPPER_BODY_12 if markers is None else markers)
     box = None if person is None else person_box(person)
     if path.suffix == ".npz" and path.is_file():
         try:
@@ -49,12 +53,12 @@ def read_keypoints(path: Path, person: str | None = None) -> tuple[np.ndarray, n
     if not path.exists():
         raise UserError(f"--keypoints: {path}: no such file or folder")
     try:
-        detections = load_detections(path, markers=UPPER_BODY_12)
+        detections = load_detections(path, markers=markers)
         points, confidence = follow_person(detections, box)
     except (DetectionFileError, ValueError) as error:
         raise UserError(f"--keypoints: {' '.join(str(error).split())}") from None
     rows = detections.frame_ids - detections.frame_ids[0]
-    keypoints = np.full((int(rows[-1]) + 1, len(UPPER_BODY_12), 2), np.nan)
+    keypoints = np.full((int(rows[-1]) + 1, len(markers), 2), np.nan)
     confidences = np.zeros(keypoints.shape[:2])
     keypoints[rows], confidences[rows] = points, confidence
     return keypoints, confidences

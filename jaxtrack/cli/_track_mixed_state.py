@@ -81,42 +81,23 @@ def _read_detections(path: Path, person: str | None
     the first frame with anyone (else the most confident) followed
     (:func:`jaxtrack.vision.detections.follow_person`)."""
     from jaxtrack.body import UPPER_BODY_12
-    from jaxtrack.cli._pose import person_box, read_keypoints
-    from jaxtrack.vision.detections import (
-        DETECTION_MARKERS,
-        DetectionFileError,
-        follow_person,
-        load_detections,
-    )
+    from jaxtrack.cli._pose import read_keypoints
+    from jaxtrack.vision.detections import DETECTION_MARKERS
     from jaxtrack.vision.parts import DETECTION_PART_MARKERS
 
-    single, wanted = False, DETECTION_MARKERS
+    single, markers = False, DETECTION_MARKERS
     if path.suffix == ".npz" and path.is_file():
         try:
             with np.load(path, allow_pickle=False) as archive:
                 single = "keypoints" in archive.files
                 if "markers" in archive.files:  # jaxtrack's own: the markers it holds
-                    wanted = tuple(name for name in DETECTION_MARKERS
-                                   if name in {str(held) for held in archive["markers"]})
+                    markers = tuple(name for name in DETECTION_MARKERS
+                                    if name in {str(held) for held in archive["markers"]})
         except (OSError, ValueError) as error:
             raise UserError(f"--keypoints: {path}: not a readable .npz ({error})") from None
     if single:
-        points, confidence = read_keypoints(path, person)
         markers = tuple(UPPER_BODY_12)
-    else:
-        box = None if person is None else person_box(person)
-        if not path.exists():
-            raise UserError(f"--keypoints: {path}: no such file or folder")
-        try:
-            detections = load_detections(path, markers=wanted or None)
-            found, sure = follow_person(detections, box)
-        except (DetectionFileError, ValueError) as error:
-            raise UserError(f"--keypoints: {' '.join(str(error).split())}") from None
-        markers = detections.markers
-        frame_rows = detections.frame_ids - detections.frame_ids[0]
-        points = np.full((int(frame_rows[-1]) + 1, len(markers), 2), np.nan)
-        confidence = np.zeros(points.shape[:2])
-        points[frame_rows], confidence[frame_rows] = found, sure
+    points, confidence = read_keypoints(path, person, markers or DETECTION_MARKERS)
     if not any(name in markers for names in DETECTION_PART_MARKERS for name in names):
         raise UserError(f"--keypoints: {path} holds none of the head, wrists and ankles "
                         f"(it holds {', '.join(markers)}); the mixed-state tracker takes those")
