@@ -166,8 +166,9 @@ DEFAULTS: tuple[Default, ...] = (
     Default("linear-combination particles", f"{_LC}(engine).num_particles", 300, "paper",
             note="Ong & Gong 2002: up to 300 samples.", group="Particle counts"),
     Default("mixed-state particles (command line)", "jaxtrack.cli._mixed_state:DEFAULT_PARTICLES",
-            500, NONE, note="The evaluation runs use 500 particles (docs/mixed-state.md); no "
-            "choice is recorded.", group="Particle counts"),
+            500, "validation", _MM, "2026-11-29",
+            _MM_NOTE.format(library="13 795", others="250 particles 14 184, 1 000 particles "
+                            "13 437"), group="Particle counts"),
     # ---- latent tracker -----------------------------------------------------------------------
     Default("jump_probability ε", "jaxtrack.trackers.latent:DEFAULT_JUMP_PROBABILITY", 0.05,
             "validation", _EPS_COMMAND, "2026-11-29",
