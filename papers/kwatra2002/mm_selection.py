@@ -4,6 +4,10 @@ library's settings.
 
     python -m papers.kwatra2002.mm_selection validation   # the search (JSON row by row)
     python -m papers.kwatra2002.mm_selection test         # the test clips, once
+    python -m papers.kwatra2002.mm_selection summary      # the README's tables from the JSON
+
+Without ``--cache`` the library's posture model is trained first (the training clips
+rendered from five azimuths) and cached in ``results/``, as the evaluation does.
 
 The full grid of ``python -m papers.kwatra2002.mixed_state_evaluation`` (every posture model ×
 δ × re-detection × switch rule on all validation clips from five azimuths) takes over an hour
