@@ -141,6 +141,8 @@ _GPLVM = ("python -m benchmarks.gplvm --validation")
 _LATENT = "jaxtrack.trackers.latent:latent_tracker"
 _EPS_COMMAND = _swept("latent", jump_probability="VALUE", refine_steps="10", edge_weight="1",
                       edge_tolerance="45")
+_STEPS_COMMAND = _swept("latent", jump_probability="0.05", refine_steps="VALUE", edge_weight="1",
+                        edge_tolerance="45")
 _MHT = "jaxtrack.trackers.mht:mht_tracker"
 _LC = "jaxtrack.trackers.linear_combination:linear_combination_tracker"
 _FITNESS = "jaxtrack.likelihoods.contour_normals:FitnessSettings"
@@ -211,14 +213,16 @@ DEFAULTS: tuple[Default, ...] = (
             "CONDENSATION 14.1 against 13.6 %); the linear-combination tracker replaces it by "
             "its own `iterations` (papers/tian2005/history.md).", "Latent tracker"),
     # ---- refinement ---------------------------------------------------------------------------
-    Default("refinement steps", "jaxtrack.trackers._options:DEFAULT_REFINE_STEPS", 10,
-            "validation", _kept("refine_steps"), "2026-11-26",
-            "Kept against 5 (3.16 ± 1.30 %) and 20 (3.01 ± 1.40 %). " + _KEPT_NOTE
-            + _PROTOCOL_TAKE, "Refinement", first_on_test=True),
-    Default("refinement steps (argument)", "jaxtrack.trackers._options:Refinement(steps)", 10,
-            "validation", _kept("refine_steps"), "2026-11-26",
-            "The same value as DEFAULT_REFINE_STEPS." + _PROTOCOL_TAKE, "Refinement",
-            first_on_test=True),
+    Default("refinement steps", "jaxtrack.trackers._options:DEFAULT_REFINE_STEPS", 3,
+            "validation", _STEPS_COMMAND, "2026-11-29",
+            "Grid {3, 10, 30}, mean ± 95 % half-width (runs lost): 3: 10.4 ± 8.2 % (2/9), "
+            "10: 8.5 ± 6.5 % (1/9), 30: 8.7 ± 6.9 % (1/9); all three tie, so the cheapest, "
+            "though its mean is the highest. " + _SWEEP_NOTE.format(end="fewer steps")
+            + "Before: 10, first tuned on cmu_1006_wave_hello_2 (a test subject's clip).",
+            "Refinement"),
+    Default("refinement steps (argument)", "jaxtrack.trackers._options:Refinement(steps)", 3,
+            "validation", _STEPS_COMMAND, "2026-11-29",
+            "The same value as DEFAULT_REFINE_STEPS.", "Refinement"),
     Default("refinement prior_std", "jaxtrack.trackers._options:Refinement(prior_std)", 40.0,
             NONE, group="Refinement"),
     Default("arm search grid", "jaxtrack.trackers._options:DEFAULT_ARM_GRID", 7, "validation",
@@ -248,10 +252,13 @@ DEFAULTS: tuple[Default, ...] = (
     Default("strip half width", "jaxtrack.likelihoods.limbs:DEFAULT_STRIP_WIDTH", 0.1, NONE,
             group="Likelihood"),
     Default("edge_weight κ", f"{_EDGES}:DEFAULT_EDGE_WEIGHT", 1.0, "validation",
-            _kept("edge_weight"), "2026-11-26",
-            "Kept against 0.5 (3.15 ± 1.24 %) and 2 (5.71 ± 2.19 %). " + _KEPT_NOTE
-            + " First chosen against 0.5 and 2 on the earlier protocol's held-out takes "
-            "(cmu_1006's waves, clips of a test subject).", "Likelihood", first_on_test=True),
+            _swept("latent", jump_probability="0.05", refine_steps="3", edge_weight="VALUE",
+                   edge_tolerance="45"), "2026-11-29",
+            "Grid {0.25, 1, 4}, mean ± 95 % half-width (runs lost): 0.25: 12.4 ± 9.2 % (2/9), "
+            "1: 10.4 ± 8.2 % (2/9), 4: 12.7 ± 5.5 % (2/9); all three tie and neither end is "
+            "simpler, so the lowest mean. " + _SWEEP_NOTE.format(end="lowest mean (no end is "
+            "simpler)") + "First tuned against 0.5 and 2 on cmu_1006's waves (a test subject's "
+            "clips).", "Likelihood"),
     Default("edge_tolerance", f"{_EDGES}:DEFAULT_EDGE_TOLERANCE", 45.0, "validation",
             _kept("edge_tolerance"), "2026-11-26",
             "Kept against 30° (3.22 ± 1.37 %) and 90° (3.61 ± 1.26 %). " + _KEPT_NOTE
@@ -287,15 +294,19 @@ DEFAULTS: tuple[Default, ...] = (
             + "Before: 0.5, first tuned on the bundled wave clip, whose take the record does not "
             "name (fair1_wave_hello, training, or one of cmu_1006's two, test).", "MHT"),
     Default("MHT prior_scale", f"{_MHT}(prior_scale)", 4.0, "validation",
-            _kept_mht("prior_scale"), "2026-11-26",
-            "Kept against 2 and 8 (8: 9.7 ± 4.3 % against 11.1 ± 5.1 %, inside the half-width). "
-            + _KEPT_NOTE + " First chosen on the bundled wave clip, as velocity_weight.", "MHT",
-            first_on_test=True),
+            _swept("mht", edge_weight="1", edge_tolerance="45", velocity_weight="0",
+                   prior_scale="VALUE", prune_below="1"), "2026-11-29",
+            "Grid {1, 4, 16}, MHT's own estimate, mean ± 95 % half-width (runs lost): 1: "
+            "20.2 ± 8.2 % (5/9), 4: 17.1 ± 8.6 % (4/9), 16: 18.4 ± 9.1 % (4/9); neither end is "
+            "simpler, so the lowest mean. " + _SWEEP_NOTE.format(end="lowest mean (no end is "
+            "simpler)") + "First tuned on the bundled wave clip, as velocity_weight.", "MHT"),
     Default("MHT prune_below", f"{_MHT}(prune_below)", 1.0, "validation",
-            _kept_mht("prune_below"), "2026-11-26",
-            "Kept against 0.5 and 2 (2: 9.7 ± 4.4 %, inside the half-width). " + _KEPT_NOTE
-            + " First chosen on the bundled wave clip, as velocity_weight.", "MHT",
-            first_on_test=True),
+            _swept("mht", edge_weight="1", edge_tolerance="45", velocity_weight="0",
+                   prior_scale="4", prune_below="VALUE"), "2026-11-29",
+            "Grid {0.25, 1, 4}, MHT's own estimate, mean ± 95 % half-width (runs lost): 0.25: "
+            "19.6 ± 11.6 % (5/9), 1: 17.1 ± 8.6 % (4/9), 4: 19.0 ± 9.6 % (4/9); neither end is "
+            "simpler, so the lowest mean. " + _SWEEP_NOTE.format(end="lowest mean (no end is "
+            "simpler)") + "First tuned on the bundled wave clip, as velocity_weight.", "MHT"),
     Default("MHT refill_spread", f"{_MHT}(refill_spread)", 2.0, NONE, group="MHT"),
     Default("MHT max_steps", f"{_MHT}(max_steps)", 10, NONE, group="MHT"),
     # ---- linear combinations ------------------------------------------------------------------

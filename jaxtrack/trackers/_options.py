@@ -27,11 +27,12 @@ __all__ = ["DEFAULT_ARM_GRID", "DEFAULT_ARM_MARGIN", "DEFAULT_ARM_MOMENTUM", "DE
            "DEFAULT_REFINE_STEPS", "RESAMPLERS", "ArmSearch", "Engine", "Likelihood", "Refinement",
            "options_record"]
 
-DEFAULT_REFINE_STEPS = 10
-"""Gauss–Newton trial steps per candidate and frame of the refinement (the MHT baseline's
-default). First chosen on the test subject's take (cmu_1006) before the subject splits existed, and
-kept against 5 and 20 on the validation subjects; see ``docs/trackers.md``, "Why the defaults are
-what they are"."""
+DEFAULT_REFINE_STEPS = 3
+"""Gauss–Newton trial steps per candidate and frame of the refinement. Chosen on the validation
+subject over {3, 10, 30}, which tied within their paired 95 % interval, the tie going to the
+cheapest (``python -m papers.tian2005.defaults_sweep``; ``docs/trackers.md``, "Why the defaults
+are what they are"). It was 10 (MHT's ``max_steps`` still is), first tuned on a test subject's
+clip."""
 
 DEFAULT_ARM_GRID = 7
 """Offsets per arm angle of the arm search (7 × 7 upper-arm × forearm angles per arm and
