@@ -66,7 +66,7 @@ from jaxtrack.trackers._particles import (
 )
 from jaxtrack.trackers._refinement import RefinementState, refine, start_refinement
 from jaxtrack.trackers._tracker import FrameEstimate, FrameInChunk, frame_at
-from jaxtrack.vision.observations import images_of
+from jaxtrack.vision.observations import detections_of, images_of
 
 __all__ = ["MHTModel", "MHTState", "MHTTracker", "ModePool", "mht_tracker"]
 
@@ -210,7 +210,11 @@ class MHTModel(eqx.Module):
         # a marker more than half the frame beyond its border) cannot be scored: pixel reads
         # there return clamped, finite values, so it is ruled out here, not by its likelihood
         markers = self._markers(refined)
-        size = jnp.asarray(images_of(frame).shape[-1:-3:-1], dtype)  # (width, height)
+        images = images_of(frame)
+        if images is None:  # detections alone: the frame's size is theirs
+            size = detections_of(frame).image_size.astype(dtype)
+        else:
+            size = jnp.asarray(images.shape[-1:-3:-1], dtype)  # (width, height)
         on_frame = jnp.all((markers >= -0.5 * size) & (markers <= 1.5 * size), axis=(-2, -1))
         scorable = jnp.all(jnp.isfinite(refined), axis=-1) & on_frame
         log_likelihoods = jnp.where(scorable, self._log_likelihoods(refined, frame), -jnp.inf)

@@ -71,6 +71,26 @@ def test_each_tracker_stays_with_its_person_when_the_other_crosses():
         assert _error(estimate[late], passer_by[late]) > 18.0
 
 
+def test_mht_runs_on_the_detections_alone():
+    """MHT without an image: the frame's size, which bounds a runaway mode, comes from the
+    detections (it read the image's shape and failed without one); it stays with its person
+    past the crossing."""
+    from jaxtrack.trackers import mht_tracker
+
+    frames = 16
+    ours = _walker(frames, (100, 90), 3.0)
+    other = _walker(frames, (170, 115), -3.0, scale=3.5, phase=1.0)
+    observations = detection_observations(_detections([ours, other], noise=3.0))
+    condensation = detection_tracker(ours[0], num_particles=8,
+                                     detections=detection_model(joint_scales=np.full(M, 0.05)))
+    tracker = mht_tracker(condensation.template, likelihood=condensation.likelihood,
+                          step_std=condensation.dynamics.noise_std, num_modes=3, max_steps=3)
+    estimate = track(tracker, jr.key(0), observations, ours[0], progress=False).markers
+    late = slice(frames - 4, frames)
+    assert np.all(np.isfinite(estimate))
+    assert _error(estimate[late], ours[late]) < 0.5 * _error(estimate[late], other[late])
+
+
 def _one_line_error(call, *words):
     with pytest.raises(ValueError) as error:
         call()
