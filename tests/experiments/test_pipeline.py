@@ -312,9 +312,9 @@ def test_nothing_half_written_when_the_run_fails(figure_video, tmp_path, monkeyp
     assert list(tmp_path.iterdir()) == []
 
 
-def test_the_video_is_never_decoded_whole(figure_video, tmp_path, monkeypatch):
-    """Frames are read alone (the first) or in chunks of chunk_frames (the first chunk one
-    more: frame 0, the tracker's set-up): never all at once."""
+def _decoded_chunk_sizes(monkeypatch) -> list[int]:
+    """From now on, the size of every chunk decoded (appended to the list returned); reading
+    more than one frame at once with ``read_video`` fails the test."""
     import jaxtrack.vision
 
     sizes, chunks, read = [], jaxtrack.vision.iter_video_chunks, jaxtrack.vision.read_video
@@ -330,6 +330,13 @@ def test_the_video_is_never_decoded_whole(figure_video, tmp_path, monkeypatch):
 
     monkeypatch.setattr(jaxtrack.vision, "iter_video_chunks", counted)
     monkeypatch.setattr(jaxtrack.vision, "read_video", first_only)
+    return sizes
+
+
+def test_the_video_is_never_decoded_whole(figure_video, tmp_path, monkeypatch):
+    """Frames are read alone (the first) or in chunks of chunk_frames (the first chunk one
+    more: frame 0, the tracker's set-up): never all at once."""
+    sizes = _decoded_chunk_sizes(monkeypatch)
     record = track_video(Centroid(), figure_video, tmp_path, key=KEY, chunk_frames=4,
                          progress=False)
     assert sizes and max(sizes) <= 4 + 1 and sum(sizes) >= FRAMES
@@ -465,25 +472,12 @@ def test_several_views_are_tracked_alike_cut_to_the_shortest_and_reported_togeth
         figure_video, tmp_path, monkeypatch):
     """Each view tracked with the same key, cut to the shortest's 6 frames, decoded in
     chunks (never whole, the overlay's frames too), and reported by the hook."""
-    import jaxtrack.vision
     from jaxtrack.experiments.pipeline import Window
     from jaxtrack.vision import read_video, write_frames
 
     frames = read_video(figure_video).frames
     shorter = write_frames(frames[:6, :, ::-1], tmp_path / "mirrored.mp4", 10.0, (400, 200))
-    seen, sizes, chunks = {}, [], jaxtrack.vision.iter_video_chunks
-
-    def counted(*args, **kwargs):
-        for chunk in chunks(*args, **kwargs):
-            sizes.append(chunk.num_frames)
-            yield chunk
-
-    def first_only(*args, **kwargs):
-        assert kwargs.get("max_frames") == 1
-        return read_video(*args, **kwargs)
-
-    monkeypatch.setattr(jaxtrack.vision, "iter_video_chunks", counted)
-    monkeypatch.setattr(jaxtrack.vision, "read_video", first_only)
+    seen, sizes = {}, _decoded_chunk_sizes(monkeypatch)
 
     def report(runs, timings):
         seen["runs"], seen["timings"] = runs, timings
