@@ -63,7 +63,8 @@ class DetectionFit:
 
     Attributes:
         detections: the fitted :class:`~jaxtrack.likelihoods.detections.DetectionModel`.
-        noise_factor: the factor on the dynamics' noise (1 without ``fit_noise``).
+        noise_factor: the factor on the dynamics' noise (1 without ``fit_noise``; with
+            ``fit_noise="per_component"`` the geometric mean of ``noise_factors``).
         log_evidence: ``(iterations,)`` the filter's log-evidence estimate at each iteration.
         seconds: wall time of the iterations (compilation excluded).
         compile_seconds: time to compile one iteration.
@@ -76,6 +77,8 @@ class DetectionFit:
     seconds: float
     compile_seconds: float
     num_particles: int
+    noise_factors: np.ndarray | None = None
+    """With ``fit_noise="per_component"``: the factor on each component of the noise."""
 
 
 def _logit(p):
@@ -96,7 +99,7 @@ def _noise_paths(model, tracker):
 
 def fit_detection_model(tracker, key, observations, initial_pose, *, iterations: int = 40,
                         learning_rate: float = 0.05, num_particles: int | None = None,
-                        fit_noise: bool = True) -> tuple[object, DetectionFit]:
+                        fit_noise: bool | str = True) -> tuple[object, DetectionFit]:
     """Learn the detection density's scales f_k and σ₀, its outlier rate ε and (``fit_noise``)
     a factor on the dynamics' noise for one video, by Adam ascent of the log-evidence of the
     tracker's particle filter (module docstring).
@@ -112,7 +115,9 @@ def fit_detection_model(tracker, key, observations, initial_pose, *, iterations:
         learning_rate: Adam's step in the unconstrained parameters (log f_k, log σ₀,
             logit ε, log factor).
         num_particles: N per filter run; default the tracker's.
-        fit_noise: also learn the dynamics' noise factor.
+        fit_noise: also learn the dynamics' noise factor; ``"per_component"``: one factor
+            per component of the noise (e.g. each of the 25 SPM state's), so that the fit can
+            widen the walk of the fast-moving parts (the forearms) alone.
 
     Returns:
         ``(tracker, fit)``: the tracker with the fitted density (and noise), and a
@@ -130,13 +135,17 @@ def fit_detection_model(tracker, key, observations, initial_pose, *, iterations:
         raise ValueError(f"the {type(tracker).__name__} keeps no particle filter whose "
                          f"log-evidence could be ascended (MHT keeps refined modes): fit with a "
                          f"CONDENSATION or latent tracker and give the fitted density to it")
+    if fit_noise not in (True, False, "per_component"):
+        raise ValueError(f"fit_noise must be True, False or 'per_component', got {fit_noise!r}")
     of_model = of_tracker = None
     if fit_noise:
         of_model, of_tracker = _noise_paths(model, tracker)
     base = model.templates.params
     dtype = base.joint_scales.dtype
+    noise_shape = jnp.shape(of_model(model)) if fit_noise == "per_component" else ()
     start = {"joint_scales": jnp.log(base.joint_scales), "pixel_noise": jnp.log(base.pixel_noise),
-             "outlier_rate": _logit(base.outlier_rate), "noise": jnp.zeros((), dtype)}
+             "outlier_rate": _logit(base.outlier_rate),
+             "noise": jnp.zeros(noise_shape, dtype)}
 
     def density(params) -> DetectionModel:
         return eqx.tree_at(lambda d: (d.joint_scales, d.pixel_noise, d.outlier_rate), base,
@@ -156,13 +165,15 @@ def fit_detection_model(tracker, key, observations, initial_pose, *, iterations:
         iterations=iterations, learning_rate=learning_rate,
         ess_threshold=getattr(engine, "ess_threshold", 1.0))
     fitted = density(result.params)
-    factor = float(jnp.exp(result.params["noise"])) if fit_noise else 1.0
+    factors = np.exp(np.asarray(result.params["noise"], np.float64)) if fit_noise else None
     new = eqx.tree_at(lambda t: t.likelihood, tracker,
                       DetectionLikelihood(fitted, likelihood.image))
     if fit_noise:
-        new = eqx.tree_at(of_tracker, new, of_tracker(tracker) * factor)
+        new = eqx.tree_at(of_tracker, new, of_tracker(tracker) * jnp.asarray(factors, dtype))
+    factor = float(np.exp(np.mean(np.log(factors)))) if fit_noise else 1.0
     return new, DetectionFit(fitted, factor, np.asarray(result.log_evidence), result.seconds,
-                             result.compile_seconds, particles)
+                             result.compile_seconds, particles,
+                             factors if fit_noise == "per_component" else None)
 
 
 def smooth_markers(tracker, key, observations, initial_pose, *, lag: int | None = None,

@@ -496,6 +496,51 @@ def filter_check(setting: Setting, view: str, *, steps=(0.03, 0.1), weight: floa
     return rows
 
 
+NOISE_CHECK_RUNS = ((15, 0.05), (60, 0.1))
+"""``(Adam iterations, step)`` of :func:`noise_check`'s fits: the evaluation's, and a longer,
+larger-stepped fit that takes the log-evidence further."""
+
+
+def noise_check(setting: Setting, view: str, *, runs=NOISE_CHECK_RUNS, particles: int = 500,
+                seed: int = 0) -> list[dict]:
+    """The fitted random-walk filter on one view with one factor on the walk's noise (the
+    default) against one factor per SPM component (``fit_noise="per_component"``, so that the
+    fit may widen the forearms' walk alone), for each ``(iterations, step)`` of ``runs``:
+    rows of the fit's last log-evidence, the filter's error and the largest factors."""
+    import jax.random as jr
+
+    from jaxtrack.experiments.detection_tracking import (
+        detection_tracker,
+        fit_detection_model,
+        initial_pose_of,
+    )
+    from jaxtrack.trackers import track
+    from jaxtrack.trackers._particles import detection_observations
+
+    key_fit, key_track = jr.split(jr.key(seed))
+    observations = detection_observations(_view_detections(setting, view))
+    pose = initial_pose_of(observations.detections)
+    tracker = _with_prior(detection_tracker(pose, num_particles=particles),
+                          next(iter(PRIORS.values())))
+    rows = []
+    for iterations, step in runs:
+        for noise in (True, "per_component"):
+            fitted, fit = fit_detection_model(tracker, key_fit, observations, pose,
+                                              iterations=iterations, learning_rate=step,
+                                              fit_noise=noise)
+            estimate = track(fitted, key_track, observations, pose, progress=False).markers
+            scored = score_2d(estimate, setting.truth_2d[view])
+            factors = np.atleast_1d(fit.noise_factors if fit.noise_factors is not None
+                                    else fit.noise_factor)
+            rows.append({"iterations": iterations, "step": step,
+                         "noise": "per component" if noise == "per_component" else "one",
+                         "log_evidence": float(fit.log_evidence[-1]),
+                         "error_torso": scored["error_torso"],
+                         "within_15": scored["within_15"],
+                         "largest_factors": np.round(np.sort(factors)[::-1][:3], 2).tolist()})
+    return rows
+
+
 def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
              extra_3d: Mapping | None = None, min_confidence: float = MIN_CONFIDENCE) -> dict:
     """Every row scored: ``{"rows_2d": {name: {view: score, "all": mean over views}},
@@ -656,6 +701,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="Adam iterations of each fit (default track_detections')")
     parser.add_argument("--speed-particles", type=int, default=SPEED_PARTICLES,
                         help="N of the timed run (0: none)")
+    parser.add_argument("--noise-check", choices=VIEWS, nargs="+", default=None,
+                        metavar="VIEW",
+                        help="instead: one noise factor against one per SPM component in the "
+                             "fit, on these views (noise_check); prints a table")
     parser.add_argument("--filter-check", choices=VIEWS, default=None,
                         help="instead: the hand-set filter on this view given the reference's "
                              "own markers, then MediaPipe's (filter_check); prints a table")
@@ -677,6 +726,16 @@ def main(argv: list[str] | None = None) -> int:
             setting = load_setting(args.data, args.detections, progress)
     except (FileNotFoundError, DetectorUnavailableError) as error:
         parser.exit(1, f"{parser.prog}: {' '.join(str(error).split())}\n")
+    if args.noise_check is not None:
+        print("| view | iterations | step | noise factors | log-evidence | % torso | "
+              "within 15 % | largest factors |\n|---|---|---|---|---|---|---|---|")
+        for view in args.noise_check:
+            for row in noise_check(setting, view):
+                print(f"| {view} | {row['iterations']} | {row['step']:g} | {row['noise']} | "
+                      f"{row['log_evidence']:.0f} | {_cell(row['error_torso'])} | "
+                      f"{_cell(row['within_15'], digits=0)} | "
+                      f"{', '.join(f'{v:g}' for v in row['largest_factors'])} |", flush=True)
+        return 0
     if args.filter_check is not None:
         print(f"{args.filter_check}: the random-walk filter, hand-set density x16, N = 500")
         print("| input | step | swap probability | error px | % torso | within 15 % | "

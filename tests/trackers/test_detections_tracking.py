@@ -151,6 +151,27 @@ def test_a_fit_recovers_the_detectors_noise_scale():
     assert isinstance(fitted.likelihood, DetectionLikelihood)
 
 
+@pytest.mark.slow  # two fits compile: about 30 s
+def test_a_per_component_noise_fit_learns_one_factor_per_component():
+    """fit_noise="per_component": one factor per SPM component of the walk's noise, applied
+    component by component to the tracker; the scalar fit's record is unchanged in kind; any
+    other value is refused in one line."""
+    ours = _walker(8, (80, 90), 2.0)
+    observations = detection_observations(_detections([ours], noise=3.0))
+    tracker = detection_tracker(ours[0], num_particles=16)
+    fitted, fit = fit_detection_model(tracker, jr.key(1), observations, ours[0], iterations=2,
+                                      learning_rate=0.3, fit_noise="per_component")
+    noise = np.asarray(tracker.dynamics.noise_std)
+    assert fit.noise_factors.shape == noise.shape and len(set(fit.noise_factors)) > 1
+    np.testing.assert_allclose(np.asarray(fitted.dynamics.noise_std),
+                               noise * fit.noise_factors, rtol=1e-5)
+    assert fit.noise_factor == pytest.approx(np.exp(np.mean(np.log(fit.noise_factors))))
+    _, scalar = fit_detection_model(tracker, jr.key(1), observations, ours[0], iterations=2)
+    assert scalar.noise_factors is None and isinstance(scalar.noise_factor, float)
+    _one_line_error(lambda: fit_detection_model(tracker, jr.key(1), observations, ours[0],
+                                                fit_noise="each"), "fit_noise must be")
+
+
 @pytest.mark.slow
 def test_the_smoothers_use_later_frames():
     """Ancestry smoothing and fixed-lag smoothing both run through the engine and give marker
