@@ -84,13 +84,33 @@ def warn_large_output(path: str | os.PathLike, size: float, what: str = "") -> N
               flush=True)
 
 
+_INTERRUPTS = [0]
+"""Ctrl-Cs recorded by :func:`record_interrupt` since :func:`clear_interrupts`."""
+
+
+def record_interrupt() -> None:
+    """Note a Ctrl-C (the command line's SIGINT handler calls this before it raises
+    ``KeyboardInterrupt``): where that exception is swallowed on its way (it can land inside
+    a callback XLA runs, whose exception does not reach the caller), the next file written
+    atomically raises it again, before anything is moved into place."""
+    _INTERRUPTS[0] += 1
+
+
+def clear_interrupts() -> None:
+    """Forget the recorded Ctrl-Cs (a command starts with none)."""
+    _INTERRUPTS[0] = 0
+
+
 def write_atomically(path: str | os.PathLike, write: Callable[[Path], None],
                      suffix: str = ".tmp") -> None:
     """Call ``write(temporary_path)``, then move the result onto ``path``.
 
     On any failure the temporary file is removed and ``path`` is left as it was, so a reader
-    never sees a partially written file.
+    never sees a partially written file. After a recorded Ctrl-C (:func:`record_interrupt`)
+    nothing is written: ``KeyboardInterrupt`` is raised instead.
     """
+    if _INTERRUPTS[0]:
+        raise KeyboardInterrupt
     path = Path(path)
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
                                          suffix=suffix)
@@ -100,6 +120,8 @@ def write_atomically(path: str | os.PathLike, write: Callable[[Path], None],
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes it private; a plain file is not
+        if _INTERRUPTS[0]:  # a Ctrl-C while writing that the writer swallowed
+            raise KeyboardInterrupt
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)

@@ -16,8 +16,11 @@ down that matters.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 
 from jaxtrack.cli import clips, demo, evaluate, render, track, train, triangulate
 from jaxtrack.cli._common import ArgumentsError, OneLineParser, UserError
@@ -50,12 +53,41 @@ def _exit_now(code: int) -> None:
     os._exit(code)
 
 
+def _on_sigint(signum, frame) -> None:
+    """Python's own reaction to Ctrl-C (``KeyboardInterrupt``), recorded first: an exception
+    raised inside a callback XLA runs can be swallowed there, and the record makes the next
+    output written raise it again (``jaxtrack._files.record_interrupt``)."""
+    from jaxtrack import _files
+
+    _files.record_interrupt()
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _recording_interrupts():
+    """:func:`_on_sigint` as the SIGINT handler for the command's duration (main thread only:
+    elsewhere signals cannot be handled), the previous handler and no record left after."""
+    from jaxtrack import _files
+
+    _files.clear_interrupts()
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, _on_sigint)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        _files.clear_interrupts()  # what follows in this process is not the command's
+
+
 def main(argv: list[str] | None = None) -> int:
     command = "jaxtrack"
     try:
         args = build_parser().parse_args(argv)
         command = f"jaxtrack {args.command}"
-        return int(args.handler(args) or 0)
+        with _recording_interrupts():
+            return int(args.handler(args) or 0)
     except ArgumentsError as error:
         print(f"{error.prog}: error: {error}", file=sys.stderr)
         return 2

@@ -85,3 +85,28 @@ def test_ctrl_c_five_times_never_crashes(tmp_path):
         codes.append(process.returncode)
         assert not out.exists()
     assert codes == [INTERRUPTED] * 5
+
+
+def test_a_ctrl_c_swallowed_on_its_way_still_stops_the_command_writing(tmp_path, capsys,
+                                                                      monkeypatch):
+    """A KeyboardInterrupt that something swallows (as a callback XLA runs can) leaves its
+    record: the command's next output is not written, and it ends with 130 and one line."""
+    import jaxtrack.body.sequence
+
+    real = jaxtrack.body.sequence.save_sequence
+
+    def after_a_swallowed_sigint(*args, **kwargs):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.5)  # the handler runs here and raises
+        except KeyboardInterrupt:
+            pass  # swallowed, as inside an XLA callback
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(jaxtrack.body.sequence, "save_sequence", after_a_swallowed_sigint)
+    code = main(["render", "--mocap", str(WAVE_BVH), "--frames", "0:3", "--size", "64x48",
+                 "--out", str(tmp_path / "wave.npz")])
+    assert code == INTERRUPTED
+    error = capsys.readouterr().err
+    assert error.splitlines()[-1] == "jaxtrack render: interrupted" and "Traceback" not in error
+    assert list(tmp_path.iterdir()) == []
