@@ -44,7 +44,9 @@ def test_ctrl_c_while_training_exits_130_in_one_line_leaving_nothing(tmp_path):
         if process.poll() is None:
             process.kill()
     assert process.returncode == INTERRUPTED, (process.returncode, error)
-    assert error == "jaxtrack train: interrupted\n", error
+    # one line for the interruption (a slow machine may have drawn the fit's progress before)
+    assert error.splitlines()[-1] == "jaxtrack train: interrupted", error
+    assert "Traceback" not in error and error.count("interrupted") == 1, error
     assert list(tmp_path.iterdir()) == []
 
 
