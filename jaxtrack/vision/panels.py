@@ -18,8 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack.vision.overlay import METHOD_COLOURS, draw_tracks
-from jaxtrack.vision.video import write_frames
+from jaxtrack.vision.overlay import draw_tracks
 
 __all__ = ["AMBIGUITY_COLOUR", "SELECTED_COLOUR", "SKELETON_REACH", "compose_views",
            "contour_panel", "draw_contour", "skeleton_panel", "write_views_video"]
@@ -237,39 +236,21 @@ def write_views_video(images: Sequence[np.ndarray], contours: Sequence[np.ndarra
     Raises:
         OSError: OpenCV cannot open a writer for the file.
     """
+    # the stream writer draws every frame; here the views' arrays are cut to the shortest view
+    from jaxtrack.vision.overlay_views import write_views_stream
+
     if not images or not len(images) == len(contours) == len(markers) == len(names):
         raise ValueError(f"give one array of images, contours and markers and one name per "
                          f"view, got {len(images)}, {len(contours)}, {len(markers)} and "
                          f"{len(names)}")
     count = min(len(frames) for frames in images)
-    if ambiguity is not None:
-        ambiguity = np.asarray(ambiguity, np.float64)
-        if ambiguity.shape[1:] != (len(images),) or len(ambiguity) < count:
-            raise ValueError(f"ambiguity must be (time, {len(images)}), got {ambiguity.shape}")
-    if skeletons is not None:
-        skeletons = np.asarray(skeletons, np.float64)
-        if skeleton_names is None or skeletons.shape[1:] != (len(skeleton_names), 3) \
-                or len(skeletons) < count:
-            raise ValueError(f"skeletons must be (time >= {count}, joints, 3) with one name per "
-                             f"joint in skeleton_names, got {skeletons.shape} and "
-                             f"{None if skeleton_names is None else len(skeleton_names)} names")
-    finite = np.zeros(0) if ambiguity is None else ambiguity[np.isfinite(ambiguity)]
-    largest = max(float(finite.max(initial=0.0)), 1e-9)
-
-    def frame(t: int) -> np.ndarray:
-        panels = [contour_panel(images[v][t], np.asarray(contours[v][t]),
-                                np.asarray(markers[v][t]), marker_names, name=names[v],
-                                colour=METHOD_COLOURS[v % len(METHOD_COLOURS)],
-                                label=None if labels is None else labels[v][t], zoom=zoom)
-                  for v in range(len(images))]
-        views = compose_views(panels, ambiguity=None if ambiguity is None else ambiguity[t],
-                              full_scale=largest, selected=None if selected is None
-                              else selected[t])
-        if skeletons is None:
-            return views
-        return np.concatenate([views, skeleton_panel(skeletons[t], skeleton_names,
-                                                     height=views.shape[0])], axis=1)
-
-    first = frame(0)
-    frames = (first if t == 0 else frame(t) for t in range(count))
-    return write_frames(frames, path, fps, (first.shape[1], first.shape[0]))
+    cut = lambda values: None if values is None else [  # noqa: E731
+        np.asarray(view)[:count] for view in values]
+    return write_views_stream(
+        zip(*(frames[:count] for frames in images), strict=True), cut(contours), cut(markers),
+        path, fps=fps, names=names, marker_names=marker_names,
+        labels=None if labels is None else [list(texts)[:count] for texts in labels],
+        ambiguity=None if ambiguity is None else np.asarray(ambiguity, np.float64)[:count],
+        selected=None if selected is None else list(selected)[:count], zoom=zoom,
+        skeletons=None if skeletons is None else np.asarray(skeletons, np.float64)[:count],
+        skeleton_names=skeleton_names)
