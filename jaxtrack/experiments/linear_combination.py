@@ -51,8 +51,8 @@ __all__ = ["CAMERA_SCALE", "CROP_SIZE", "DEFAULT_FITNESS", "DEFAULT_SKELETON_EST
            "locate_window", "multi_view", "observe", "pose2sim_cameras",
            "render_hybrid_sequences", "run_method", "aligned_skeleton_error",
            "select_tracked_views", "shown_skeletons", "skeleton_error", "skeleton_estimates",
-           "subject_centre", "to_video_pixels", "track", "track_record", "train",
-           "video_report"]
+           "subject_centre", "to_video_pixels", "track", "track_record", "track_views",
+           "train", "video_report", "views_detections", "views_first_pose"]
 
 CAMERA_SCALE = 1 / 3
 """The Pose2Sim cameras' images (1088 × 1920) are resampled by this factor."""
@@ -939,3 +939,100 @@ def video_report(trained: TrainedLinearCombinations, cameras, tracker, *, model:
         return record, draw
 
     return report
+
+
+def views_detections(keypoints, image_sizes, *, dtype=jnp.float32):
+    """Every view's detections of one person as the tracker over calibrated views reads them.
+
+    Args:
+        keypoints: one ``(points (time, 12, 2), confidence (time, 12))`` per view, in the
+            calibration's pixels and ``UPPER_BODY_12``'s order (NaN or confidence 0 where not
+            found), each view's rows the same frames.
+        image_sizes: one ``(width, height)`` per view.
+
+    Returns:
+        A :class:`jaxtrack.likelihoods.detections.DetectionsFrame` with leaves ``(time, views,
+        1, 12, 2)``, ``(time, views, 1, 12)``, ``(time, views)``, ``(time, views, 2)``; a view
+        with no keypoint found in a frame holds no one there.
+    """
+    from jaxtrack.likelihoods.detections import DetectionsFrame
+
+    if len(keypoints) != len(image_sizes) or not keypoints:
+        raise ValueError(f"give one (points, confidence) and one image size per view, got "
+                         f"{len(keypoints)} and {len(image_sizes)}")
+    frames = {len(points) for points, _ in keypoints}
+    if len(frames) != 1:
+        raise ValueError(f"every view's keypoints must hold the same frames, got "
+                         f"{sorted(frames)} rows")
+    all_points, all_confidence, people = [], [], []
+    for (points, confidence), size in zip(keypoints, image_sizes, strict=True):
+        points = np.asarray(points, np.float64)
+        confidence = np.asarray(confidence, np.float64)
+        if points.shape[1:] != (len(UPPER_BODY_12), 2) or confidence.shape != points.shape[:2]:
+            raise ValueError(f"a view's keypoints must be (time, {len(UPPER_BODY_12)}, 2) with "
+                             f"(time, {len(UPPER_BODY_12)}) confidences, got {points.shape} and "
+                             f"{confidence.shape}")
+        inside = np.all(np.isfinite(points) & (points >= -0.5)
+                        & (points <= np.asarray(size, np.float64) - 0.5), -1)
+        confidence = np.where(inside, np.clip(np.nan_to_num(confidence), 0.0, 1.0), 0.0)
+        all_points.append(np.where(confidence[..., None] > 0, points, 0.0))
+        all_confidence.append(confidence)
+        people.append((confidence > 0).any(-1))
+    count = frames.pop()
+    sizes = np.broadcast_to(np.asarray(image_sizes, np.float64), (count, len(keypoints), 2))
+    return DetectionsFrame(jnp.asarray(np.stack(all_points, 1)[:, :, None], dtype),
+                           jnp.asarray(np.stack(all_confidence, 1)[:, :, None], dtype),
+                           jnp.asarray(np.stack(people, 1), jnp.int32), jnp.asarray(sizes, dtype))
+
+
+def views_first_pose(keypoints, cameras, frame: int = 0) -> np.ndarray:
+    """``(12, 3)`` the skeleton triangulated (weighted DLT) from the views' keypoints of row
+    ``frame``, NaN where a joint is seen in fewer than two views: where the tracker over
+    calibrated views places its first particles."""
+    from jaxtrack.vision.triangulation import triangulate
+
+    points = np.stack([np.asarray(points, np.float64)[frame] for points, _ in keypoints])
+    confidence = np.stack([np.nan_to_num(np.asarray(conf, np.float64)[frame])
+                           for _, conf in keypoints])
+    points = np.where((confidence > 0)[..., None], points, np.nan)
+    return triangulate(points, list(cameras), confidence=confidence)[0]
+
+
+def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles: int = 300,
+                iterations: int = 5, seed: int = 0, constrained: bool = True, up=(0.0, 0.0, 1.0),
+                progress: bool = False, **walks) -> dict:
+    """The linear-combination tracker over calibrated views on their detections
+    (:func:`jaxtrack.trackers.linear_combination.linear_combination_views_tracker`).
+
+    Args:
+        model: the trained model.
+        cameras: one :class:`Camera` per view (their image sizes bound the detections).
+        keypoints: one ``(points (time, 12, 2), confidence (time, 12))`` per view
+            (:func:`views_detections`).
+        walks: ``step``, ``jump_spread``, ``translation_step``, ``yaw_step``, ``scale_step``.
+
+    Returns:
+        ``{"skeleton", "best_skeleton"}`` ``(time, 12, 3)`` world points, ``"markers"``
+        ``(time, views, 12, 2)``, ``"ess"``, ``"scale"``, ``"spread"`` ``(time,)``,
+        ``"seconds_per_frame"``, ``"compile_seconds"``, ``"options"``.
+    """
+    from jaxtrack.trackers import _runner
+    from jaxtrack.trackers.linear_combination import linear_combination_views_tracker
+
+    cameras = list(cameras)
+    observations = views_detections(keypoints, [camera.image_size for camera in cameras])
+    tracker = linear_combination_views_tracker(
+        model, cameras, engine=Engine(particles), iterations=iterations,
+        constrained=constrained, up=up, **walks)
+    result = _runner.track(tracker, jr.PRNGKey(seed), observations,
+                           views_first_pose(keypoints, cameras), progress=progress,
+                           description="linear-combination")
+    estimates = result.estimates
+    return {"skeleton": np.asarray(estimates.skeleton_3d, np.float64),
+            "best_skeleton": np.asarray(estimates.best_skeleton_3d, np.float64),
+            "markers": np.asarray(estimates.markers, np.float64),
+            "ess": np.asarray(estimates.ess, np.float64),
+            "scale": np.asarray(estimates.scale, np.float64),
+            "spread": np.asarray(estimates.skeleton_spread, np.float64),
+            "seconds_per_frame": result.seconds_per_frame,
+            "compile_seconds": result.compile_seconds, "options": result.options}
