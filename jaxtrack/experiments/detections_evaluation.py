@@ -1,7 +1,8 @@
 """A detector's keypoints on the real Pose2Sim videos, scored against the triangulated reference
 as they come and after each smoothing baseline, in 2-D per view and in 3-D from the four views.
 
-    python -m jaxtrack.experiments.detections_evaluation --json OUT.json
+    python -m jaxtrack.experiments.detections_evaluation --iterations 15 \
+        --json papers/results/detections_evaluation.json
 
 The setting (:func:`load_setting`): the Pose2Sim demo (``shared/data/pose2sim_demo_singleperson``,
 four calibrated 60 fps views of a man balancing on a beam, BSD-3), its reference
@@ -50,6 +51,25 @@ the learned-against-hand-set comparison. 3-D: ``dlt of ROW`` triangulates a row'
 :data:`SPEED_PARTICLES` particles, compilation apart. Issue 48's targets are read from the
 scores by :func:`targets` (``"targets"`` in the JSON).
 
+The papers' priors (:data:`PAPER_ROWS`), each on the same detections with the same fit:
+
+- Tian et al. (:func:`latent_estimates`): the latent tracker as ``jaxtrack track --method
+  latent --keypoints --no-image`` builds it (the bundled GPLVM, or ``--latent-model``), fitted
+  and run as the SPM filter is, so that ``latent (Tian 2005)`` against ``condensation random
+  walk`` / ``constant velocity`` differ in the prior (and the smoother rows in nothing else).
+  ``--add latent --json FILE`` runs only these rows and merges them into FILE
+  (:func:`add_rows`), the other rows kept.
+- Ong & Gong: the row ``linear combination (Ong 2002)`` is reserved; its paper's command adds
+  it with :func:`add_rows` (name → view → ``(frames, 12, 2)`` of :attr:`Setting.frame_indices`).
+- Kwatra et al.: not in this table. ``papers/kwatra2002/detections_real_video.py`` scores five
+  parts (the head's top, the wrists and the ankles, hands and feet under their best left/right
+  assignment) as MSE in px² at 640 px and the share within 20 px; here twelve upper-body
+  markers (no ankles, MediaPipe's head point) in torso lengths. Only the wrists are common, so
+  its rows would measure other markers, not another tracker; its own table compares it with
+  MediaPipe's keypoints and their Butterworth filter on its markers.
+
+:func:`beaten_by` names every row that beats a paper's row (``"paper_priors"`` in the JSON).
+
     python -m jaxtrack.experiments.detections_evaluation --filter-check cam01
 
 checks the filter itself (:func:`filter_check`): the hand-set random-walk filter given the
@@ -72,10 +92,11 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DEFAULT_DETECTIONS", "HAND_SET_WEIGHTS", "MIN_CONFIDENCE", "PRIORS", "SPEED_PARTICLES",
-           "VIEWS", "Setting", "baseline_estimates", "detect_views", "evaluate", "filter_check",
+__all__ = ["DEFAULT_DETECTIONS", "HAND_SET_WEIGHTS", "MIN_CONFIDENCE", "PAPER_ROWS", "PRIORS",
+           "RESULTS", "SPEED_PARTICLES", "VIEWS", "Setting", "add_rows", "baseline_estimates",
+           "beaten_by", "detect_views", "evaluate", "filter_check", "latent_estimates",
            "left_right_swaps", "load_setting", "main", "particle_filter_estimates", "score_2d",
-           "score_3d", "table", "targets", "triangulated", "walk_steps"]
+           "score_3d", "score_rows", "table", "targets", "triangulated", "walk_steps"]
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 DEFAULT_DETECTIONS = (Path(__file__).resolve().parents[2] / "tests" / "data" / "detections"
@@ -97,6 +118,17 @@ SPEED_PARTICLES = 1000
 """N at which the filter's time per frame is reported (issue 48's target)."""
 LAG = 5
 """The fixed-lag smoother's lag in frames."""
+RESULTS = (Path(__file__).resolve().parents[2] / "papers" / "results"
+           / "detections_evaluation.json")
+"""Where the committed results live (``--json``'s usual value)."""
+PAPER_ROWS = {"tian2005": "latent (Tian 2005)", "ong2002": "linear combination (Ong 2002)",
+              "kwatra2002": "mixed-state (Kwatra 2002)"}
+"""The row each paper's tracker on these detections is scored under (its smoother rows add
+`` smoother`` / `` lag 5``): Tian et al.'s by :func:`latent_estimates`; Ong & Gong's is added
+by its paper's command through :func:`add_rows`; Kwatra et al.'s is not scored here (module
+docstring, "Kwatra et al.")."""
+TRACKER_PREFIXES = ("condensation", *PAPER_ROWS.values())
+"""Rows that are particle filters on the detections, not baselines."""
 
 
 @dataclass(frozen=True)
@@ -429,6 +461,103 @@ def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
     return rows, notes
 
 
+def _latent_prior(model: Path | None):
+    """The latent tracker's prior: ``model`` or the bundled one ``jaxtrack track --method latent``
+    uses (:func:`jaxtrack.data.models.default_model`)."""
+    from jaxtrack.data.models import default_model
+    from jaxtrack.priors.train import load_prior
+
+    return load_prior(default_model("latent") if model is None else model)
+
+
+def latent_estimates(setting: Setting, *, model: Path | None = None,
+                     particles: int | None = None, iterations: int | None = None,
+                     lag: int = LAG, seed: int = 0, progress=None) -> tuple[dict, dict]:
+    """Tian et al.'s latent tracker (Algorithm 2: CONDENSATION in the GPLVM's latent space,
+    eq. 6's walk, μ(x) of eq. 3 decoded to the markers) on each view's detections alone, built
+    and fitted as :func:`particle_filter_estimates` builds and fits the SPM filter, so that the
+    two differ in the prior only: the same detection density (hand-set start, one noise factor,
+    f_k, σ₀ and ε fitted by the same Adam ascent of the log-evidence from the same key), the
+    same N, the same frame-0 pose, the same filter, smoother and fixed-lag estimates from the
+    same key. The prior is ``jaxtrack track --method latent``'s (the bundled GPLVM, or
+    ``model``), ν rescaled to the videos' frame rate, without the refinement stage (the
+    paper's estimate; the SPM filter has none).
+
+    Returns:
+        ``(rows_2d, notes)`` as :func:`particle_filter_estimates`'s, rows
+        ``PAPER_ROWS["tian2005"]`` (the tracker's estimate: the mean of the best particle's
+        mode), its `` all particles`` (the weighted mean of every particle, the paper's and the
+        SPM filter's estimate, same fit), `` smoother`` and `` lag L``.
+    """
+    import inspect
+
+    import equinox as eqx
+    import jax.random as jr
+
+    from jaxtrack.experiments.detection_tracking import (
+        fit_detection_model,
+        initial_pose_of,
+        smooth_markers,
+        track_detections,
+    )
+    from jaxtrack.likelihoods.detections import detection_model
+    from jaxtrack.trackers import DetectionLikelihood, Engine, latent_tracker, track
+    from jaxtrack.trackers._particles import detection_observations
+
+    defaults = inspect.signature(track_detections).parameters
+    particles = int(particles or defaults["num_particles"].default)
+    iterations = int(iterations or defaults["iterations"].default)
+    learning_rate = float(defaults["learning_rate"].default)
+    prior = _latent_prior(model)
+    key_fit, key_track = jr.split(jr.key(seed))  # the SPM filter's keys
+    name = PAPER_ROWS["tian2005"]
+    rows = {}
+    notes = {"particles": particles, "iterations": iterations, "learning_rate": learning_rate,
+             "lag": lag, "model": str(model) if model is not None else "bundled latent.npz",
+             "model_clips": list(dict(prior.description or {}).get("settings", {})
+                                .get("clips", [])), "refinement": None, "fits": {},
+             "seconds": {}}
+    tracker = latent_tracker(prior.model, prior.template, engine=Engine(particles),
+                             fps=setting.fps, likelihood=DetectionLikelihood(detection_model()),
+                             refinement=None)
+    # the SPM filter's estimate is the weighted mean of every particle; the latent tracker's
+    # default, the mean of the best particle's mode, is a departure from the paper
+    every = latent_tracker(prior.model, prior.template, engine=Engine(particles),
+                           fps=setting.fps, likelihood=DetectionLikelihood(detection_model()),
+                           refinement=None, mode_radius=float("inf"))
+
+    def timed(row, view, run, *args, **options):
+        tick = time.perf_counter()
+        rows.setdefault(row, {})[view] = np.asarray(run(*args, **options), np.float64)
+        notes["seconds"].setdefault(row, {})[view] = time.perf_counter() - tick
+
+    def filtered(fitted, observations, pose):
+        return track(fitted, key_track, observations, pose, progress=False).markers
+
+    for view in setting.views:
+        observations = detection_observations(_view_detections(setting, view))
+        pose = initial_pose_of(observations.detections)
+        fitted, fit = fit_detection_model(tracker, key_fit, observations, pose,
+                                          iterations=iterations, learning_rate=learning_rate)
+        notes["fits"][view] = {
+            "fitted": _density_record(fit.detections),
+            "hand_set": _density_record(tracker.likelihood.detections),
+            "noise_factor": fit.noise_factor, "seconds": fit.seconds,
+            "compile_seconds": fit.compile_seconds,
+            "log_evidence_first": float(fit.log_evidence[0]),
+            "log_evidence_last": float(fit.log_evidence[-1])}
+        timed(name, view, filtered, fitted, observations, pose)
+        timed(f"{name} all particles", view, filtered,
+              eqx.tree_at(lambda t: (t.likelihood, t.latent_std), every,
+                          (fitted.likelihood, fitted.latent_std)), observations, pose)
+        timed(f"{name} smoother", view, smooth_markers, fitted, key_track, observations, pose)
+        timed(f"{name} lag {lag}", view, smooth_markers, fitted, key_track, observations, pose,
+              lag=lag)
+        if progress is not None:
+            progress.update(1)
+    return rows, notes
+
+
 def walk_steps(points, step: float = 0.03) -> dict:
     """How far a ``(frames, 12, 2)`` motion moves per frame in the random walk's own units:
     each frame's SPM state (the template of frame 0, :func:`jaxtrack.body.spm_initial_state`),
@@ -555,17 +684,109 @@ def evaluate(setting: Setting, *, extra_2d: Mapping | None = None,
     rows_3d.update(extra_3d or {})
     swaps = {view: left_right_swaps(rows_2d["raw"][view], setting.truth_2d[view])
              for view in setting.views}
-    scored_2d = {}
-    for name, per_view in rows_2d.items():
-        views = {view: score_2d(per_view[view], setting.truth_2d[view])
-                 for view in setting.views}
-        scored_2d[name] = {**views, "all": _mean_over_views(views)}
-    return {"rows_2d": scored_2d,
-            "rows_3d": {name: score_3d(world, setting.truth_3d)
-                        for name, world in rows_3d.items()},
+    scored_2d, scored_3d = score_rows(setting, rows_2d, rows_3d)
+    return {"rows_2d": scored_2d, "rows_3d": scored_3d,
             "raw_left_right_swaps": swaps, "detector": setting.detector, "notes": notes,
             "frames": [int(i) for i in setting.frame_indices], "fps": setting.fps,
             "min_confidence": min_confidence}
+
+
+def score_rows(setting: Setting, rows_2d: Mapping, rows_3d: Mapping | None = None
+               ) -> tuple[dict, dict]:
+    """Rows' estimates scored: rows_2d name → view → ``(frames, 12, 2)`` into name → ``{view:
+    score_2d, "all": mean over views}``; rows_3d name → ``(frames, 12, 3)`` into name →
+    score_3d."""
+    scored_2d = {}
+    for name, per_view in rows_2d.items():
+        missing = [view for view in setting.views if view not in per_view]
+        if missing:
+            raise ValueError(f"row {name!r} lacks views {missing}")
+        views = {view: score_2d(per_view[view], setting.truth_2d[view])
+                 for view in setting.views}
+        scored_2d[name] = {**views, "all": _mean_over_views(views)}
+    return scored_2d, {name: score_3d(world, setting.truth_3d)
+                       for name, world in (rows_3d or {}).items()}
+
+
+def add_rows(path: Path, setting: Setting, rows_2d: Mapping, *, notes_key: str,
+             notes: Mapping, command: str, triangulate: bool = True) -> dict:
+    """Score more rows (name → view → ``(frames, 12, 2)``) on ``setting`` and merge them into
+    the results already written at ``path`` (rows of the same name replaced, the others
+    kept), with ``dlt of NAME`` for each (``triangulate``), ``notes`` under
+    ``results["notes"][notes_key]``, ``command`` under ``results["commands"][notes_key]``,
+    and the targets and :func:`beaten_by` of the papers' rows recomputed. The file is
+    rewritten atomically. This is how a paper's tracker on these detections (:data:`
+    PAPER_ROWS`) joins the table without the other rows being run again.
+
+    Returns:
+        the merged results.
+
+    Raises:
+        FileNotFoundError: no results at ``path`` (run the evaluation first). ValueError:
+            they were scored on other frames than ``setting``'s.
+    """
+    import json
+
+    from jaxtrack._files import write_json_atomically
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no results to add rows to; run python -m "
+                                f"jaxtrack.experiments.detections_evaluation --json {path} "
+                                f"first")
+    results = json.loads(path.read_text())
+    if results.get("frames") != [int(i) for i in setting.frame_indices]:
+        raise ValueError(f"{path}: its rows were scored on other frames than these detections'; "
+                         f"run the whole evaluation again")
+    extra_3d = ({f"dlt of {name}": triangulated(setting, per_view)
+                 for name, per_view in rows_2d.items()} if triangulate else {})
+    scored_2d, scored_3d = score_rows(setting, rows_2d, extra_3d)
+    results["rows_2d"].update(scored_2d)
+    results["rows_3d"].update(scored_3d)
+    results.setdefault("notes", {})[notes_key] = dict(notes)
+    results.setdefault("commands", {})[notes_key] = command
+    _conclusions(results)
+    write_json_atomically(path, results)
+    return results
+
+
+def _conclusions(results: dict) -> None:
+    """``targets`` of the SPM filter and ``paper_priors``: each paper's row's scores against
+    the SPM filter's with the same fit and the rows that beat it (:func:`beaten_by`)."""
+    rows = results["rows_2d"]
+    if "condensation random walk" in rows:
+        results["targets"] = targets(results)
+    papers = {}
+    for row in PAPER_ROWS.values():
+        if row in rows:
+            papers[row] = {"beaten_by": beaten_by(results, row),
+                           "beaten_by_3d": beaten_by(results, row, three_d=True)}
+    if papers:
+        results["paper_priors"] = papers
+
+
+def beaten_by(results: Mapping, row: str, *, three_d: bool = False) -> dict | list:
+    """Every other row whose error (% of the torso) is lower than ``row``'s: per view and over
+    the views (``"all"``) in 2-D, or (``three_d``) the 3-D rows beating ``dlt of ROW``. The
+    row's own smoother and fixed-lag variants are left out."""
+    if three_d:
+        rows, mine = results["rows_3d"], f"dlt of {row}"
+        if mine not in rows:
+            return []
+        return [name for name, scored in rows.items()
+                if not name.startswith(mine) and scored["error_torso"] is not None
+                and scored["error_torso"] < rows[mine]["error_torso"]]
+    rows = results["rows_2d"]
+    if row not in rows:
+        raise ValueError(f"the results hold no row {row!r}")
+    out = {}
+    for view in rows[row]:
+        mine = rows[row][view]["error_torso"]
+        out[view] = [name for name, scored in rows.items()
+                     if not name.startswith(row) and mine is not None
+                     and scored[view]["error_torso"] is not None
+                     and scored[view]["error_torso"] < mine]
+    return out
 
 
 def triangulated(setting: Setting, per_view: Mapping) -> np.ndarray:
@@ -616,11 +837,12 @@ def targets(results: Mapping, row: str = "condensation random walk") -> dict:
     for view in (*views, "all"):
         mine = rows_2d[row][view]["error_torso"]
         beaten[view] = [name for name, scored in rows_2d.items()
-                        if not name.startswith("condensation") and scored[view]["error_torso"]
+                        if not name.startswith(TRACKER_PREFIXES) and scored[view]["error_torso"]
                         is not None and scored[view]["error_torso"] < mine]
     out["baselines_beating_the_filter"] = beaten
     out["baselines_beating_the_filter_3d"] = [
-        name for name, scored in rows_3d.items() if not name.startswith("dlt of condensation")
+        name for name, scored in rows_3d.items()
+        if not name.startswith(tuple(f"dlt of {prefix}" for prefix in TRACKER_PREFIXES))
         and f"dlt of {row}" in rows_3d
         and scored["error_mm"] < rows_3d[f"dlt of {row}"]["error_mm"]]
     return out
@@ -701,6 +923,13 @@ def main(argv: list[str] | None = None) -> int:
                         help="Adam iterations of each fit (default track_detections')")
     parser.add_argument("--speed-particles", type=int, default=SPEED_PARTICLES,
                         help="N of the timed run (0: none)")
+    parser.add_argument("--add", choices=("latent",), default=None,
+                        help="instead: run only these rows (latent: Tian et al.'s tracker, "
+                             "latent_estimates) and add them to the results already in --json, "
+                             "leaving the other rows as they are")
+    parser.add_argument("--latent-model", type=Path, default=None,
+                        help="the latent tracker's GPLVM prior (default: the bundled one "
+                             "jaxtrack track --method latent uses)")
     parser.add_argument("--noise-check", choices=VIEWS, nargs="+", default=None,
                         metavar="VIEW",
                         help="instead: one noise factor against one per SPM component in the "
@@ -719,6 +948,19 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--speed-particles must be 0 or more, got {args.speed_particles}")
     if args.json is not None and args.json.suffix != ".json":
         parser.error(f"--json {args.json}: give a .json file name")
+    if args.add is not None and (args.json is None or not args.json.is_file()):
+        parser.error(f"--add {args.add}: give --json with the results to add to (run without "
+                     f"--add first)")
+    if args.add is not None and args.no_trackers:
+        parser.error("--add runs a tracker's rows; leave --no-trackers out")
+    if args.latent_model is not None:
+        from jaxtrack.priors.gplvm import GPLVMFormatError
+        from jaxtrack.priors.train import load_prior
+
+        try:
+            load_prior(args.latent_model)
+        except (OSError, GPLVMFormatError, ValueError) as error:
+            parser.error(f"--latent-model {args.latent_model}: {' '.join(str(error).split())}")
     from jaxtrack.vision.mediapipe import DetectorUnavailableError
 
     try:
@@ -752,6 +994,35 @@ def main(argv: list[str] | None = None) -> int:
                   + ", ".join(f"{key} {value:.1f}" for key, value in steps["largest"].items()))
         return 0
     started = time.perf_counter()
+    options = [f"--{name.replace('_', '-')} {getattr(args, name)}"
+               for name in ("particles", "iterations", "latent_model")
+               if getattr(args, name) is not None]
+    options += ["--no-trackers"] if args.no_trackers else []
+    options += [f"--add {args.add}"] if args.add else []
+    command = " ".join(["python -m jaxtrack.experiments.detections_evaluation", *options,
+                        *([f"--json {args.json}"] if args.json else [])])
+    latent = None
+    if not args.no_trackers:
+        with tqdm(total=len(setting.views), desc="latent tracker", file=sys.stderr) as progress:
+            latent = latent_estimates(setting, model=args.latent_model,
+                                      particles=args.particles, iterations=args.iterations,
+                                      progress=progress)
+    if args.add is not None:
+        try:
+            results = add_rows(args.json, setting, latent[0], notes_key="latent",
+                               notes={**latent[1], "seconds_total":
+                                      time.perf_counter() - started}, command=command)
+        except ValueError as error:
+            parser.exit(1, f"{parser.prog}: {' '.join(str(error).split())}\n")
+        print(table({"rows_2d": {name: row for name, row in results["rows_2d"].items()
+                                 if name in latent[0]},
+                     "rows_3d": {f"dlt of {name}": results["rows_3d"][f"dlt of {name}"]
+                                 for name in latent[0]}}))
+        for row, record in results.get("paper_priors", {}).items():
+            print(f"{row} is beaten by: {record['beaten_by']}; in 3-D: "
+                  f"{record['beaten_by_3d']}")
+        print(f"added to {args.json}")
+        return 0
     extra_2d, extra_3d, filters = {}, {}, None
     if not args.no_trackers:
         with tqdm(total=len(setting.views) * len(PRIORS), desc="particle filters",
@@ -759,19 +1030,17 @@ def main(argv: list[str] | None = None) -> int:
             extra_2d, filters = particle_filter_estimates(
                 setting, particles=args.particles, iterations=args.iterations,
                 speed_particles=args.speed_particles or None, progress=progress)
+        extra_2d.update(latent[0])
         extra_3d = {f"dlt of {name}": triangulated(setting, per_view)
                     for name, per_view in extra_2d.items()}
     results = evaluate(setting, extra_2d=extra_2d, extra_3d=extra_3d,
                        min_confidence=args.min_confidence)
     if filters is not None:
         results["notes"]["particle_filters"] = filters
-        results["targets"] = targets(results)
+        results["notes"]["latent"] = latent[1]
+        _conclusions(results)
     results["seconds"] = time.perf_counter() - started
-    options = [f"--{name.replace('_', '-')} {getattr(args, name)}"
-               for name in ("particles", "iterations") if getattr(args, name) is not None]
-    options += ["--no-trackers"] if args.no_trackers else []
-    results["command"] = " ".join(["python -m jaxtrack.experiments.detections_evaluation",
-                                   *options, *([f"--json {args.json}"] if args.json else [])])
+    results["command"] = command
     print(table(results))
     for view, record in setting.detector.items():
         print(f"{view}: MediaPipe {record['version']} {record['ms_per_frame']:.1f} ms/frame "
@@ -781,6 +1050,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{_cell(results['raw_left_right_swaps'][view]['error_torso_undone'])} % torso)")
     for name, record in results.get("targets", {}).items():
         print(f"target {name}: {record}")
+    for row, record in results.get("paper_priors", {}).items():
+        print(f"{row} is beaten by: {record['beaten_by']}; in 3-D: {record['beaten_by_3d']}")
     if args.json is not None:
         write_json_atomically(args.json, results)
         print(f"wrote {args.json}")

@@ -12,16 +12,21 @@ import pytest
 from jaxtrack.body import UPPER_BODY_12, look_at
 from jaxtrack.body._staging import project_numpy
 from jaxtrack.experiments.detections_evaluation import (
+    PAPER_ROWS,
     Setting,
     _hand_set,
     _view_detections,
     _with_prior,
+    add_rows,
+    beaten_by,
     evaluate,
+    latent_estimates,
     left_right_swaps,
     main,
     particle_filter_estimates,
     score_2d,
     score_3d,
+    score_rows,
     table,
     targets,
     triangulated,
@@ -137,6 +142,52 @@ def test_the_targets_are_read_from_the_scores():
         targets(results, "condensation absent")
 
 
+def test_a_papers_rows_are_added_to_written_results_and_what_beats_them_is_named(tmp_path):
+    from jaxtrack._files import write_json_atomically
+    from jaxtrack.vision.smoothing import butterworth_filter
+
+    setting = constructed_setting(6.0)
+    raw = {view: setting.detections[view][0] for view in setting.views}
+    rows_2d, rows_3d = score_rows(setting, {
+        "raw": raw, "butterworth": {view: butterworth_filter(points, 60.0)
+                                    for view, points in raw.items()},
+        "condensation random walk": raw}, {"dlt": triangulated(setting, raw)})
+    results = {"rows_2d": rows_2d, "rows_3d": rows_3d, "notes": {},
+               "frames": [int(i) for i in setting.frame_indices]}
+    path = tmp_path / "results.json"
+    write_json_atomically(path, results)
+    # a "tracker" 30 px off in one view and exact in the others: beaten there by the raw
+    # detections and every smoother, by no one in the others; its own smoother is left out
+    latent = PAPER_ROWS["tian2005"]
+    rows = {latent: {**setting.truth_2d, "v2": setting.truth_2d["v2"] + 30.0},
+            f"{latent} smoother": raw}
+    merged = add_rows(path, setting, rows, notes_key="latent", notes={"particles": 8},
+                      command="the command")
+    written = json.loads(path.read_text())
+    assert set(written["rows_2d"]) == set(results["rows_2d"]) | set(rows)
+    assert written["rows_2d"]["raw"]["all"]["error_px"] == pytest.approx(
+        merged["rows_2d"]["raw"]["all"]["error_px"])
+    assert written["rows_2d"][latent]["v0"]["error_px"] == pytest.approx(0.0, abs=1e-9)
+    assert f"dlt of {latent}" in written["rows_3d"]
+    assert written["notes"]["latent"] == {"particles": 8}
+    assert written["commands"]["latent"] == "the command"
+    beaten = written["paper_priors"][latent]["beaten_by"]
+    assert beaten["v0"] == [] and {"raw", "butterworth",
+                                   "condensation random walk"} <= set(beaten["v2"])
+    assert f"{latent} smoother" not in beaten["v2"]
+    assert beaten == beaten_by(written, latent)
+    # the SPM filter's targets count the paper's row as a tracker, not as a baseline
+    assert latent not in written["targets"]["baselines_beating_the_filter"]["v0"]
+    # rows of other frames, or no results yet, are refused
+    shorter = Setting(setting.views, setting.frame_indices[:-1], setting.fps, setting.truth_2d,
+                      setting.truth_3d, setting.detections, setting.cameras, setting.detector)
+    with pytest.raises(ValueError, match="other frames"):
+        add_rows(path, shorter, rows, notes_key="latent", notes={}, command="")
+    with pytest.raises(FileNotFoundError, match="run python -m"):
+        add_rows(tmp_path / "none.json", setting, rows, notes_key="latent", notes={},
+                 command="")
+
+
 def test_the_particle_filter_inputs():
     setting = constructed_setting(0.0)
     points = setting.detections["v0"][0].copy()
@@ -195,6 +246,28 @@ def test_the_particle_filter_rows_follow_a_constructed_motion():
     assert fit["log_evidence_last"] > fit["log_evidence_first"] - 50.0
 
 
+@pytest.mark.slow
+def test_the_latent_rows_on_a_constructed_view():
+    full = constructed_setting(3.0)
+    setting = Setting(full.views[:1], full.frame_indices[:12], full.fps,
+                      {"v0": full.truth_2d["v0"][:12]}, full.truth_3d[:12],
+                      {"v0": tuple(a[:12] for a in full.detections["v0"])}, full.cameras[:1],
+                      {"v0": {}})
+    from jaxtrack.likelihoods.detections import detection_model
+
+    rows, notes = latent_estimates(setting, particles=32, iterations=2, lag=2)
+    name = PAPER_ROWS["tian2005"]
+    assert set(rows) == {name, f"{name} all particles", f"{name} smoother", f"{name} lag 2"}
+    for per_view in rows.values():
+        assert per_view["v0"].shape == (12, 12, 2) and np.all(np.isfinite(per_view["v0"]))
+    fit = notes["fits"]["v0"]
+    # the same hand-set density as the SPM filter's, fitted from there
+    assert fit["hand_set"]["joint_scales"] == [round(float(v), 4) for v in np.asarray(
+        detection_model().joint_scales)]
+    assert np.isfinite(fit["log_evidence_last"]) and fit["noise_factor"] > 0
+    assert notes["refinement"] is None and all("wave" in clip for clip in notes["model_clips"])
+
+
 def test_bad_arguments_are_refused_in_one_line(capsys):
     with pytest.raises(SystemExit):
         main(["--json", "out.txt"])
@@ -205,6 +278,12 @@ def test_bad_arguments_are_refused_in_one_line(capsys):
     with pytest.raises(SystemExit):
         main(["--min-confidence", "2"])
     assert "--min-confidence must lie in [0, 1]" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--add", "latent"])
+    assert "--add latent: give --json with the results" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--latent-model", "no-such-prior.npz"])
+    assert "--latent-model no-such-prior.npz:" in capsys.readouterr().err
 
 
 @pytest.mark.slow
