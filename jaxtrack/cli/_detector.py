@@ -5,15 +5,29 @@ detection density (:mod:`jaxtrack.likelihoods.detections`) times the image likel
 parameters fitted on the video first (``--no-fit``, ``--fit-iterations``:
 :func:`jaxtrack.experiments.detection_tracking.fit_on_keypoints`).
 
-The detector runs on full frames, decoded so that their longer side is at most ``--max-size``,
-through files (``jaxtrack.vision.mediapipe.detect_pose``, MediaPipe's video mode). With
-``--person``, frames where the full-frame detection is not the person (nobody found, or a
-detection that jumped away from the person's last detected pose, by the gate of
+The detector first runs on full frames, decoded so that their longer side is at most
+``--max-size``, through files (``jaxtrack.vision.mediapipe.detect_pose``, MediaPipe's video
+mode). With ``--person``, frames where the full-frame detection is not the person (nobody
+found, or a detection that jumped away from the person's last detected pose, by the gate of
 :func:`jaxtrack.vision.detections.follow_person`) are detected again on a square region around
-the person's last detected pose (``region_around``; MediaPipe's single-person model then sees
-only the person), frame by frame through one worker (``MediaPipeDetector``). The region is
-guided by the last detection, not by the tracker's own prediction: the detector runs before the
-tracker, so that the video pipeline stays one pass.
+the person's last detected pose (``region_around``), frame by frame through one worker
+(``MediaPipeDetector``). These are the person's detections before tracking
+(``DIR/detections.npz``): the first pose is read from them, and the density is fitted on them.
+
+Tracker-guided detection (``--guided``, the default with ``--person``: a named person is one
+among others, whom the last detection alone can lose to a passer-by; ``--no-guided`` keeps the
+detections above alone; without ``--person`` it is off, a video of one person needing no
+second detector run per frame): the tracking pass then runs the detector again on every frame,
+on the region the tracker's own prediction gives (its last two estimates at constant velocity,
+grown by ``region_around``'s margin), inside the compiled scan, and the density's mixture over
+people weighs that detection beside the one above, the other being a passer-by
+(:mod:`jaxtrack.experiments._guided_detection`). The fit stays on the detections before
+tracking: it needs the whole video's detections before the tracking pass starts, and a fit
+through the guided pass would need that pass twice. ``track.json`` records per frame the
+region, where it came from (``tracker prediction``, or ``full frame`` where the tracker holds
+no estimate) and which detection the track followed, and the detector's time inside the
+tracking pass apart from the tracker's (``timings``: ``guided_detector_wall_seconds``,
+``tracker_seconds_per_frame``).
 """
 
 from __future__ import annotations
@@ -27,7 +41,7 @@ import numpy as np
 from jaxtrack.cli._common import UserError, integer, one_line
 
 __all__ = ["DETECTIONS_FILE", "FIT_ITERATIONS", "FIT_PARTICLES", "add_detection_options",
-           "check_detection_options", "detect_video", "detection_tracker"]
+           "check_detection_options", "detect_video", "detection_tracker", "guided"]
 
 DETECTIONS_FILE = "detections.npz"
 """What ``--detector`` writes into ``--out`` (``jaxtrack.vision.detections.write_detections``;
@@ -55,6 +69,10 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
                         help="latent, condensation, mht: run a pose detector over the video "
                         "first (MediaPipe Pose, in its own venv: make detector), write its "
                         f"detections to DIR/{DETECTIONS_FILE} and track them as --keypoints")
+    parser.add_argument("--guided", action=argparse.BooleanOptionalAction, default=None,
+                        help="with --detector: while tracking, detect again on the region the "
+                        "tracker predicts, and let the detection density choose between that "
+                        "detection and the full frame's (default: on with --person)")
     parser.add_argument("--no-image", action="store_true",
                         help="with detections: score them alone, without the image likelihood "
                         "(--likelihood), so that no video frame is read by the tracker")
@@ -92,6 +110,12 @@ def check_detection_options(args: argparse.Namespace) -> None:
                 raise UserError(f"{option}: --keypoint-weight scores the keypoints by the image "
                                 f"likelihood's keypoint term, which is not fitted; leave one "
                                 f"of them out")
+    if getattr(args, "guided", None) and args.detector is None:
+        raise UserError("--guided: it runs the detector on the region the tracker predicts; "
+                        "give --detector mediapipe")
+    if getattr(args, "guided", None) and args.keypoint_weight is not None:
+        raise UserError("--guided: the detection density chooses between the guided and the "
+                        "full frame's detections; leave --keypoint-weight out")
     python = mediapipe_python()
     if args.detector == "mediapipe" and not python.exists():
         raise UserError(f"--detector mediapipe: no MediaPipe python at {python}; run `make "
@@ -261,4 +285,28 @@ def detection_tracker(args, tracker, keypoints, factors, tracked_size, pose, sta
               f"{record['fit']['log_evidence_final']:.1f}; sigma0 {fitted['pixel_noise']:.2f} "
               f"px, outlier rate {fitted['outlier_rate']:.3f}, noise "
               f"x{fitted['noise_factor']:.2f}", flush=True)
-    return ChunkDetections(tracker, (float(tracked_size[0]), float(tracked_size[1]))), record
+    chunked = ChunkDetections(tracker, (float(tracked_size[0]), float(tracked_size[1])))
+    if not guided(args):
+        record["guided"] = None
+        return chunked, record
+    from jaxtrack.experiments._guided_detection import GuidedDetections, RegionGuide
+    from jaxtrack.vision import mediapipe
+
+    def open_detector():  # on every frame its own region: MediaPipe's static mode
+        return mediapipe.MediaPipeDetector(static=True, worker=mediapipe.WORKER)
+
+    record["guided"] = ("while tracking, the detector also runs on the region the tracker "
+                        "predicts; the density weighs that detection beside the one before "
+                        "tracking (track.json: guided_detection)")
+    return GuidedDetections(chunked, RegionGuide(open_detector)), record
+
+
+def guided(args: argparse.Namespace) -> bool:
+    """Whether the tracking pass runs the detector on the tracker's predicted region:
+    ``--guided``, or by default with ``--detector`` and ``--person`` (module docstring)."""
+    if getattr(args, "detector", None) is None:
+        return False
+    choice = getattr(args, "guided", None)
+    if choice is None:  # --keypoint-weight scores keypoints by the image likelihood instead
+        return args.person is not None and getattr(args, "keypoint_weight", None) is None
+    return bool(choice)

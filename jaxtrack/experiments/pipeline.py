@@ -411,6 +411,41 @@ def _views_frames(views: list[dict], count: int, chunk_frames: int) -> Iterator[
                          f"were tracked")
 
 
+def _track_view(tracker: Tracker, key, view: dict, name: str, pose, per_chunk: int,
+                progress: bool, window: Window | None, chunks, runs: list) -> float:
+    """Track one view (``track_video``'s chunks of it), append its :class:`ViewRun` to
+    ``runs``; returns the seconds the tracking pass took."""
+    frame_indices: list[np.ndarray] = []
+    no_person: list[np.ndarray] = []
+    prepare: list[float] = []  # seconds each chunk took to decode and prepare
+    tick = time.perf_counter()
+    stream = _ahead(chunks(view, frame_indices, no_person, prepare))
+    try:
+        result = track(tracker, key, stream, pose, chunk_size=per_chunk,
+                       progress=progress, description=f"tracking {view['path'].name}")
+    finally:  # on an error too: stop the decoding thread and release the video
+        stream.close()
+    seconds = time.perf_counter() - tick
+    indices = np.concatenate(frame_indices)
+    if result.markers.shape[0] != len(indices):
+        raise RuntimeError(f"the tracker reported {result.markers.shape[0]} frames of "
+                           f"{len(indices)}")
+    nobody = np.concatenate(no_person) if no_person else np.zeros(len(indices), bool)
+    reasons = _reasons(tracker, result.estimates)
+    if reasons is not None:  # the observation says why nobody was seen
+        nobody = nobody | np.array([bool(text) for text in reasons])
+    tracked_size = (tuple(window.size) if window is not None
+                    else tuple(view["scaled_size"]))
+    runs.append(ViewRun(
+        video=view["path"], name=name, result=result, frame_indices=indices,
+        size=tuple(view["size"]), tracked_size=tracked_size, factors=view["factors"],
+        origin=view["origin"], stride=view["stride"], fps=float(view["first"].source_fps),
+        located_from=view["located_from"], masks=view["masks"] is not None,
+        background=view["scene_from"], reasons=reasons, no_person=nobody,
+        first_chunk=len(frame_indices[0]), prepare_seconds=prepare))
+    return seconds
+
+
 def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.PathLike],
                 out_dir: str | os.PathLike, *,
                 key: PRNGKeyArray, initial_pose: Float[ArrayLike, "markers 2"] | None = None,
@@ -515,6 +550,10 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
     if not videos:
         raise ValueError("give at least one video")
     several = len(videos) > 1
+    guided = callable(getattr(tracker, "host_report", None))
+    if guided and (several or window is not None or report is not None):
+        raise ValueError("a tracker that detects on the region it predicts (host_report) "
+                         "tracks one whole video: leave the window, report and other views out")
     if several and report is None:
         raise ValueError(f"{len(videos)} videos (views) are reported by a report=... hook; "
                          f"give one video, or report=")
@@ -726,35 +765,15 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
             yield chunk
 
     runs, tracking_seconds = [], 0.0
-    for view, name in zip(views, names, strict=True):
-        frame_indices: list[np.ndarray] = []
-        no_person: list[np.ndarray] = []
-        prepare: list[float] = []  # seconds each chunk took to decode and prepare
-        tick = time.perf_counter()
-        stream = _ahead(chunks(view, frame_indices, no_person, prepare))
-        try:
-            result = track(tracker, key, stream, pose, chunk_size=per_chunk,
-                           progress=progress, description=f"tracking {view['path'].name}")
-        finally:  # on an error too: stop the decoding thread and release the video
-            stream.close()
-        tracking_seconds += time.perf_counter() - tick
-        indices = np.concatenate(frame_indices)
-        if result.markers.shape[0] != len(indices):
-            raise RuntimeError(f"the tracker reported {result.markers.shape[0]} frames of "
-                               f"{len(indices)}")
-        nobody = np.concatenate(no_person) if no_person else np.zeros(len(indices), bool)
-        reasons = _reasons(tracker, result.estimates)
-        if reasons is not None:  # the observation says why nobody was seen
-            nobody = nobody | np.array([bool(text) for text in reasons])
-        tracked_size = (tuple(window.size) if window is not None
-                        else tuple(view["scaled_size"]))
-        runs.append(ViewRun(
-            video=view["path"], name=name, result=result, frame_indices=indices,
-            size=tuple(view["size"]), tracked_size=tracked_size, factors=view["factors"],
-            origin=view["origin"], stride=view["stride"], fps=float(view["first"].source_fps),
-            located_from=view["located_from"], masks=view["masks"] is not None,
-            background=view["scene_from"], reasons=reasons, no_person=nobody,
-            first_chunk=len(frame_indices[0]), prepare_seconds=prepare))
+    try:
+        for view, name in zip(views, names, strict=True):
+            tracking_seconds += _track_view(
+                tracker, key, view, name, pose, per_chunk, progress, window, chunks, runs)
+        host = tracker.host_report(runs[0].result.markers, views[0]["factors"]) \
+            if guided else None
+    finally:  # the tracker's host side (a detector's process) ends with the run
+        if guided and callable(getattr(tracker, "close", None)):
+            tracker.close()
     if several and len({len(run.frame_indices) for run in runs}) != 1:
         raise RuntimeError("the views were tracked over different numbers of frames")
     run = runs[0]
@@ -768,6 +787,13 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
         "observe_seconds": sum(r.result.observe_seconds for r in runs),
         "decode_and_prepare_seconds": sum(sum(r.prepare_seconds) for r in runs),
         "tracking_pass_seconds": tracking_seconds, "detector_seconds": detector_seconds})
+    if host is not None:  # the detector's time inside the tracking pass, apart from the tracker's
+        inside = host["wall_seconds"]
+        timings.update({
+            "guided_detector_seconds": host["record"]["detector_seconds"],
+            "guided_detector_wall_seconds": inside,
+            "tracker_seconds_per_frame": max(
+                0.0, result.seconds_per_frame - inside / max(count - 1, 1))})
 
     created = []  # the folders made here, removed again (when empty) on failure
     missing = out_dir
@@ -786,7 +812,7 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
             record = _single_record(
                 tracker, run, views[0], smooth, annotate, marker_names, method, reads, seed,
                 given_keypoints is not None, pose, window, timings, fps,
-                extra_keys=bool(window is not None or run.stride != 1))
+                extra_keys=bool(window is not None or run.stride != 1), host=host)
             out_dir.mkdir(parents=True, exist_ok=True)
             tick = time.perf_counter()
             markers, names_, labels = record.pop("_overlay")
@@ -849,7 +875,7 @@ def _write_strided_overlay(video: Path, start: int, stride: int, count: int, tra
 
 def _single_record(tracker, run: ViewRun, view: dict, smooth, annotate, marker_names, method,
                    reads, seed, keypoints_given: bool, pose, window, timings, fps, *,
-                   extra_keys: bool) -> dict:
+                   extra_keys: bool, host: dict | None = None) -> dict:
     """``track.json``'s record of one video tracked (the module docstring), with the
     overlay's ``(markers in video pixels, marker names, labels)`` under ``"_overlay"``."""
     result, indices, factors, origin = run.result, run.frame_indices, run.factors, run.origin
@@ -905,6 +931,8 @@ def _single_record(tracker, run: ViewRun, view: dict, smooth, annotate, marker_n
                  "degenerate": bool(result.degenerate[t])}
         if smoothed is not None:
             entry["filtered_markers"] = _named(to_video(result.markers[t]), names)
+        if host is not None:
+            entry["guided_detection"] = host["frames"][t]
         if annotate is not None:
             entry.update(annotations[t])
             per_frame.append(entry)
@@ -933,6 +961,8 @@ def _single_record(tracker, run: ViewRun, view: dict, smooth, annotate, marker_n
         "marker_names": list(names), "statuses": status_legend(), "lost_rule": LOST_RULE,
         "status_counts": status_counts(statuses), "timings": timings,
         "frames": per_frame}
+    if host is not None:
+        record["guided_detection"] = host["record"]
     if extra_keys:
         record["stride"] = run.stride
         record["window"] = None if window is None else {
