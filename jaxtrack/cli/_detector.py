@@ -213,8 +213,16 @@ def _guided(frames, points, confidence, box, factors):
     corners = scaled.reshape(2, 2)
     size = (frames.shape[2], frames.shape[1])
     smallest = MIN_SIZE * float(np.hypot(*size))
-    own = _box_of(points[0])
-    last = points[0] if own is not None and _overlap(scaled, own) > 0 else None
+    # the box given is around the person already: detected on it grown by a tenth (a square
+    # around it, region_around's, would take in whoever stands beside them)
+    grown = np.clip(scaled + 0.1 * np.r_[-1, -1, 1, 1] * np.tile(np.ptp(corners, 0), 2), 0,
+                    np.tile(size, 2))
+
+    def inside(found) -> bool:  # a detection (12, 2) of the person in the box given
+        own = _box_of(found)
+        return own is not None and _overlap(scaled, own + [-1, -1, 1, 1]) >= 0.5
+
+    last = points[0] if inside(points[0]) else None
     redone, seconds, wall = [], 0.0, 0.0
     detector = None
     try:
@@ -224,14 +232,14 @@ def _guided(frames, points, confidence, box, factors):
                 continue
             if detector is None:
                 detector = mediapipe.MediaPipeDetector(static=True, worker=mediapipe.WORKER)
-            region = mediapipe.region_around(corners if last is None else last, size)
+            region = grown if last is None else mediapipe.region_around(last, size)
             found = detector.detect(frames[t], region)
             seconds, wall = seconds + float(found["seconds"]), wall + found["wall_seconds"]
             again = {key: np.asarray(found[key])[None] for key in ("landmarks", "visibility")}
             again["found"] = np.array([bool(found["found"])])
             new_points, new_confidence = _landmarks(again)
-            if not _not_the_person(new_points[0], last, smallest) or (last is None and
-                                                            np.isfinite(new_points[0]).any()):
+            if (inside(new_points[0]) if last is None
+                    else not _not_the_person(new_points[0], last, smallest)):
                 points[t], confidence[t] = new_points[0], new_confidence[0]
                 last = np.where(np.isfinite(points[t]), points[t], last if last is not None
                                 else points[t])

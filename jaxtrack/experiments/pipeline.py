@@ -469,7 +469,12 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
 
     Args:
         tracker: any :class:`jaxtrack.trackers.Tracker`; what it reads (``tracker.reads``) is
-            prepared for it.
+            prepared for it. One that runs a detector inside its update, on the region it
+            predicts (``jaxtrack.experiments._guided_detection``), has ``host_report(markers,
+            factors)``: its per-frame and total record join ``track.json``
+            (``guided_detection``), the detector's time inside the tracking pass is reported
+            apart from the tracker's (``guided_detector_wall_seconds``,
+            ``tracker_seconds_per_frame``), and its ``close()`` is called when the run ends.
         video: the video file, or one per view (then ``report`` is needed).
         out_dir: the output folder (created if missing, probed before a frame is read).
         key: PRNG key of the tracking (the same for every view: views differ by what they see,

@@ -80,6 +80,8 @@ def test_without_the_detectors_venv_it_is_one_line_naming_make_detector(tmp_path
     (["--no-image"], "--no-image: it reads a detector's keypoints"),
     (["--keypoints", "k.npz", "--detector", "mediapipe"], "not both"),
     (["--keypoints", "k.npz", "--keypoint-weight", "2", "--no-fit"], "not fitted"),
+    (["--guided"], "--guided: it runs the detector on the region the tracker predicts"),
+    (["--keypoints", "k.npz", "--guided"], "give --detector mediapipe"),
 ])
 def test_detection_options_without_detections_are_one_line(tmp_path, capsys, extra, message):
     code = main(["track", "--method", "condensation", "--video", str(VIDEO), "--out",
@@ -154,3 +156,47 @@ def test_one_persons_keypoints_become_the_densitys_frames_outside_and_missing_le
     assert frames.confidence[0, 0, 2] == 0 and frames.confidence[1, 0, 3] == 0
     assert frames.confidence[0, 0, 1] == pytest.approx(0.8)
     assert np.isfinite(frames.points).all() and frames.image_size.tolist() == [[80, 60]] * 3
+
+
+def test_guided_detection_is_on_with_a_named_person_unless_refused():
+    from jaxtrack.cli._detector import guided
+
+    def args(**given):
+        values = {"detector": "mediapipe", "person": None, "guided": None,
+                  "keypoint_weight": None}
+        return argparse.Namespace(**{**values, **given})
+
+    assert guided(args(person="1,2,3,4")) and not guided(args())
+    assert not guided(args(person="1,2,3,4", guided=False)) and guided(args(guided=True))
+    assert not guided(args(person="1,2,3,4", detector=None))
+    # --keypoint-weight scores the keypoints by the image likelihood: no mixture to choose
+    assert not guided(args(person="1,2,3,4", keypoint_weight=1.5))
+
+
+@pytest.mark.slow  # a tracker's compile and the detector's process, on 8 frames
+def test_the_command_tracks_with_tracker_guided_detection(tmp_path, monkeypatch, capsys):
+    """``--detector mediapipe --person`` on the crossing of ``tests/experiments/
+    test_guided_detection.py`` (the stand-in detector finds the largest person): track.json
+    records every frame's region, where it came from, and the detector's time apart."""
+    sys.path.insert(0, str(Path(__file__).parents[1] / "experiments"))
+    from test_guided_detection import _boxes, _crossing_video
+
+    monkeypatch.setenv("JAXTRACK_MEDIAPIPE_PYTHON", sys.executable)
+    monkeypatch.setenv("FAKE_DETECTOR", "largest")
+    monkeypatch.setattr(mediapipe, "WORKER", FAKE)
+    video = _crossing_video(tmp_path / "crossing.mp4")
+    x0, y0, x1, y1 = _boxes(0)[0]
+    out = tmp_path / "out"
+    code = main(["track", "--method", "condensation", "--video", str(video), "--out", str(out),
+                 "--frames", "0:8", "--particles", "32", "--no-fit", "--no-image",
+                 "--detector", "mediapipe", "--person", f"{x0},{y0},{x1},{y1}"])
+    assert code == 0, capsys.readouterr().err
+    record = json.loads((out / "track.json").read_text())
+    frames = [entry["guided_detection"] for entry in record["frames"]]
+    assert frames[0] is None and len(frames) == 8
+    assert {frame["region_from"] for frame in frames[1:]} == {"tracker prediction"}
+    assert record["guided_detection"]["frames_detected"] == 7
+    assert record["detections"]["guided"] and record["tracker"]["guided_detection"]
+    timings = record["timings"]
+    assert timings["guided_detector_wall_seconds"] > 0
+    assert timings["tracker_seconds_per_frame"] < timings["seconds_per_frame"]
