@@ -988,14 +988,48 @@ def views_detections(keypoints, image_sizes, *, dtype=jnp.float32):
 def views_first_pose(keypoints, cameras, frame: int = 0) -> np.ndarray:
     """``(12, 3)`` the skeleton triangulated (weighted DLT) from the views' keypoints of row
     ``frame``, NaN where a joint is seen in fewer than two views: where the tracker over
-    calibrated views places its first particles."""
+    calibrated views places its first particles.
+
+    A detector that swapped a person's left and right in one view pulls every lateral joint
+    off, so each view's labels are taken as given or exchanged, whichever set of exchanges
+    (fewest first; never all views, which only mirrors the skeleton) reprojects with the least
+    confidence-weighted error.
+    """
+    from itertools import product
+
+    from jaxtrack.body.camera import project
+    from jaxtrack.likelihoods.detections import swap_order
     from jaxtrack.vision.triangulation import triangulate
 
+    cameras = list(cameras)
     points = np.stack([np.asarray(points, np.float64)[frame] for points, _ in keypoints])
     confidence = np.stack([np.nan_to_num(np.asarray(conf, np.float64)[frame])
                            for _, conf in keypoints])
     points = np.where((confidence > 0)[..., None], points, np.nan)
-    return triangulate(points, list(cameras), confidence=confidence)[0]
+    mirror = list(swap_order(UPPER_BODY_12))
+    best, best_cost = None, np.inf
+    flips = sorted(product((False, True), repeat=len(cameras)), key=sum)
+    for flip in flips:
+        if 0 < len(cameras) == sum(flip) or (best is not None and sum(flip) > len(cameras) / 2):
+            continue
+        labelled = np.stack([view[mirror] if exchange else view
+                             for view, exchange in zip(points, flip, strict=True)])
+        weights = np.stack([view[mirror] if exchange else view
+                            for view, exchange in zip(confidence, flip, strict=True)])
+        world, _ = triangulate(labelled, cameras, confidence=weights)
+        seen = np.all(np.isfinite(world), -1)
+        if not seen.any():
+            continue
+        cost = 0.0
+        for view, camera in enumerate(cameras):
+            pixels = np.asarray(project(camera, np.where(seen[:, None], world, 0.0)))
+            error = np.linalg.norm(pixels - labelled[view], axis=-1)
+            cost += np.nansum(np.where(seen, weights[view] * error, 0.0))
+        if cost < best_cost - 1e-9:
+            best, best_cost = world, cost
+    if best is None:
+        best, _ = triangulate(points, cameras, confidence=confidence)
+    return best
 
 
 def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles: int = 300,

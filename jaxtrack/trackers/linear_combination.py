@@ -638,17 +638,23 @@ class ViewsSSM(smc.StateSpaceModel):
     constrained: bool = eqx.field(static=True, default=True)
 
     def init(self, key: PRNGKeyArray) -> dict:
-        """A shape from the model (:func:`initial_particle`), turned about the up axis and
-        sized to fit the anchor (weighted least squares), then spread by 0.3 rad, 10 % and
-        5 cm so that the first frame's cycles can correct the fit."""
-        key_shape, key_yaw, key_scale, key_translation = jr.split(key, 4)
+        """A shape from the model (:func:`initial_particle`), turned about the up axis to fit
+        the anchor or, for half the particles, its mirror, and sized to fit its midline
+        (weighted least squares), then spread by 0.3 rad, 10 % and 5 cm so that the first
+        frame's cycles can correct the fit."""
+        key_shape, key_yaw, key_scale, key_translation, key_side = jr.split(key, 5)
         particle = initial_particle(self.model, key_shape, self.constrained)
         dtype = particle["coefficients"].dtype
         shape = world_skeleton(self.model, self.reference_rotation, self.up,
                                {**particle, "yaw": jnp.zeros((), dtype),
                                 "scale": jnp.ones((), dtype),
                                 "translation": jnp.zeros(3, dtype)})
-        target, weights = self.anchor.skeleton, self.anchor.weights
+        # half the particles fit the anchor with its left and right exchanged: a view whose
+        # detector swapped them pulls the triangulation, and the density may explain either
+        mirrored = jr.bernoulli(key_side)
+        order = jnp.where(mirrored, jnp.asarray(self.detection.swap),
+                          jnp.arange(len(self.detection.swap)))
+        target, weights = self.anchor.skeleton[order], self.anchor.weights[order]
         flat = lambda points: points - (points @ self.up)[:, None] * self.up  # noqa: E731
         source, aim = flat(shape), flat(target)
         # the turn about up that best lays the shape's horizontal part on the anchor's
@@ -656,6 +662,9 @@ class ViewsSSM(smc.StateSpaceModel):
         cosine = jnp.sum(weights * jnp.sum(source * aim, -1))
         yaw = jnp.arctan2(sine, cosine)
         turned = _turn(shape, self.up, yaw)
+        # the size from the midline (its own mirror), which a left/right swap leaves in place
+        swap = jnp.asarray(self.detection.swap)
+        weights = weights * (swap == jnp.arange(len(swap)))
         size = (jnp.sum(weights * jnp.sum(turned * target, -1))
                 / jnp.maximum(jnp.sum(weights * jnp.sum(turned ** 2, -1)), 1e-12))
         size = jnp.where(jnp.sum(weights) > 0, jnp.clip(size, 0.5, 2.0), 1.0)
@@ -684,9 +693,24 @@ class ViewsSSM(smc.StateSpaceModel):
 
     def log_likelihood(self, particle: dict, observation: DetectionsFrame) -> Float[Array, ""]:
         # the views' detections are independent given the 3-D skeleton: a product of densities
-        densities = jax.vmap(log_density, in_axes=(0, 0, None))(
-            self.markers(particle), observation, self.detection)
+        densities = jax.vmap(self._view_log_density)(self.markers(particle), observation)
         return jnp.sum(densities)
+
+    def _view_log_density(self, markers: Float[Array, "joints 2"], frame: DetectionsFrame
+                          ) -> Float[Array, ""]:
+        """One view's detection density, its spread sized by the detected person's torso
+        (first person, where its neck and pelvis were found) instead of the hypothesis's: with
+        the size free, σ ∝ the hypothesis's size would favour small skeletons (−2 log σ per
+        keypoint), pulling a 3-D size away from what the views show."""
+        neck, pelvis = self.detection.spine
+        present = (frame.confidence[0, neck] > 0) & (frame.confidence[0, pelvis] > 0)
+        detected = jnp.linalg.norm(frame.points[0, neck] - frame.points[0, pelvis])
+        hypothesis = jnp.linalg.norm(markers[neck] - markers[pelvis])
+        ratio = jnp.where(present & (detected > 0) & (hypothesis > 0),
+                          detected / jnp.where(hypothesis > 0, hypothesis, 1.0), 1.0)
+        params = eqx.tree_at(lambda model: model.joint_scales, self.detection,
+                             self.detection.joint_scales * ratio)
+        return log_density(markers, frame, params)
 
 
 class ViewsEstimate(FrameEstimate):

@@ -278,11 +278,11 @@ CALIBRATION = str(data_path("pose2sim/Calib.qca.txt"))
     (["track", "--model", "{model}", "--video", "{inputs}/none.mp4"],
      "--video {inputs}/none.mp4: no such file"),
     (["track", "--model", "{model}", "--video", "{crop}", "--keypoints", "{model}"],
-     "--keypoints does not apply to --method linear-combination"),
+     "--calibration is required with --keypoints for --method linear-combination"),
     (["track", "--model", "{model}", "--video", "{crop}", "--detector", "mediapipe"],
      "--detector does not apply to --method linear-combination"),
     (["track", "--model", "{model}", "--video", "{crop}", "--no-fit"],
-     "--no-fit does not apply to --method linear-combination"),
+     "--no-fit applies to --method linear-combination only with --keypoints"),
     (["track", "--model", "{model}", "--video", "{crop}", "--coverage-weight", "5"],
      "--coverage-weight does not apply to --method linear-combination"),
     (["track", "--model", "{model}", "--video", "{crop}", "--masks", "{inputs}/short.npz",
@@ -379,3 +379,106 @@ def test_each_frame_not_observed_carries_its_reason_code():
     assert reason_codes(status).tolist() == [2, 2]
     assert reason_codes(["", "no skin blobs: the skin pixels form fewer than three blobs"]
                         ).tolist() == [0, 4]
+
+
+# ---- --keypoints: the calibrated views scored by their detections ----------------------------
+
+KEYPOINT_VIDEO = (68, 120)  # a Pose2Sim camera's 1088 x 1920 image at 1/16
+
+
+@pytest.fixture(scope="module")
+def keypoint_views(tmp_path_factory):
+    """Two Pose2Sim views of a skeleton the bundled model holds: 3-frame videos (blank: the
+    tracker reads only their size and rate) and each view's exact projections as keypoints."""
+    import jax.numpy as jnp
+
+    from jaxtrack.body import read_qca
+    from jaxtrack.body.camera import project
+    from jaxtrack.data.models import default_model
+    from jaxtrack.trackers.linear_combination import world_skeleton
+    from jaxtrack.vision.keypoints import write_keypoints
+
+    folder = tmp_path_factory.mktemp("keypoint_views")
+    model = lc.load(default_model("linear-combination")).model.astype(jnp.float32)
+    cameras = read_qca(CALIBRATION)[:2]
+    shape = model.constrain(model.training_coefficients[100], model.training_clusters[100])
+    truth = np.asarray(world_skeleton(
+        model, jnp.asarray(cameras[0].rotation, jnp.float32), jnp.asarray([0.0, 0.0, 1.0]),
+        {"coefficients": shape, "yaw": jnp.asarray(0.7), "scale": jnp.asarray(1.3),
+         "translation": jnp.asarray([0.4, 0.9, 1.2])}), np.float64)
+    videos, keypoints = [], []
+    for camera in cameras:
+        pixels = np.asarray(project(camera, jnp.asarray(truth)), np.float64) / 16
+        videos.append(folder / f"{camera.name}.mp4")
+        write_frames(np.zeros((3, KEYPOINT_VIDEO[1], KEYPOINT_VIDEO[0], 3), np.uint8), videos[-1],
+                     60.0, KEYPOINT_VIDEO)
+        keypoints.append(folder / "keypoints" / f"{camera.name}.npz")
+        keypoints[-1].parent.mkdir(exist_ok=True)
+        write_keypoints(keypoints[-1], np.repeat(pixels[None], 3, 0))
+    return {"videos": videos,
+            "folder": folder / "keypoints", "files": keypoints, "truth": truth}
+
+
+def _one_line_refusal(arguments, out, capsys):
+    code = main(["track", "--method", "linear-combination", *map(str, arguments),
+                 "--out", str(out)])
+    error = capsys.readouterr().err
+    assert code == 2 and error.count("\n") == 1, error
+    assert not out.exists()
+    return error
+
+
+def test_keypoints_refused_in_one_line(keypoint_views, tmp_path, capsys):
+    from jaxtrack.vision.keypoints import write_keypoints
+
+    videos, folder = keypoint_views["videos"], keypoint_views["folder"]
+    views = ["--video", *videos, "--calibration", CALIBRATION, "--cameras", "0", "1"]
+    out = tmp_path / "out"
+    # a folder without the second camera's keypoints
+    lacking = tmp_path / "lacking"
+    lacking.mkdir()
+    (lacking / "cam01.npz").write_bytes(keypoint_views["files"][0].read_bytes())
+    error = _one_line_refusal([*views, "--keypoints", lacking], out, capsys)
+    assert f"--keypoints {lacking}: no keypoints of camera cam02 there" in error
+    # a damaged keypoint file
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    (damaged / "cam01.npz").write_bytes(keypoint_views["files"][0].read_bytes())
+    (damaged / "cam02.npz").write_bytes(keypoint_views["files"][1].read_bytes()[:40])
+    error = _one_line_refusal([*views, "--keypoints", damaged], out, capsys)
+    assert "--keypoints: " in error and "cam02.npz" in error
+    # the first frame's neck seen by one view only
+    blind = tmp_path / "blind"
+    blind.mkdir()
+    (blind / "cam01.npz").write_bytes(keypoint_views["files"][0].read_bytes())
+    write_keypoints(blind / "cam02.npz", np.full((3, 12, 2), np.nan), np.zeros((3, 12)))
+    error = _one_line_refusal([*views, "--keypoints", blind], out, capsys)
+    assert "the neck is found in fewer than 2 views" in error
+    # no calibration, and an option of the video tracker
+    error = _one_line_refusal(["--video", *videos, "--keypoints", folder], out, capsys)
+    assert "--calibration is required with --keypoints" in error
+    error = _one_line_refusal([*views, "--keypoints", folder, "--skin", "1,2,3"], out, capsys)
+    assert "--skin does not apply to --method linear-combination with --keypoints" in error
+
+
+@pytest.mark.slow
+def test_keypoints_of_two_views_give_the_skeleton_in_track_json_and_trc(keypoint_views,
+                                                                         tmp_path):
+    from jaxtrack.evaluation.reference import read_trc
+
+    out = tmp_path / "out"
+    code = main(["track", "--method", "linear-combination", "--video",
+                 *map(str, keypoint_views["videos"]), "--calibration", CALIBRATION,
+                 "--cameras", "0", "1", "--keypoints", str(keypoint_views["folder"]),
+                 "--particles", "100", "--out", str(out)])
+    assert code == 0
+    record = _strict_json(out / "track.json")
+    truth = keypoint_views["truth"]
+    joints = record["joints"]
+    assert [frame["frame"] for frame in record["frames"]] == [0, 1, 2]
+    world = np.array([[frame["skeleton_world_m"][joint] for joint in joints]
+                      for frame in record["frames"]])
+    assert np.linalg.norm(world - truth, axis=-1).mean(-1).max() < 0.08
+    names, positions, rate = read_trc(out / "track.trc")
+    assert rate == 60.0
+    np.testing.assert_allclose(positions[:, :, [2, 0, 1]], world, atol=1e-4)
