@@ -560,7 +560,7 @@ def nearest_neighbour(vectors: Float[Array, "examples vector"], layout,
 # world's up axis, c the person's size against the model's, T the neck in the world. Each view
 # v projects x (OpenCV's model) and its detections are scored by the normalised detection
 # density (jaxtrack.likelihoods.detections); the views are independent given x, so the frame's
-# log-likelihood is the sum of the views' (docs/linear-combination.md).
+# log-likelihood is the sum of the views' (papers/ong2002/README.md, section 4).
 
 
 def stack_views(cameras) -> Camera:
