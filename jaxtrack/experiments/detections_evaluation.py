@@ -68,7 +68,9 @@ The papers' priors (:data:`PAPER_ROWS`), each on the same detections with the sa
   its rows would measure other markers, not another tracker; its own table compares it with
   MediaPipe's keypoints and their Butterworth filter on its markers.
 
-:func:`beaten_by` names every row that beats a paper's row (``"paper_priors"`` in the JSON).
+:func:`beaten_by` names every row that beats a paper's row (``"paper_priors"`` in the JSON);
+``--latent-reach`` prints how near the latent prior comes to the reference's own poses
+(:func:`latent_reach`).
 
     python -m jaxtrack.experiments.detections_evaluation --filter-check cam01
 
@@ -95,6 +97,7 @@ import numpy as np
 __all__ = ["DEFAULT_DETECTIONS", "HAND_SET_WEIGHTS", "MIN_CONFIDENCE", "PAPER_ROWS", "PRIORS",
            "RESULTS", "SPEED_PARTICLES", "VIEWS", "Setting", "add_rows", "baseline_estimates",
            "beaten_by", "detect_views", "evaluate", "filter_check", "latent_estimates",
+           "latent_reach",
            "left_right_swaps", "load_setting", "main", "particle_filter_estimates", "score_2d",
            "score_3d", "score_rows", "table", "targets", "triangulated", "walk_steps"]
 
@@ -558,6 +561,48 @@ def latent_estimates(setting: Setting, *, model: Path | None = None,
     return rows, notes
 
 
+def latent_reach(setting: Setting, *, model: Path | None = None,
+                 objective: str = "reconstruction") -> dict:
+    """How near Tian et al.'s prior comes to the reference's own poses, per view: each frame's
+    reference markers as SPM link features in the prior's template, the latent point of them
+    and μ of it (eq. 3), links stretched to the subject's proportions of frame 0 and placed at
+    the frame's own placement, as :func:`latent_estimates`' tracker decodes a particle. With
+    ``objective="reconstruction"`` the latent point is the one whose μ is nearest the pose
+    (from eq. 5's start; a local optimum): what the prior can draw of each pose at the frame's
+    own neck and scale, which no detection density, fit or particle count improves (the SPM
+    filter's state reaches every pose; a latent particle may still shift its placement to
+    trade some error); ``"posterior"``: eq. 5's μ⁻¹, where the tracker starts. Returns view →
+    :func:`score_2d`'s scores."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxtrack.body import spm_initial_state
+    from jaxtrack.priors.poses import markers_from_features, pose_features
+
+    prior = _latent_prior(model)
+    out = {}
+    with jax.enable_x64(True):  # μ⁻¹ in float64, as the tracker's start
+        gplvm = prior.model.astype(jnp.float64)
+        template = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64), prior.template)
+        for view in setting.views:
+            truth = jnp.asarray(setting.truth_2d[view], jnp.float64)
+            states = jax.vmap(lambda pose: spm_initial_state(pose, template))(truth)
+            features = pose_features(states, template)
+            latents = gplvm.inverse(features).latents
+            if objective != "posterior":
+                latents = gplvm.inverse(features, initial_latents=latents,
+                                        objective=objective).latents
+            decoded = jax.vmap(gplvm.mean)(latents)
+            observed, made = (np.asarray(f).reshape(len(truth), -1, 2)
+                              for f in (features, decoded))
+            scale = np.clip(np.linalg.norm(observed[0], axis=-1)
+                            / np.maximum(np.linalg.norm(made[0], axis=-1), 1e-9), 0.5, 2.0)
+            stretched = jnp.asarray((made * scale[:, None]).reshape(len(truth), -1))
+            markers = jax.vmap(markers_from_features)(stretched, states[:, :3])
+            out[view] = score_2d(np.asarray(markers), setting.truth_2d[view])
+    return out
+
+
 def walk_steps(points, step: float = 0.03) -> dict:
     """How far a ``(frames, 12, 2)`` motion moves per frame in the random walk's own units:
     each frame's SPM state (the template of frame 0, :func:`jaxtrack.body.spm_initial_state`),
@@ -927,6 +972,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="instead: run only these rows (latent: Tian et al.'s tracker, "
                              "latent_estimates) and add them to the results already in --json, "
                              "leaving the other rows as they are")
+    parser.add_argument("--latent-reach", action="store_true",
+                        help="instead: how near the latent tracker's prior comes to the "
+                             "reference's own poses in each view (latent_reach); prints a table")
     parser.add_argument("--latent-model", type=Path, default=None,
                         help="the latent tracker's GPLVM prior (default: the bundled one "
                              "jaxtrack track --method latent uses)")
@@ -977,6 +1025,18 @@ def main(argv: list[str] | None = None) -> int:
                       f"{row['log_evidence']:.0f} | {_cell(row['error_torso'])} | "
                       f"{_cell(row['within_15'], digits=0)} | "
                       f"{', '.join(f'{v:g}' for v in row['largest_factors'])} |", flush=True)
+        return 0
+    if args.latent_reach:
+        print("the reference's own poses through the latent prior: mu(x) at x = mu^-1(pose) "
+              "(Tian et al. eq. 5) and at the x whose mu is nearest the pose\n"
+              "| view | eq. 5: error px / % torso / within 15 % | nearest: error px / % torso "
+              "/ within 15 % |\n|---|---|---|")
+        reach = [latent_reach(setting, model=args.latent_model, objective=objective)
+                 for objective in ("posterior", "reconstruction")]
+        for view in setting.views:
+            print(f"| {view} | " + " | ".join(
+                f"{scored[view]['error_px']:.1f} / {_cell(scored[view]['error_torso'])} / "
+                f"{_cell(scored[view]['within_15'], digits=0)}" for scored in reach) + " |")
         return 0
     if args.filter_check is not None:
         print(f"{args.filter_check}: the random-walk filter, hand-set density x16, N = 500")
