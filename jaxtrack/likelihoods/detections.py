@@ -257,8 +257,10 @@ def _marker_log_mass(lower, upper):
     particles the exact branch runs only on frames where some particle needs it
     (``cond_any``), and is chosen per particle."""
     far = jnp.any(jnp.where(lower > 0, -lower, upper) < -_FAR_TAIL)
-    return cond_any(far, lambda bounds: _log_normal_mass(*bounds),
-                    lambda bounds: _log_normal_mass_near(*bounds), (lower, upper))
+    # the near form outside the branch, so that it is compiled once, not in both
+    near = _log_normal_mass_near(lower, upper)
+    return cond_any(far, lambda operands: _log_normal_mass(*operands[:2]),
+                    lambda operands: operands[2], (lower, upper, near))
 
 
 def _components(pose, frame: DetectionsFrame, params: DetectionModel):
