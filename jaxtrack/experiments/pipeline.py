@@ -823,6 +823,9 @@ def track_video(tracker: Tracker, video: str | os.PathLike | Sequence[str | os.P
             markers, names_, labels = record.pop("_overlay")
             labels = [f"{labels[t] + '  ' if labels else ''}{t + 1}/{count} "
                       f"{record['frames'][t]['status']}" for t in range(count)]
+            if host is not None:  # which detection the track followed (guided detection)
+                labels = [label + (f", followed {frame['followed']}" if frame else "")
+                          for label, frame in zip(labels, host["frames"], strict=True)]
             if run.stride == 1 and window is None:
                 written.append(write_overlay_video_from_file(
                     run.video, indices, {method: markers}, overlay_path, fps=fps or 30.0,
