@@ -1034,7 +1034,7 @@ def views_first_pose(keypoints, cameras, frame: int = 0) -> np.ndarray:
 
 def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles: int = 300,
                 iterations: int = 5, seed: int = 0, constrained: bool = True, up=(0.0, 0.0, 1.0),
-                progress: bool = False, **walks) -> dict:
+                detection=None, progress: bool = False, **walks) -> dict:
     """The linear-combination tracker over calibrated views on their detections
     (:func:`jaxtrack.trackers.linear_combination.linear_combination_views_tracker`).
 
@@ -1043,11 +1043,13 @@ def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles:
         cameras: one :class:`Camera` per view (their image sizes bound the detections).
         keypoints: one ``(points (time, 12, 2), confidence (time, 12))`` per view
             (:func:`views_detections`).
+        detection: the detection density (default the hand-set one).
         walks: ``step``, ``jump_spread``, ``translation_step``, ``yaw_step``, ``scale_step``.
 
     Returns:
         ``{"skeleton", "best_skeleton"}`` ``(time, 12, 3)`` world points, ``"markers"``
         ``(time, views, 12, 2)``, ``"ess"``, ``"scale"``, ``"spread"`` ``(time,)``,
+        ``"log_evidence"`` (the sum of the frames' increments after frame 0),
         ``"seconds_per_frame"``, ``"compile_seconds"``, ``"options"``.
     """
     from jaxtrack.trackers import _runner
@@ -1056,7 +1058,7 @@ def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles:
     cameras = list(cameras)
     observations = views_detections(keypoints, [camera.image_size for camera in cameras])
     tracker = linear_combination_views_tracker(
-        model, cameras, engine=Engine(particles), iterations=iterations,
+        model, cameras, detection=detection, engine=Engine(particles), iterations=iterations,
         constrained=constrained, up=up, **walks)
     result = _runner.track(tracker, jr.PRNGKey(seed), observations,
                            views_first_pose(keypoints, cameras), progress=progress,
@@ -1068,5 +1070,6 @@ def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles:
             "ess": np.asarray(estimates.ess, np.float64),
             "scale": np.asarray(estimates.scale, np.float64),
             "spread": np.asarray(estimates.skeleton_spread, np.float64),
+            "log_evidence": float(np.sum(np.asarray(estimates.log_likelihood, np.float64)[1:])),
             "seconds_per_frame": result.seconds_per_frame,
             "compile_seconds": result.compile_seconds, "options": result.options}
