@@ -268,6 +268,31 @@ def test_the_latent_rows_on_a_constructed_view():
     assert notes["refinement"] is None and all("wave" in clip for clip in notes["model_clips"])
 
 
+@pytest.mark.slow
+def test_the_latent_reach_of_poses_the_prior_draws_and_of_one_it_does_not():
+    import jax
+    import jax.numpy as jnp
+
+    from jaxtrack.experiments.detections_evaluation import _latent_prior, latent_reach
+    from jaxtrack.priors.poses import markers_from_features
+
+    prior = _latent_prior(None).model
+    features = jax.vmap(prior.mean)(prior.latents[::400][:6])  # six training poses' μ
+    placement = jnp.array([np.log(150.0), 540.0, 700.0])
+    drawn = np.asarray(jax.vmap(lambda f: markers_from_features(f, placement))(features),
+                       np.float64)
+    bent = drawn.copy()
+    elbow, wrist = UPPER_BODY_12.index("right_elbow"), UPPER_BODY_12.index("right_wrist")
+    bent[1:, wrist] = 2 * bent[1:, elbow] - bent[1:, wrist]  # the forearm folded back
+    frames = len(drawn)
+    setting = Setting(("drawn", "bent"), np.arange(frames), 60.0,
+                      {"drawn": drawn, "bent": bent}, np.zeros((frames, 12, 3)),
+                      {}, [], {})
+    reach = latent_reach(setting)
+    assert reach["drawn"]["error_torso"] < 0.01, reach
+    assert reach["bent"]["error_torso"] > 0.05, reach  # 11 % when written
+
+
 def test_bad_arguments_are_refused_in_one_line(capsys):
     with pytest.raises(SystemExit):
         main(["--json", "out.txt"])
