@@ -89,6 +89,21 @@ by their work: a scan whose body is a chain of ``k`` rounds of three dependent t
 gather, a sum, an 8 × 8 matrix–vector product), for a few ``k``; the slope is the cost per op.
 
     python -m benchmarks.tracker_step --profile   # table, top ops; writes results/profile_step.json
+``--detections``: the same questions for CONDENSATION on a detector's output alone (issue 48:
+"at most 5 ms per frame and view at 1 000 particles, compile time and detector time apart"):
+``detection_tracking.detection_tracker`` (random walk in the 25-d SPM state, the density's
+hand-set defaults) on MediaPipe's detections of the Pose2Sim demo's cam01 (99 frames,
+``detections_evaluation.load_setting``). Rows: each piece of a frame compiled alone
+(``propagate``, ``spm`` forward kinematics, ``density`` of every particle, ``resample``,
+``step``), the chunk scan ``track`` compiles (per frame), and ``track()``'s own
+``seconds_per_frame``; wall and CPU ms (medians), compile seconds apart. ``--against DIR``
+(a checkout of another commit: ``git archive COMMIT | tar -x -C DIR``) runs the same
+measurement there and here in turn, ``--rounds`` times each, and quotes medians and the
+median of the paired ratios (``JAXTRACK_DATA`` must name the shared data for a checkout
+outside this tree):
+
+    JAXTRACK_DATA=/work/shared/data python -m benchmarks.tracker_step --detections \\
+        --against /tmp/base --rounds 3
 """
 
 from __future__ import annotations
@@ -533,9 +548,168 @@ def profile_main(args) -> None:
                 "profile": profile, "dispatch": dispatch})
 
 
+
+DETECTION_VIEW = "cam01"
+DETECTION_REPEATS = 30  # calls of each compiled piece
+DETECTION_TRACK_CALLS = 5  # track() calls after the one that compiles
+
+
+def build_detections(num_particles: int):
+    """(tracker, observations, frame 0's pose) for CONDENSATION on cam01's MediaPipe
+    detections, as ``detections_evaluation`` builds its filter (unfitted: the fit changes
+    the density's numbers, not its cost)."""
+    from jaxtrack.experiments.detection_tracking import (
+        _pose2sim_view,
+        detection_tracker,
+        initial_pose_of,
+    )
+    from jaxtrack.experiments.detections_evaluation import load_setting
+    from jaxtrack.trackers._particles import detection_observations
+
+    setting = load_setting()
+    camera = setting.cameras[setting.views.index(DETECTION_VIEW)]
+    detections = _pose2sim_view(setting, DETECTION_VIEW,
+                                tuple(float(v) for v in camera.image_size))
+    observations = detection_observations(detections)
+    pose = initial_pose_of(observations.detections)
+    return detection_tracker(pose, num_particles=num_particles), observations, pose
+
+
+def _timed(function, *arguments, repeats: int = DETECTION_REPEATS) -> dict:
+    compile_s, wall_s, cpu_s, _ = time_compiled(function, *arguments, repeats=repeats)
+    return {"compile_s": compile_s, "ms": 1e3 * wall_s, "cpu_ms": 1e3 * cpu_s}
+
+
+def detection_rows(num_particles: int) -> dict[str, dict]:
+    """Each piece of a frame of the detection tracker, its chunk scan and ``track()``."""
+    from jaxtrack.trackers import track
+    from jaxtrack.trackers._particles import device_observation
+    from jaxtrack.trackers._runner import _chunk
+
+    tracker, observations, pose = build_detections(num_particles)
+    frames = device_observation(observations)
+    count = int(frames.detections.num_people.shape[0])
+    # a realistic cloud: the state after 8 tracked frames
+    state = tracker.start(jr.PRNGKey(0), jax.tree.map(lambda leaf: leaf[0], frames), pose)
+    state, _ = _chunk(tracker, state, jr.split(jr.PRNGKey(1), 8),
+                      jax.tree.map(lambda leaf: leaf[1:9], frames))
+    model, cloud = state.model, state.filter
+    frame = jax.tree.map(lambda leaf: leaf[10], frames)
+    markers = jax.vmap(model.markers_of)(cloud.particles)
+    rows = {
+        "propagate": _timed(lambda key, particles: jax.vmap(
+            model.propagate, in_axes=(0, 0, None))(jr.split(key, num_particles), particles, 1),
+            jr.PRNGKey(2), cloud.particles),
+        "spm": _timed(jax.vmap(model.markers_of), cloud.particles),
+        "density": _timed(lambda markers, frame: jax.vmap(
+            model.templates.log_likelihood, in_axes=(0, None, None, None))(
+                markers, frame, model.sharpness, model.nearest), markers, frame),
+        "resample": _timed(lambda key, log_weights: smc.Systematic()(key, log_weights),
+                           jr.PRNGKey(3), cloud.log_weights),
+        "step": _timed(lambda key, cloud, frame: tracker.engine.step(key, cloud, frame, model),
+                       jr.PRNGKey(4), cloud, frame),
+    }
+    # the chunk scan track() compiles, over the video's frames after frame 0 (one chunk)
+    arguments = (tracker, state, jr.split(jr.PRNGKey(5), count - 1),
+                 jax.tree.map(lambda leaf: leaf[1:], frames))
+    tick = time.perf_counter()
+    compiled = _chunk.lower(*arguments).compile()
+    compile_s = time.perf_counter() - tick
+    walls, cpus = [], []
+    for _ in range(DETECTION_TRACK_CALLS + 1):
+        tick, cpu = time.perf_counter(), time.process_time()
+        jax.block_until_ready(compiled(*arguments))
+        walls.append(time.perf_counter() - tick)
+        cpus.append(time.process_time() - cpu)
+    rows["scan"] = {"compile_s": compile_s, "ms": 1e3 * statistics.median(walls[1:]) / (count - 1),
+                    "cpu_ms": 1e3 * statistics.median(cpus[1:]) / (count - 1)}
+    results, cpus = [], []
+    for seed in range(DETECTION_TRACK_CALLS + 1):
+        cpu = time.process_time()
+        results.append(track(tracker, jr.PRNGKey(seed), observations, pose, progress=False))
+        cpus.append((time.process_time() - cpu) / (count - 1))
+    rows["track()"] = {"compile_s": results[0].compile_seconds,
+                       "ms": 1e3 * statistics.median(r.seconds_per_frame for r in results[1:]),
+                       "cpu_ms": 1e3 * statistics.median(cpus[1:])}
+    return rows
+
+
+DETECTION_COLUMNS = [("component", "component", "s"), ("ms", "wall ms", ".3f"),
+                     ("cpu_ms", "cpu ms", ".3f"), ("compile_s", "compile s", ".2f")]
+
+
+def _source_commit(folder: Path) -> str:
+    import subprocess
+
+    done = subprocess.run(["git", "-C", str(folder), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True)
+    return done.stdout.strip() or "unknown"
+
+
+def detections_main(args) -> None:
+    """``--detections``: the detection tracker's rows, here, or here and in ``--against`` in
+    turn."""
+    import subprocess
+    import sys
+
+    import jaxtrack
+
+    particles = args.particles[0]
+    output = args.output or str(RESULTS / "detection_step.json")
+    if args.against is None:
+        load = _load_average()
+        rows = detection_rows(particles)
+        record = {"device": device_description(), "particles": particles,
+                  "view": DETECTION_VIEW, "load_average": [load, _load_average()],
+                  "jaxtrack": str(Path(jaxtrack.__file__).parent),
+                  "commit": _source_commit(Path(jaxtrack.__file__).parent), "rows": rows}
+        if not args.quiet:
+            print(f"detection tracker, {particles} particles, {DETECTION_VIEW} "
+                  f"({record['commit']}, load {load:.1f})")
+            print_table([{"component": name, **row} for name, row in rows.items()],
+                        DETECTION_COLUMNS)
+        write_json(output, record)
+        return
+    here = Path(__file__).resolve().parents[1]
+    trees = {"against": Path(args.against).resolve(), "here": here}
+    runs: dict[str, list] = {name: [] for name in trees}
+    with tempfile.TemporaryDirectory(prefix="jaxtrack-detection-step-") as folder:
+        for round_ in range(args.rounds):
+            for name, tree in trees.items():
+                path = Path(folder) / f"{name}{round_}.json"
+                # this file run as a script in ``tree``: its jaxtrack and benchmarks come first
+                env = {**os.environ, "PYTHONPATH": str(tree)}
+                subprocess.run([sys.executable, str(Path(__file__).resolve()), "--detections",
+                                "--quiet", "--particles", str(particles), "--output",
+                                str(path)], cwd=tree, env=env, check=True)
+                runs[name].append(json.loads(path.read_text()))
+                print(f"round {round_ + 1}/{args.rounds}: {name} ({runs[name][-1]['commit']}) "
+                      f"track() {runs[name][-1]['rows']['track()']['ms']:.2f} ms/frame, load "
+                      f"{runs[name][-1]['load_average'][0]:.1f}", flush=True)
+    summary = {}
+    for name, records in runs.items():
+        summary[name] = {row: {key: statistics.median(r["rows"][row][key] for r in records)
+                               for key in ("ms", "cpu_ms", "compile_s")}
+                         for row in records[0]["rows"]}
+        print(f"\n{name}: {records[0]['commit']} ({records[0]['jaxtrack']}), medians of "
+              f"{len(records)} runs")
+        print_table([{"component": row, **values} for row, values in summary[name].items()],
+                    DETECTION_COLUMNS)
+    ratios = {row: statistics.median(h["rows"][row]["ms"] / a["rows"][row]["ms"] for h, a in
+                                     zip(runs["here"], runs["against"], strict=True))
+              for row in summary["here"]}
+    print("\nhere / against, median of the paired ratios (wall ms): " + ", ".join(
+        f"{row} {value:.3f}" for row, value in ratios.items()))
+    write_json(output, {"device": device_description(), "particles": particles,
+                        "view": DETECTION_VIEW, "rounds": args.rounds, "summary": summary,
+                        "paired_ratio_here_over_against": ratios, "runs": runs})
+    print(f"wrote {output}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--particles", type=int, nargs="+", default=[200, 1000])
+    parser.add_argument("--particles", type=int, nargs="+", default=None,
+                        help="default 200 and 1000 (--detections: 1000)")
     parser.add_argument("--repeats", type=int, default=200)
     parser.add_argument("--likelihood", nargs="+",
                         choices=("limbs+edges", "limbs", "markers"),
@@ -548,8 +722,28 @@ def main() -> None:
                         help="profile the chunk scan by stage and op instead (first --particles; "
                              "--repeats 10 is plenty)")
     parser.add_argument("--output", default=None,
-                        help="JSON (default results/tracker_step.json, or profile_step.json)")
+                        help="JSON (default results/tracker_step.json, profile_step.json or "
+                             "detection_step.json)")
+    parser.add_argument("--detections", action="store_true",
+                        help="CONDENSATION on cam01's MediaPipe detections instead (first "
+                             "--particles)")
+    parser.add_argument("--against", default=None,
+                        help="with --detections: a checkout of another commit, measured in "
+                             "turn with this one")
+    parser.add_argument("--rounds", type=int, default=3,
+                        help="with --against: runs of each checkout")
+    parser.add_argument("--quiet", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.detections:
+        if args.rounds < 1:
+            parser.error(f"--rounds must be at least 1, got {args.rounds}")
+        if args.against is not None and not (Path(args.against) / "jaxtrack").is_dir():
+            parser.error(f"--against {args.against}: no jaxtrack package there; give a "
+                         f"checkout of another commit (git archive COMMIT | tar -x -C DIR)")
+        args.particles = args.particles or [1000]
+        detections_main(args)
+        return
+    args.particles = args.particles or [200, 1000]
     if args.profile:
         profile_main(args)
         return
