@@ -5,6 +5,7 @@ compiled ``lax.scan``; ``step`` is the same frame update for online use.
 """
 
 from jaxtrack.smc._batch import auto_chunk_size, run_batch
+from jaxtrack.smc._cond import cond_any
 from jaxtrack.smc._filter import (
     FilterResult,
     FilterState,
@@ -60,7 +61,8 @@ __all__ = [
     "log_evidence_and_gradient",
     "FilterResult", "FilterState", "KalmanResult", "LinearGaussian", "Multinomial", "Resampler",
     "Residual", "SmoothedPaths", "SoftResampling", "StateSpaceModel", "StepInfo", "StopGradient",
-    "Stratified", "Systematic", "auto_chunk_size", "best_particle", "discrete_marginals",
+    "Stratified", "Systematic", "auto_chunk_size", "best_particle", "cond_any",
+    "discrete_marginals",
     "effective_sample_size", "evenly_spaced_ancestors",
     "fast_normal", "fast_uniform_bits", "ffbsi", "filter_sequence", "initialize",
     "kalman_filter", "particle_keys", "split", "uniform",
