@@ -59,8 +59,10 @@ The papers' priors (:data:`PAPER_ROWS`), each on the same detections with the sa
   walk`` / ``constant velocity`` differ in the prior (and the smoother rows in nothing else).
   ``--add latent --json FILE`` runs only these rows and merges them into FILE
   (:func:`add_rows`), the other rows kept.
-- Ong & Gong: the row ``linear combination (Ong 2002)`` is reserved; its paper's command adds
-  it with :func:`add_rows` (name → view → ``(frames, 12, 2)`` of :attr:`Setting.frame_indices`).
+- Ong & Gong: the row ``linear combination (Ong 2002)`` is reserved; its paper's command
+  (``papers/ong2002/detections_real_video.py``, a 3-D skeleton from the four views, scored by
+  :func:`score_3d` on this setting) adds it with :func:`add_rows`: the world skeleton as a 3-D
+  row and its :func:`projected` views as a 2-D one.
 - Kwatra et al.: not in this table. ``papers/kwatra2002/detections_real_video.py`` scores five
   parts (the head's top, the wrists and the ankles, hands and feet under their best left/right
   assignment) as MSE in px² at 640 px and the share within 20 px; here twelve upper-body
@@ -97,9 +99,9 @@ import numpy as np
 __all__ = ["DEFAULT_DETECTIONS", "HAND_SET_WEIGHTS", "MIN_CONFIDENCE", "PAPER_ROWS", "PRIORS",
            "RESULTS", "SPEED_PARTICLES", "VIEWS", "Setting", "add_rows", "baseline_estimates",
            "beaten_by", "detect_views", "evaluate", "filter_check", "latent_estimates",
-           "latent_reach",
-           "left_right_swaps", "load_setting", "main", "particle_filter_estimates", "score_2d",
-           "score_3d", "score_rows", "table", "targets", "triangulated", "walk_steps"]
+           "latent_reach", "left_right_swaps", "load_setting", "main",
+           "particle_filter_estimates", "projected", "score_2d", "score_3d", "score_rows",
+           "table", "targets", "triangulated", "walk_steps"]
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 DEFAULT_DETECTIONS = (Path(__file__).resolve().parents[2] / "tests" / "data" / "detections"
@@ -754,14 +756,17 @@ def score_rows(setting: Setting, rows_2d: Mapping, rows_3d: Mapping | None = Non
 
 
 def add_rows(path: Path, setting: Setting, rows_2d: Mapping, *, notes_key: str,
-             notes: Mapping, command: str, triangulate: bool = True) -> dict:
-    """Score more rows (name → view → ``(frames, 12, 2)``) on ``setting`` and merge them into
-    the results already written at ``path`` (rows of the same name replaced, the others
-    kept), with ``dlt of NAME`` for each (``triangulate``), ``notes`` under
-    ``results["notes"][notes_key]``, ``command`` under ``results["commands"][notes_key]``,
-    and the targets and :func:`beaten_by` of the papers' rows recomputed. The file is
-    rewritten atomically. This is how a paper's tracker on these detections (:data:`
-    PAPER_ROWS`) joins the table without the other rows being run again.
+             notes: Mapping, command: str, triangulate: bool = True,
+             rows_3d: Mapping | None = None) -> dict:
+    """Score more rows (rows_2d name → view → ``(frames, 12, 2)``, rows_3d name → ``(frames,
+    12, 3)`` world metres) on ``setting`` and merge them into the results already written at
+    ``path`` (rows of the same name replaced, the others kept), with ``dlt of NAME`` for each
+    2-D row (``triangulate``), ``notes`` under ``results["notes"][notes_key]``, ``command``
+    under ``results["commands"][notes_key]``, and the targets and :func:`beaten_by` of the
+    papers' rows recomputed. The file is rewritten atomically. This is how a paper's tracker
+    on these detections (:data:`PAPER_ROWS`) joins the table without the other rows being run
+    again: a tracker of 3-D skeletons (Ong & Gong's over the four views) gives its row in
+    ``rows_3d`` and, through :func:`projected`, in ``rows_2d`` with ``triangulate=False``.
 
     Returns:
         the merged results.
@@ -785,6 +790,7 @@ def add_rows(path: Path, setting: Setting, rows_2d: Mapping, *, notes_key: str,
                          f"run the whole evaluation again")
     extra_3d = ({f"dlt of {name}": triangulated(setting, per_view)
                  for name, per_view in rows_2d.items()} if triangulate else {})
+    extra_3d.update(rows_3d or {})
     scored_2d, scored_3d = score_rows(setting, rows_2d, extra_3d)
     results["rows_2d"].update(scored_2d)
     results["rows_3d"].update(scored_3d)
@@ -795,6 +801,15 @@ def add_rows(path: Path, setting: Setting, rows_2d: Mapping, *, notes_key: str,
     return results
 
 
+def projected(setting: Setting, world) -> dict:
+    """A ``(frames, 12, 3)`` world-metre estimate projected into each view (the views'
+    calibrated cameras): view → ``(frames, 12, 2)`` pixels, a 2-D row of a 3-D tracker."""
+    from jaxtrack.body._staging import project_numpy
+
+    return {view: project_numpy(camera, np.asarray(world, np.float64))[0]
+            for view, camera in zip(setting.views, setting.cameras, strict=True)}
+
+
 def _conclusions(results: dict) -> None:
     """``targets`` of the SPM filter and ``paper_priors``: each paper's row's scores against
     the SPM filter's with the same fit and the rows that beat it (:func:`beaten_by`)."""
@@ -803,8 +818,8 @@ def _conclusions(results: dict) -> None:
         results["targets"] = targets(results)
     papers = {}
     for row in PAPER_ROWS.values():
-        if row in rows:
-            papers[row] = {"beaten_by": beaten_by(results, row),
+        if row in rows or row in results["rows_3d"]:
+            papers[row] = {"beaten_by": beaten_by(results, row) if row in rows else None,
                            "beaten_by_3d": beaten_by(results, row, three_d=True)}
     if papers:
         results["paper_priors"] = papers
@@ -812,10 +827,11 @@ def _conclusions(results: dict) -> None:
 
 def beaten_by(results: Mapping, row: str, *, three_d: bool = False) -> dict | list:
     """Every other row whose error (% of the torso) is lower than ``row``'s: per view and over
-    the views (``"all"``) in 2-D, or (``three_d``) the 3-D rows beating ``dlt of ROW``. The
-    row's own smoother and fixed-lag variants are left out."""
+    the views (``"all"``) in 2-D, or (``three_d``) the 3-D rows beating ``row`` (a 3-D row) or
+    else ``dlt of ROW``. The row's own smoother and fixed-lag variants are left out."""
     if three_d:
-        rows, mine = results["rows_3d"], f"dlt of {row}"
+        rows = results["rows_3d"]
+        mine = row if row in rows else f"dlt of {row}"
         if mine not in rows:
             return []
         return [name for name, scored in rows.items()

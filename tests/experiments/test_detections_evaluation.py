@@ -24,6 +24,7 @@ from jaxtrack.experiments.detections_evaluation import (
     left_right_swaps,
     main,
     particle_filter_estimates,
+    projected,
     score_2d,
     score_3d,
     score_rows,
@@ -178,6 +179,17 @@ def test_a_papers_rows_are_added_to_written_results_and_what_beats_them_is_named
     assert beaten == beaten_by(written, latent)
     # the SPM filter's targets count the paper's row as a tracker, not as a baseline
     assert latent not in written["targets"]["baselines_beating_the_filter"]["v0"]
+    # a 3-D tracker's row (Ong & Gong's): its skeleton in 3-D, its projections in 2-D
+    ong = PAPER_ROWS["ong2002"]
+    world = setting.truth_3d + np.array([0.0, 0.0, 0.05])  # 5 cm up: 10 % of the torso
+    both = add_rows(path, setting, {ong: projected(setting, world)}, rows_3d={ong: world},
+                    notes_key="ong", notes={}, command="", triangulate=False)
+    assert both["rows_3d"][ong]["error_mm"] == pytest.approx(50.0)
+    assert f"dlt of {ong}" not in both["rows_3d"]
+    assert 0.0 < both["rows_2d"][ong]["all"]["error_torso"] < 0.2
+    # 6 px of noise triangulate to far less than 5 cm; a view 30 px off, to more
+    assert set(both["paper_priors"][ong]["beaten_by_3d"]) == {"dlt", f"dlt of {latent} smoother"}
+    assert latent in both["paper_priors"]  # the rows added before are kept
     # rows of other frames, or no results yet, are refused
     shorter = Setting(setting.views, setting.frame_indices[:-1], setting.fps, setting.truth_2d,
                       setting.truth_3d, setting.detections, setting.cameras, setting.detector)
