@@ -101,7 +101,8 @@ class RegionGuide:
         margin: the region's margin (:func:`guided_region`; 0.5 as ``region_around``'s
             default: the prediction is not exact, and MediaPipe wants the whole person).
 
-    One guide serves one tracking run (its frames are numbered from the first observed).
+    One guide serves one tracking run at a time (its frames are numbered from the first
+    observed; :meth:`close` ends the run).
     """
 
     def __init__(self, open_detector, *, margin: float = 0.5):
@@ -223,8 +224,13 @@ class RegionGuide:
             "wall_seconds": sum(entry["wall_seconds"] for entry in records)}
 
     def close(self) -> None:
-        """Close the detector and drop the frames kept."""
-        self._frames.clear()
+        """Close the detector and forget the run (its frames, answers and record), so that
+        the guide may serve another."""
+        with self._lock:
+            self._frames.clear()
+            self._records.clear()
+            self._answers.clear()
+            self._observed, self.error = 0, None
         detector, self.detector = self.detector, None
         if detector is not None and callable(getattr(detector, "close", None)):
             detector.close()
