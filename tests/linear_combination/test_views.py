@@ -126,3 +126,19 @@ def test_views_detections_refuses_unequal_views(setting):
     keypoints[1] = (keypoints[1][0][:1], keypoints[1][1][:1])
     with pytest.raises(ValueError, match="same frames"):
         lc.views_detections(keypoints, [c.image_size for c in cameras[:2]])
+
+
+def test_the_models_floor_fits_a_skeleton_the_model_holds(setting):
+    """``papers.ong2002.detections_real_video.model_floor`` (the nearest the model's span comes
+    to a reference) finds a skeleton the model holds, turned 0.7 rad (its 5° grid: 40°), to
+    within a centimetre, and leaves a skeleton outside the span (its arms spread) farther."""
+    from papers.ong2002.detections_real_video import model_floor
+
+    model, cameras, truth, _ = setting
+    fitted = model_floor(model, cameras, truth[None])[0]
+    assert np.linalg.norm(fitted - truth, axis=-1).mean() < 0.01
+    spread = truth.copy()
+    for wrist in ("right_wrist", "left_wrist"):
+        spread[UPPER_BODY_12.index(wrist)] += [0.0, 0.0, 0.5]
+    fitted = model_floor(model, cameras, spread[None])[0]
+    assert np.linalg.norm(fitted - spread, axis=-1).mean() > 0.02
