@@ -23,6 +23,10 @@ deviations per coefficient and no clamp. The tracker follows the contract of
 :class:`ContourObservation` pytrees, and :func:`jaxtrack.trackers.track` runs it like every other
 tracker (:func:`track_observations` keeps every field of its estimate); its five cycles per frame
 are the engine's (``Engine(iterations_per_frame=5)``).
+
+With several calibrated views and a detector's keypoints, :class:`ViewsTracker`
+(:func:`linear_combination_views_tracker`) places the same skeleton in the world and scores
+every view's detections by the detection density (the comment above :func:`stack_views`).
 """
 
 from __future__ import annotations
