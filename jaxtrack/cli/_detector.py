@@ -1,33 +1,25 @@
 """``jaxtrack track``'s detections for the image trackers (latent, CONDENSATION, MHT):
-``--detector mediapipe`` runs MediaPipe Pose over the video and writes its detections beside the
-outputs, and detections (``--keypoints`` or the detector's) are scored by the normalised
-detection density (:mod:`jaxtrack.likelihoods.detections`) times the image likelihood, its
-parameters fitted on the video first (``--no-fit``, ``--fit-iterations``:
+``--detector mediapipe`` runs MediaPipe Pose and writes ``DIR/detections.npz``; detections
+(``--keypoints`` or the detector's) are scored by the normalised detection density
+(:mod:`jaxtrack.likelihoods.detections`) times the image likelihood, fitted on the video
+first (``--no-fit``, ``--fit-iterations``:
 :func:`jaxtrack.experiments.detection_tracking.fit_on_keypoints`).
 
-The detector first runs on full frames, decoded so that their longer side is at most
-``--max-size``, through files (``jaxtrack.vision.mediapipe.detect_pose``, MediaPipe's video
-mode). With ``--person``, frames where the full-frame detection is not the person (nobody
-found, or a detection that jumped away from the person's last detected pose, by the gate of
-:func:`jaxtrack.vision.detections.follow_person`) are detected again on a square region around
-the person's last detected pose (``region_around``), frame by frame through one worker
-(``MediaPipeDetector``). These are the person's detections before tracking
-(``DIR/detections.npz``): the first pose is read from them, and the density is fitted on them.
+Before tracking, the detector runs on full frames (longer side at most ``--max-size``, through
+files: ``jaxtrack.vision.mediapipe.detect_pose``); with ``--person``, frames whose detection is
+not the person (nobody, or a jump away from their last detected pose, by
+:func:`jaxtrack.vision.detections.follow_person`'s gate) are detected again on a square around
+that pose (``region_around``, one ``MediaPipeDetector`` worker). The first pose is read from
+these detections and the density is fitted on them: a fit needs the whole video's detections.
 
-Tracker-guided detection (``--guided``, the default with ``--person``: a named person is one
-among others, whom the last detection alone can lose to a passer-by; ``--no-guided`` keeps the
-detections above alone; without ``--person`` it is off, a video of one person needing no
-second detector run per frame): the tracking pass then runs the detector again on every frame,
-on the region the tracker's own prediction gives (its last two estimates at constant velocity,
-grown by ``region_around``'s margin), inside the compiled scan, and the density's mixture over
-people weighs that detection beside the one above, the other being a passer-by
-(:mod:`jaxtrack.experiments._guided_detection`). The fit stays on the detections before
-tracking: it needs the whole video's detections before the tracking pass starts, and a fit
-through the guided pass would need that pass twice. ``track.json`` records per frame the
-region, where it came from (``tracker prediction``, or ``full frame`` where the tracker holds
-no estimate) and which detection the track followed, and the detector's time inside the
-tracking pass apart from the tracker's (``timings``: ``guided_detector_wall_seconds``,
-``tracker_seconds_per_frame``).
+Tracker-guided detection (``--guided``; the default with ``--person``, since a named person is
+one among others; off without it): while tracking, the detector also runs on every frame on the
+region the tracker predicts (its last two estimates at constant velocity, grown by
+``region_around``'s margin), inside the compiled scan, and the density's mixture over people
+weighs that detection beside the one above, the other being a passer-by
+(:mod:`jaxtrack.experiments._guided_detection`). ``track.json`` records per frame the region,
+its source (``tracker prediction``, or ``full frame`` while the tracker holds no estimate) and
+the detection followed, and the detector's time apart from the tracker's (``timings``).
 """
 
 from __future__ import annotations
@@ -47,20 +39,18 @@ DETECTIONS_FILE = "detections.npz"
 """What ``--detector`` writes into ``--out`` (``jaxtrack.vision.detections.write_detections``;
 ``--keypoints`` reads it)."""
 FIT_ITERATIONS = 15
-"""Adam steps of the fit by default: on the Pose2Sim demo's detections the log-evidence rises
-most in the first ten (docs/detections.md), and each is a filter run forward and backward."""
+"""Adam steps of the fit by default (each a filter run forward and backward): on the Pose2Sim
+demo's detections the log-evidence rises most in the first ten (docs/detections.md)."""
 FIT_PARTICLES = 200
 """Particles per filter run of the fit (fewer where the tracker has fewer)."""
 FIT_LEARNING_RATE = 0.1
-"""Adam's step in the fitted parameters' logarithms (logit for the outlier rate): a scale can
-move by a factor of about e^1.5 in the default 15 steps."""
+"""Adam's step in the fitted logarithms (logit for the outlier rate): about e^1.5 in 15 steps."""
 GATE = 0.5
-"""A full-frame detection more than this many times the person's last keypoint box diagonal
-(at least :data:`MIN_SIZE` of the frame's) from its last detected pose (median over the
-markers) is not the person (as ``follow_person``)."""
+"""A detection farther than this many of the person's keypoint box diagonals (median over the
+markers) from their last detected pose is not the person (as ``follow_person``)."""
 MIN_SIZE = 0.05
-"""The smallest person's keypoint box diagonal :data:`GATE` is taken of, as a fraction of the
-frame's diagonal (a person whose keypoints nearly coincide would otherwise move nowhere)."""
+"""The least box diagonal :data:`GATE` is taken of, a fraction of the frame's diagonal (a
+person whose keypoints nearly coincide would otherwise move nowhere)."""
 
 
 def add_detection_options(parser: argparse.ArgumentParser) -> None:
@@ -110,22 +100,15 @@ def check_detection_options(args: argparse.Namespace) -> None:
                 raise UserError(f"{option}: --keypoint-weight scores the keypoints by the image "
                                 f"likelihood's keypoint term, which is not fitted; leave one "
                                 f"of them out")
-    if getattr(args, "guided", None) and args.detector is None:
-        raise UserError("--guided: it runs the detector on the region the tracker predicts; "
-                        "give --detector mediapipe")
-    if getattr(args, "guided", None) and args.keypoint_weight is not None:
-        raise UserError("--guided: the detection density chooses between the guided and the "
-                        "full frame's detections; leave --keypoint-weight out")
+    if getattr(args, "guided", None) and (args.detector is None
+                                          or args.keypoint_weight is not None):
+        raise UserError("--guided: it runs the detector on the region the tracker predicts, "
+                        "for the detection density: give --detector mediapipe, without "
+                        "--keypoint-weight")
     python = mediapipe_python()
     if args.detector == "mediapipe" and not python.exists():
         raise UserError(f"--detector mediapipe: no MediaPipe python at {python}; run `make "
                         f"detector` (or set JAXTRACK_MEDIAPIPE_PYTHON)")
-
-
-def _landmarks(result: dict) -> tuple[np.ndarray, np.ndarray]:
-    from jaxtrack.vision.mediapipe import detected_keypoints
-
-    return detected_keypoints(result)
 
 
 def _not_the_person(points: np.ndarray, last: np.ndarray | None, smallest: float) -> bool:
@@ -147,9 +130,8 @@ def _not_the_person(points: np.ndarray, last: np.ndarray | None, smallest: float
 
 def detect_video(args: argparse.Namespace, start: int, count: int | None,
                  box: tuple[float, float, float, float] | None) -> tuple[Path, dict]:
-    """Run ``--detector`` over the video's frames tracked; write ``DIR/detections.npz`` (one
-    row per video frame from the first: frames before ``start`` hold nobody). Returns its path
-    and the record of the run (``track.json``'s ``detector``)."""
+    """Run ``--detector`` over the frames tracked into ``DIR/detections.npz`` (a row per video
+    frame; those before ``start`` hold nobody). Returns its path and ``track.json``'s record."""
     from jaxtrack.body import UPPER_BODY_12
     from jaxtrack.vision import mediapipe
     from jaxtrack.vision.detections import Detections, write_detections
@@ -169,12 +151,11 @@ def detect_video(args: argparse.Namespace, start: int, count: int | None,
         result = mediapipe.detect_pose(frames, worker=mediapipe.WORKER)
     except mediapipe.DetectorUnavailableError as error:
         raise UserError(f"--detector mediapipe: {one_line(error)}") from None
-    points, confidence = _landmarks(result)  # decoded pixels
+    points, confidence = mediapipe.detected_keypoints(result)  # decoded pixels
     seconds = float(result.get("first_seconds", 0.0)) + float(np.sum(result["seconds"]))
     redetected, wall = [], float(result["wall_seconds"])
     if box is not None:
-        points, confidence, redetected, more = _guided(frames, points, confidence, box,
-                                                       factors)
+        points, confidence, redetected, more = _guided(frames, points, confidence, box, factors)
         seconds, wall = seconds + more[0], wall + more[1]
     # back to the video's own pixels (pixel centres: (p + 0.5) / factor - 0.5)
     points = (points + 0.5) / factors - 0.5
@@ -189,8 +170,7 @@ def detect_video(args: argparse.Namespace, start: int, count: int | None,
                                       "MEDIAPIPE_33", (float(width), float(height)),
                                       source=f"MediaPipe {result.get('version', '')}"))
     record = {"name": "mediapipe", "version": str(result.get("version", "")),
-              "file": str(path), "frames": len(frames), "decoded_size": [frames.shape[2],
-                                                                          frames.shape[1]],
+              "file": str(path), "frames": len(frames), "decoded_size": frames.shape[2:0:-1],
               "frames_with_person": int(people[start:].sum()),
               "redetected_frames": [start + index for index in redetected],
               "seconds": round(seconds, 3), "wall_seconds": round(wall, 3),
@@ -237,7 +217,7 @@ def _guided(frames, points, confidence, box, factors):
             seconds, wall = seconds + float(found["seconds"]), wall + found["wall_seconds"]
             again = {key: np.asarray(found[key])[None] for key in ("landmarks", "visibility")}
             again["found"] = np.array([bool(found["found"])])
-            new_points, new_confidence = _landmarks(again)
+            new_points, new_confidence = mediapipe.detected_keypoints(again)
             if (inside(new_points[0]) if last is None
                     else not _not_the_person(new_points[0], last, smallest)):
                 points[t], confidence[t] = new_points[0], new_confidence[0]

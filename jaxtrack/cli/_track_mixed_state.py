@@ -154,7 +154,8 @@ def _refuse_detection_options(args: argparse.Namespace) -> None:
                         "as --keypoints")
     for option, given in (("--no-fit", getattr(args, "no_fit", False)),
                           ("--fit-iterations", getattr(args, "fit_iterations", None)
-                           is not None)):
+                           is not None),
+                          ("--guided", getattr(args, "guided", None) is not None)):
         if given:
             raise UserError(f"{option} does not apply to --method mixed-state (its detections "
                             f"replace part hypotheses; nothing is fitted)")

@@ -128,7 +128,9 @@ def add_parser(subparsers) -> None:
                         help="with --keypoints of several people: the box around the person to "
                         "follow in the first frame with anyone (default: the most confident); "
                         "with --detector: the person to detect (frames where the detector "
-                        "finds someone else or nobody are detected again around them)")
+                        "finds someone else or nobody are detected again around them; while "
+                        "tracking, also on the region the tracker predicts: --guided, the "
+                        "default)")
     add_detection_options(parser)
     parser.add_argument("--keypoint-weight", type=real(0.0), default=None, metavar="ETA",
                         help="with detections: score them by the image likelihood's keypoint "
