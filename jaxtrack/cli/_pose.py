@@ -5,6 +5,7 @@ head boxes, then a search of the prior's training poses: ``jaxtrack.trackers.aut
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -40,8 +41,9 @@ def read_keypoints(path: Path, person: str | None = None, markers: tuple[str, ..
         try:
             with np.load(path, allow_pickle=False) as archive:
                 single = "keypoints" in archive.files
-        except (OSError, ValueError) as error:
-            raise UserError(f"--keypoints: {path}: not a readable .npz ({error})") from None
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
+            raise UserError(f"--keypoints: {path}: not a readable .npz ({one_line(error)})"
+                            ) from None
         if single:
             if box is not None:
                 raise UserError(f"--person picks one of several people; --keypoints {path} "
