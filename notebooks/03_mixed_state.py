@@ -194,7 +194,7 @@ if POSTURE_DATA:
                           num_bins=BINS, **TEST, **MODEL_OPTIONS)
     overall = results["overall"]
     width, height = TEST["image_size"]
-    redetect = MixedStateModel(posture_model, **MODEL_OPTIONS).redetect_probability
+    redetect = ms.model_with_options(posture_model, MODEL_OPTIONS).redetect_probability
     print(f"{len(results['sequences'])} sequences, {overall['smoothed']['frames']} frames at "
           f"{width}x{height}, N={TEST['num_particles']}, redetect_probability {redetect:g}; "
           "MSE in px² against the extremities")
@@ -237,7 +237,7 @@ if results is not None:
                                        image_size=TEST["image_size"], background="clutter",
                                        seed=TEST["seed"], max_frames=TEST["max_frames"])
     _, key = jr.split(jr.PRNGKey(TEST["seed"]))  # evaluate's key for its first sequence
-    estimates = ms.track(key, MixedStateModel(posture_model, **MODEL_OPTIONS),
+    estimates = ms.track(key, ms.model_with_options(posture_model, MODEL_OPTIONS),
                          observations_from_silhouettes(first.masks, num_bins=BINS),
                          TEST["num_particles"], lag=TEST["lag"])
     valid = estimates["status"] == FRAME_OK

@@ -1036,7 +1036,7 @@ def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles:
                 iterations: int = 5, seed: int = 0, constrained: bool = True, up=(0.0, 0.0, 1.0),
                 detection=None, progress: bool = False, **walks) -> dict:
     """The linear-combination tracker over calibrated views on their detections
-    (:func:`jaxtrack.trackers.linear_combination.linear_combination_views_tracker`).
+    (:func:`jaxtrack.trackers.linear_combination_views.linear_combination_views_tracker`).
 
     Args:
         model: the trained model.
@@ -1053,7 +1053,7 @@ def track_views(model: LinearCombinationModel, cameras, keypoints, *, particles:
         ``"seconds_per_frame"``, ``"compile_seconds"``, ``"options"``.
     """
     from jaxtrack.trackers import _runner
-    from jaxtrack.trackers.linear_combination import linear_combination_views_tracker
+    from jaxtrack.trackers.linear_combination_views import linear_combination_views_tracker
 
     cameras = list(cameras)
     observations = views_detections(keypoints, [camera.image_size for camera in cameras])

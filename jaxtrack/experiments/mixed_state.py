@@ -48,6 +48,7 @@ from jaxtrack.trackers.mixed_state import (
 __all__ = ["DEFAULT_COMPONENTS", "DEFAULT_COVARIANCE", "DEFAULT_REGULARISATION", "EPSILONS",
            "POSE2SIM_SCALE", "TEST_CLIPS", "TRAINING_CLIPS", "TRAINING_POSE2SIM_CAMERAS",
            "VALIDATION_CLIPS", "VIEW_AZIMUTHS", "PostureSequence", "evaluate", "fit",
+           "model_with_options",
            "labelled_features", "render_posture_sequence", "render_sequences", "score", "track",
            "train", "training_features"]
 
@@ -401,6 +402,24 @@ def track(key, model: MixedStateModel, observations: MixedStateFrame, num_partic
     return out
 
 
+
+def model_with_options(posture_model, model_options) -> MixedStateModel:
+    """The :class:`MixedStateModel` of an evaluation's ``model_options`` (as its results record
+    them): :class:`MixedStateModel`'s keywords, and ``part_cutoff``, the part likelihood's δ,
+    and ``part_scale``, a factor on its standard deviations σ_i (R_i = (scale σ_i)² I, eq. 7)."""
+    options = dict(model_options)
+    if "part_cutoff" in options or "part_scale" in options:  # eq. 7's δ and R_i
+        import inspect
+
+        from jaxtrack.likelihoods.part_distances import PartDistances
+
+        defaults = inspect.signature(PartDistances).parameters  # σ_i and δ not given
+        sigma = np.asarray(defaults["standard_deviations"].default, np.float64)
+        options["part_likelihood"] = PartDistances(
+            float(options.pop("part_scale", 1.0)) * sigma,
+            cutoff=options.pop("part_cutoff", defaults["cutoff"].default))
+    return MixedStateModel(posture_model, **options)
+
 def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
              azimuths: Sequence[float] = VIEW_AZIMUTHS, backgrounds: Sequence[str] = ("clutter",),
              image_size: tuple[int, int] = (640, 480), num_bins: int = 16,
@@ -428,18 +447,7 @@ def evaluate(posture_model: PostureModel, clips: Sequence[str] = TEST_CLIPS, *,
     if posture_model.num_features != 2 * num_bins + 1:
         raise ValueError(f"posture_model has {posture_model.num_features} features but "
                          f"num_bins={num_bins} gives {2 * num_bins + 1}")
-    options = dict(model_options)
-    if "part_cutoff" in options or "part_scale" in options:  # eq. 7's δ and R_i
-        import inspect
-
-        from jaxtrack.likelihoods.part_distances import PartDistances
-
-        defaults = inspect.signature(PartDistances).parameters  # σ_i and δ not given
-        sigma = np.asarray(defaults["standard_deviations"].default, np.float64)
-        options["part_likelihood"] = PartDistances(
-            float(options.pop("part_scale", 1.0)) * sigma,
-            cutoff=options.pop("part_cutoff", defaults["cutoff"].default))
-    model = MixedStateModel(posture_model, **options)
+    model = model_with_options(posture_model, model_options)
     if sequences is None:
         sequences = render_sequences(clips, azimuths, backgrounds, image_size, max_frames, seed,
                                      pose2sim_cameras)

@@ -6,7 +6,7 @@ The setting is ``jaxtrack.experiments.detections_evaluation.load_setting``'s: th
 (a man balancing on a beam, four calibrated 60 fps views, video frames 1-99 scored), MediaPipe
 Pose's keypoints of every frame of each view (cached in ``tests/data/detections/``), the
 reference triangulated by Pose2Sim from OpenPose. The tracker
-(``jaxtrack.trackers.linear_combination.linear_combination_views_tracker``, the bundled model
+(``jaxtrack.trackers.linear_combination_views.linear_combination_views_tracker``, the bundled model
 trained on the training subjects' gestures, a new person here) runs on every frame of the four
 views at once, its particles placed on the first frame's triangulated skeleton; each view's
 detections are scored by the hand-set detection density (not fitted). Rows:

@@ -395,7 +395,7 @@ def keypoint_views(tmp_path_factory):
     from jaxtrack.body import read_qca
     from jaxtrack.body.camera import project
     from jaxtrack.data.models import default_model
-    from jaxtrack.trackers.linear_combination import world_skeleton
+    from jaxtrack.trackers.linear_combination_views import world_skeleton
     from jaxtrack.vision.keypoints import write_keypoints
 
     folder = tmp_path_factory.mktemp("keypoint_views")

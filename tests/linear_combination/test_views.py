@@ -19,7 +19,7 @@ from jaxtrack.likelihoods.detections import (
     swap_order,
 )
 from jaxtrack.trackers import Engine
-from jaxtrack.trackers.linear_combination import (
+from jaxtrack.trackers.linear_combination_views import (
     linear_combination_views_tracker,
     world_skeleton,
 )
