@@ -47,7 +47,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 
 from jaxtrack.body import SPM_MARKERS
 from jaxtrack.likelihoods._base import PartTemplates
-from jaxtrack.smc._cond import cond_any
+from jaxtrack.smc import cond_any
 from jaxtrack.vision.observations import detections_of
 
 __all__ = ["DEFAULT_JOINT_SCALES", "DetectionModel", "DetectionTemplates", "DetectionsFrame",
