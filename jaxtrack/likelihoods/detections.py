@@ -214,8 +214,8 @@ def _log1mexp(x):
 
 def _log_normal_mass(lower, upper):
     """log(Φ(upper) − Φ(lower)) for lower < upper, reflected into the lower tail, where
-    ``log_ndtr`` keeps its digits: exact at any distance from the image, four ``log_ndtr``
-    tails' worth of work."""
+    ``log_ndtr`` keeps its digits: exact at any distance from the image (two ``log_ndtr``,
+    each an ``erf``, an ``erfc``, two logs and an asymptotic series, then a ``log1mexp``)."""
     flip = lower > 0
     low, high = jnp.where(flip, -upper, lower), jnp.where(flip, -lower, upper)
     log_high = log_ndtr(high)
@@ -230,7 +230,7 @@ _FAR_TAIL = 12.0
 def _log_normal_mass_near(lower, upper):
     """:func:`_log_normal_mass` from two ``erfc`` tails, for intervals whose reflected upper
     bound lies above −:data:`_FAR_TAIL`, within float rounding of it there (a few 1e−6
-    relative in float32; closer to 0 than it near log 1) at a quarter of its cost.
+    relative in float32; closer to 0 than it near log 1) at about half its cost.
 
     Reflected so that ``low < 0`` (``Φ(low)`` then has no cancellation): inside the image
     (``high > 0``) the mass is ``1 − Φ(low) − Φ(−high)``, outside it (``high ≤ 0``)
