@@ -135,6 +135,7 @@ _STEPS_COMMAND = _swept("latent", jump_probability="0.05", refine_steps="VALUE",
                         edge_tolerance="45")
 _MHT = "jaxtrack.trackers.mht:mht_tracker"
 _LC = "jaxtrack.trackers.linear_combination:linear_combination_tracker"
+_LCV = "jaxtrack.trackers.linear_combination_views:linear_combination_views_tracker"
 _FITNESS = "jaxtrack.likelihoods.contour_normals:FitnessSettings"
 _MIXED = "jaxtrack.trackers.mixed_state:MixedStateModel"
 _EDGES = "jaxtrack.likelihoods.edges"
@@ -315,6 +316,12 @@ DEFAULTS: tuple[Default, ...] = (
             "2026-11-26", _LC_NOTE.format(grid="ω ∈ {0.03, 0.1, 0.3} with P = 64, Q = 16",
                                           shipped="0.1"), "Linear combinations"),
     Default("jump_spread", f"{_LC}(jump_spread)", 0.3, NONE, group="Linear combinations"),
+    Default("views: neck step (m per cycle)", f"{_LCV}(translation_step)", 0.01, NONE,
+            group="Linear combinations"),
+    Default("views: turn step (rad per cycle)", f"{_LCV}(yaw_step)", 0.03, NONE,
+            group="Linear combinations"),
+    Default("views: log-size step (per cycle)", f"{_LCV}(scale_step)", 0.005, NONE,
+            group="Linear combinations"),
     Default("iterations per frame", f"{_LC}(iterations)", 5, "paper",
             note="Ong & Gong 2002: 5 CONDENSATION cycles per frame.",
             group="Linear combinations"),
