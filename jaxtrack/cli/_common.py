@@ -204,6 +204,21 @@ def pose2sim_cameras(cameras: Sequence[int] | None, default: tuple[int, ...],
     return tuple(cameras)
 
 
+def read_calibration(path: Path) -> list:
+    """``--calibration``'s cameras (Z up): a Pose2Sim ``.toml`` or a Qualisys ``.qca.txt``, or a
+    one-line :class:`UserError` naming the file."""
+    from jaxtrack.body import read_qca
+    from jaxtrack.vision.triangulation import CalibrationFileError, read_pose2sim_calibration
+
+    if not path.is_file():
+        raise UserError(f"--calibration {path}: no such file")
+    try:
+        return (read_pose2sim_calibration(path) if path.suffix == ".toml" else read_qca(path))
+    except (CalibrationFileError, ValueError, KeyError, OSError) as error:
+        raise UserError(f"--calibration {path}: {one_line(error)} (a Pose2Sim .toml or a "
+                        f"Qualisys .qca.txt)") from None
+
+
 def check_seed(value: int) -> None:
     """``--seed`` must be a whole number from 0 to :data:`MAX_SEED` (:data:`seed` checks it at
     parse time; this, for a value set otherwise)."""

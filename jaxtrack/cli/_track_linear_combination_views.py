@@ -14,7 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack.cli._common import UserError, at_least, check_seed, one_line, output_directory
+from jaxtrack.cli._common import (
+    UserError,
+    at_least,
+    check_seed,
+    one_line,
+    output_directory,
+    read_calibration,
+)
 from jaxtrack.cli._track_linear_combination import _ITERATIONS, _PARTICLES, _skeleton_estimate
 from jaxtrack.cli._train_linear_combination import load_model
 
@@ -51,22 +58,12 @@ def _keypoint_sources(args, cameras) -> list:
 def _detection_cameras(args, count: int) -> list:
     """``--calibration``'s cameras (Z up: Pose2Sim ``.toml`` or Qualisys ``.qca.txt``), those
     of ``--cameras`` or the first ``count``."""
-    from jaxtrack.body import read_qca
-    from jaxtrack.vision.triangulation import CalibrationFileError, read_pose2sim_calibration
-
     path = args.calibration
     if path is None:
         raise UserError("--calibration is required with --keypoints for --method "
                         "linear-combination: the 3-D skeleton is placed by the calibrated views "
                         "(a Pose2Sim Calib*.toml or a Qualisys .qca.txt)")
-    if not path.is_file():
-        raise UserError(f"--calibration {path}: no such file")
-    try:
-        cameras = (read_pose2sim_calibration(path) if path.suffix == ".toml"
-                   else read_qca(path))
-    except (CalibrationFileError, ValueError, KeyError, OSError) as error:
-        raise UserError(f"--calibration {path}: {one_line(error)} (a Pose2Sim .toml or a "
-                        f"Qualisys .qca.txt)") from None
+    cameras = read_calibration(path)
     chosen = list(range(min(count, len(cameras)))) if args.cameras is None else list(args.cameras)
     bad = [index for index in chosen if not 0 <= index < len(cameras)]
     if bad or len(set(chosen)) != len(chosen):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxtrack.cli._common import UserError, integer, one_line
+from jaxtrack.cli._common import UserError, integer, one_line, read_calibration
 
 __all__ = ["add_parser", "read_tracks", "run"]
 
@@ -70,18 +70,8 @@ def read_tracks(paths: list[Path]) -> tuple[list[dict], tuple[str, ...]]:
 
 
 def _cameras(args, count: int) -> list:
-    from jaxtrack.body import read_qca
-    from jaxtrack.vision.triangulation import CalibrationFileError, read_pose2sim_calibration
-
     path = args.calibration
-    if not path.is_file():
-        raise UserError(f"--calibration {path}: no such file")
-    try:
-        cameras = (read_pose2sim_calibration(path) if path.suffix == ".toml"
-                   else read_qca(path))
-    except (CalibrationFileError, ValueError, KeyError, OSError) as error:
-        raise UserError(f"--calibration {path}: {one_line(error)} (a Pose2Sim .toml or a "
-                        f"Qualisys .qca.txt)") from None
+    cameras = read_calibration(path)
     chosen = list(range(count)) if args.cameras is None else list(args.cameras)
     if len(chosen) != count:
         raise UserError(f"--cameras: {len(chosen)} cameras for {count} tracks; give one per "
