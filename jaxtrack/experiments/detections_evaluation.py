@@ -48,7 +48,7 @@ with the density's hand-set defaults and every scale (f_k, σ₀) divided by √
 :data:`HAND_SET_WEIGHTS` (a weight w on the Gaussian's log-density is a scale 1/√w), unfitted:
 the learned-against-hand-set comparison. 3-D: ``dlt of ROW`` triangulates a row's four views
 (every view weighing 1). ``speed``: the fitted filter's time per frame at
-:data:`SPEED_PARTICLES` particles, compilation apart. Issue 48's targets are read from the
+:data:`SPEED_PARTICLES` particles, compilation apart. The targets are read from the
 scores by :func:`targets` (``"targets"`` in the JSON).
 
 The papers' priors (:data:`PAPER_ROWS`), each on the same detections with the same fit:
@@ -120,7 +120,7 @@ the SPM state, the same noise for both."""
 HAND_SET_WEIGHTS = (1.0, 4.0, 16.0, 64.0)
 """Hand-set weights on the detection density's Gaussian: its scales divided by √w."""
 SPEED_PARTICLES = 1000
-"""N at which the filter's time per frame is reported (issue 48's target)."""
+"""N at which the filter's time per frame is reported (the speed target)."""
 LAG = 5
 """The fixed-lag smoother's lag in frames."""
 RESULTS = (Path(__file__).resolve().parents[2] / "papers" / "results"
@@ -860,7 +860,7 @@ def triangulated(setting: Setting, per_view: Mapping) -> np.ndarray:
 
 
 def targets(results: Mapping, row: str = "condensation random walk") -> dict:
-    """Issue 48's targets for the particle-filter row ``row`` (the filter with the defaults),
+    """The targets for the particle-filter row ``row`` (the filter with the defaults),
     read from :func:`evaluate`'s results: each ``{"value", "target", "met"}``."""
     rows_2d, rows_3d = results["rows_2d"], results["rows_3d"]
     if row not in rows_2d:
