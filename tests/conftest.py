@@ -51,9 +51,8 @@ def _release_compiled_programs():
 # the files that take longest (``pytest --durations``, 2026-11-26/27 and 11-29), started first: with
 # ``--dist loadfile`` each file runs whole in one worker, and the collection order (alphabetical,
 # so ``tests/trackers/`` last) otherwise left one worker alone with the heaviest files at the end
-HEAVY_FIRST = ("tests/trackers/test_five_trackers.py",
-               "tests/mixed_state/test_tracker_smoothing.py",
-               "tests/trackers/test_tracker_contract.py", "tests/trackers/test_latent.py",
+HEAVY_FIRST = ("tests/trackers/test_five_trackers.py", "tests/trackers/test_tracker_contract.py",
+               "tests/trackers/test_latent.py",
                "tests/trackers/test_held_out_subject.py", "tests/test_notebooks.py",
                "tests/papers/test_tian2005_tracking.py", "tests/smc/test_transformations.py",
                "tests/priors/test_gplvm.py", "tests/likelihoods/test_edges.py",
