@@ -219,6 +219,14 @@ def read_calibration(path: Path) -> list:
                         f"Qualisys .qca.txt)") from None
 
 
+def check_camera_indices(chosen: Sequence[int], count: int) -> None:
+    """``--cameras``: distinct indices of ``--calibration``'s ``count`` cameras, or a one-line
+    :class:`UserError`."""
+    if any(not 0 <= index < count for index in chosen) or len(set(chosen)) != len(chosen):
+        raise UserError(f"--cameras must be distinct indices 0-{count - 1} of the {count} "
+                        f"cameras of --calibration, got {' '.join(map(str, chosen))}")
+
+
 def check_seed(value: int) -> None:
     """``--seed`` must be a whole number from 0 to :data:`MAX_SEED` (:data:`seed` checks it at
     parse time; this, for a value set otherwise)."""

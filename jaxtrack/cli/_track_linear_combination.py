@@ -33,6 +33,7 @@ import numpy as np
 from jaxtrack.cli._common import (
     UserError,
     at_least,
+    check_camera_indices,
     check_seed,
     fit_mask_file,
     one_line,
@@ -75,11 +76,7 @@ def _calibrated_cameras(args, count: int) -> list | None:
         raise UserError(f"--calibration {args.calibration}: "
                         f"{one_line(error).removeprefix(str(args.calibration))}") from None
     chosen = list(range(len(cameras))) if args.cameras is None else list(args.cameras)
-    bad = [index for index in chosen if not 0 <= index < len(cameras)]
-    if bad or len(set(chosen)) != len(chosen):
-        raise UserError(f"--cameras must be distinct indices 0-{len(cameras) - 1} of the "
-                        f"{len(cameras)} cameras of --calibration, got "
-                        f"{' '.join(map(str, args.cameras))}")
+    check_camera_indices(chosen, len(cameras))
     if len(chosen) != count:
         raise UserError(f"--video: {count} video(s) but {len(chosen)} camera(s) "
                         f"({', '.join(cameras[i].name for i in chosen)}) of --calibration "

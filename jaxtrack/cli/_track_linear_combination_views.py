@@ -17,6 +17,7 @@ import numpy as np
 from jaxtrack.cli._common import (
     UserError,
     at_least,
+    check_camera_indices,
     check_seed,
     one_line,
     output_directory,
@@ -65,11 +66,7 @@ def _detection_cameras(args, count: int) -> list:
                         "(a Pose2Sim Calib*.toml or a Qualisys .qca.txt)")
     cameras = read_calibration(path)
     chosen = list(range(min(count, len(cameras)))) if args.cameras is None else list(args.cameras)
-    bad = [index for index in chosen if not 0 <= index < len(cameras)]
-    if bad or len(set(chosen)) != len(chosen):
-        raise UserError(f"--cameras must be distinct indices 0-{len(cameras) - 1} of the "
-                        f"{len(cameras)} cameras of --calibration, got "
-                        f"{' '.join(map(str, args.cameras))}")
+    check_camera_indices(chosen, len(cameras))
     if len(chosen) != count:
         raise UserError(f"--video: {count} video(s) but {len(chosen)} camera(s) of "
                         f"--calibration {path}; give one video per camera, in order (or pick "
