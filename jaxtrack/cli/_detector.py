@@ -215,12 +215,10 @@ def _guided(frames, points, confidence, box, factors):
             region = grown if last is None else mediapipe.region_around(last, size)
             found = detector.detect(frames[t], region)
             seconds, wall = seconds + float(found["seconds"]), wall + found["wall_seconds"]
-            again = {key: np.asarray(found[key])[None] for key in ("landmarks", "visibility")}
-            again["found"] = np.array([bool(found["found"])])
-            new_points, new_confidence = mediapipe.detected_keypoints(again)
-            if (inside(new_points[0]) if last is None
-                    else not _not_the_person(new_points[0], last, smallest)):
-                points[t], confidence[t] = new_points[0], new_confidence[0]
+            new_points, new_confidence = mediapipe.detected_keypoints(found)
+            if (inside(new_points) if last is None
+                    else not _not_the_person(new_points, last, smallest)):
+                points[t], confidence[t] = new_points, new_confidence
                 last = np.where(np.isfinite(points[t]), points[t], last if last is not None
                                 else points[t])
             else:  # neither is the person: no detection of them here

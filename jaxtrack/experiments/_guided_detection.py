@@ -81,10 +81,8 @@ def _one_person(found: dict) -> tuple[np.ndarray, np.ndarray]:
     and their confidences ``(12,)``."""
     from jaxtrack.vision.mediapipe import detected_keypoints
 
-    again = {key: np.asarray(found[key])[None] for key in ("landmarks", "visibility")}
-    again["found"] = np.array([bool(found["found"])])
-    points, confidence = detected_keypoints(again)
-    return np.nan_to_num(points[0]), confidence[0]
+    points, confidence = detected_keypoints(found)
+    return np.nan_to_num(points), confidence
 
 
 class RegionGuide:

@@ -371,6 +371,40 @@ def _density_record(model) -> dict:
             "swap_pairs": int(np.sum(np.asarray(model.swap) != np.arange(len(model.swap))) // 2)}
 
 
+def _fit_settings(particles: int | None, iterations: int | None) -> tuple[int, int, float]:
+    """N, Adam iterations and learning rate of a fit: those given, else ``track_detections``'."""
+    import inspect
+
+    from jaxtrack.experiments.detection_tracking import track_detections
+
+    defaults = inspect.signature(track_detections).parameters
+    return (int(particles or defaults["num_particles"].default),
+            int(iterations or defaults["iterations"].default),
+            float(defaults["learning_rate"].default))
+
+
+def _fit_note(fit, hand_set, iterations: int) -> dict:
+    """A fit's record in the notes: the fitted density beside the hand-set one, its cost and
+    its first and last log-evidence."""
+    return {"fitted": _density_record(fit.detections), "hand_set": _density_record(hand_set),
+            "noise_factor": fit.noise_factor, "seconds": fit.seconds,
+            "compile_seconds": fit.compile_seconds,
+            "seconds_per_iteration": fit.seconds / max(iterations, 1),
+            "log_evidence_first": float(fit.log_evidence[0]),
+            "log_evidence_last": float(fit.log_evidence[-1])}
+
+
+def _row_timer(rows: dict, notes: dict):
+    """``timed(row, view, run, *args, **options)``: ``run``'s ``(frames, 12, 2)`` estimate into
+    ``rows[row][view]``, its seconds into ``notes["seconds"][row][view]``."""
+    def timed(row, view, run, *args, **options):
+        tick = time.perf_counter()
+        rows.setdefault(row, {})[view] = np.asarray(run(*args, **options), np.float64)
+        notes["seconds"].setdefault(row, {})[view] = time.perf_counter() - tick
+
+    return timed
+
+
 def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
                               iterations: int | None = None, lag: int = LAG,
                               priors: Mapping = PRIORS, weights=HAND_SET_WEIGHTS,
@@ -392,8 +426,6 @@ def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
         seed: the PRNG seed (every view and prior the same keys).
         progress: a tqdm-like object updated once per view and prior.
     """
-    import inspect
-
     import equinox as eqx
     import jax.random as jr
 
@@ -402,25 +434,17 @@ def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
         fit_detection_model,
         initial_pose_of,
         smooth_markers,
-        track_detections,
     )
     from jaxtrack.trackers import Engine, track
     from jaxtrack.trackers._particles import detection_observations
 
-    defaults = inspect.signature(track_detections).parameters
-    particles = int(particles or defaults["num_particles"].default)
-    iterations = int(iterations or defaults["iterations"].default)
-    learning_rate = float(defaults["learning_rate"].default)
+    particles, iterations, learning_rate = _fit_settings(particles, iterations)
     key_fit, key_track = jr.split(jr.key(seed))
     rows, first = {}, next(iter(priors))
     notes = {"particles": particles, "iterations": iterations, "learning_rate": learning_rate,
              "lag": lag, "priors": {name: list(c) for name, c in priors.items()},
              "hand_set_weights": list(weights), "fits": {}, "seconds": {}}
-
-    def timed(name, view, run, *args, **options):
-        tick = time.perf_counter()
-        rows.setdefault(name, {})[view] = np.asarray(run(*args, **options), np.float64)
-        notes["seconds"].setdefault(name, {})[view] = time.perf_counter() - tick
+    timed = _row_timer(rows, notes)
 
     def filtered(tracker, observations, pose):
         return track(tracker, key_track, observations, pose, progress=False).markers
@@ -433,14 +457,8 @@ def particle_filter_estimates(setting: Setting, *, particles: int | None = None,
             tracker = _with_prior(plain, coefficients)
             fitted, fit = fit_detection_model(tracker, key_fit, observations, pose,
                                               iterations=iterations, learning_rate=learning_rate)
-            notes["fits"].setdefault(prior, {})[view] = {
-                "fitted": _density_record(fit.detections),
-                "hand_set": _density_record(tracker.likelihood.detections),
-                "noise_factor": fit.noise_factor, "seconds": fit.seconds,
-                "compile_seconds": fit.compile_seconds,
-                "seconds_per_iteration": fit.seconds / max(iterations, 1),
-                "log_evidence_first": float(fit.log_evidence[0]),
-                "log_evidence_last": float(fit.log_evidence[-1])}
+            notes["fits"].setdefault(prior, {})[view] = _fit_note(
+                fit, tracker.likelihood.detections, iterations)
             timed(f"condensation {prior}", view, filtered, fitted, observations, pose)
             timed(f"condensation {prior} smoother", view, smooth_markers, fitted, key_track,
                   observations, pose)
@@ -494,8 +512,6 @@ def latent_estimates(setting: Setting, *, model: Path | None = None,
         mode), its `` all particles`` (the weighted mean of every particle, the paper's and the
         SPM filter's estimate, same fit), `` smoother`` and `` lag L``.
     """
-    import inspect
-
     import equinox as eqx
     import jax.random as jr
 
@@ -503,16 +519,12 @@ def latent_estimates(setting: Setting, *, model: Path | None = None,
         fit_detection_model,
         initial_pose_of,
         smooth_markers,
-        track_detections,
     )
     from jaxtrack.likelihoods.detections import detection_model
     from jaxtrack.trackers import DetectionLikelihood, Engine, latent_tracker, track
     from jaxtrack.trackers._particles import detection_observations
 
-    defaults = inspect.signature(track_detections).parameters
-    particles = int(particles or defaults["num_particles"].default)
-    iterations = int(iterations or defaults["iterations"].default)
-    learning_rate = float(defaults["learning_rate"].default)
+    particles, iterations, learning_rate = _fit_settings(particles, iterations)
     prior = _latent_prior(model)
     key_fit, key_track = jr.split(jr.key(seed))  # the SPM filter's keys
     name = PAPER_ROWS["tian2005"]
@@ -531,10 +543,7 @@ def latent_estimates(setting: Setting, *, model: Path | None = None,
                            fps=setting.fps, likelihood=DetectionLikelihood(detection_model()),
                            refinement=None, mode_radius=float("inf"))
 
-    def timed(row, view, run, *args, **options):
-        tick = time.perf_counter()
-        rows.setdefault(row, {})[view] = np.asarray(run(*args, **options), np.float64)
-        notes["seconds"].setdefault(row, {})[view] = time.perf_counter() - tick
+    timed = _row_timer(rows, notes)
 
     def filtered(fitted, observations, pose):
         return track(fitted, key_track, observations, pose, progress=False).markers
@@ -544,13 +553,7 @@ def latent_estimates(setting: Setting, *, model: Path | None = None,
         pose = initial_pose_of(observations.detections)
         fitted, fit = fit_detection_model(tracker, key_fit, observations, pose,
                                           iterations=iterations, learning_rate=learning_rate)
-        notes["fits"][view] = {
-            "fitted": _density_record(fit.detections),
-            "hand_set": _density_record(tracker.likelihood.detections),
-            "noise_factor": fit.noise_factor, "seconds": fit.seconds,
-            "compile_seconds": fit.compile_seconds,
-            "log_evidence_first": float(fit.log_evidence[0]),
-            "log_evidence_last": float(fit.log_evidence[-1])}
+        notes["fits"][view] = _fit_note(fit, tracker.likelihood.detections, iterations)
         timed(name, view, filtered, fitted, observations, pose)
         timed(f"{name} all particles", view, filtered,
               eqx.tree_at(lambda t: (t.likelihood, t.latent_std), every,

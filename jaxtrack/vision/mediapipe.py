@@ -123,7 +123,12 @@ def detected_keypoints(result: dict) -> tuple[np.ndarray, np.ndarray]:
     """``(points (time, 12, 2), confidence (time, 12))`` of a :func:`detect_pose` result, as
     the keypoint term reads them (``jaxtrack.vision.keypoints``): the markers MediaPipe found
     in each frame (NaN and confidence 0 where it found no one; not filled in from other frames)
-    and their confidences (:func:`keypoint_confidence`)."""
+    and their confidences (:func:`keypoint_confidence`). One frame's answer
+    (:meth:`MediaPipeDetector.detect`'s, ``found`` a scalar) gives ``(12, 2)`` and ``(12,)``."""
+    if np.ndim(result["found"]) == 0:
+        points, confidence = detected_keypoints(
+            {key: np.asarray(result[key])[None] for key in ("found", "landmarks", "visibility")})
+        return points[0], confidence[0]
     found = np.asarray(result["found"], bool)
     points = to_upper_body(result["landmarks"])
     confidence = np.where(found[:, None], keypoint_confidence(result["visibility"]), 0.0)
