@@ -59,7 +59,7 @@ def _turn(points: Float[Array, "joints 3"], up: Float[Array, " 3"], angle: Float
 
 def world_skeleton(model: LinearCombinationModel, reference_rotation: Float[Array, "3 3"],
                    up: Float[Array, " 3"], particle: dict) -> Float[Array, "joints 3"]:
-    """The world skeleton of one particle: x = T + c·R_up(θ)·Rᵀ s(a) (comment above), from
+    """The world skeleton of one particle: x = T + c·R_up(θ)·Rᵀ s(a) (module docstring), from
     its ``coefficients`` a, ``yaw`` θ, ``scale`` c and ``translation`` T."""
     layout = model.layout
     skeleton = model.reconstruct(particle["coefficients"])[layout.skeleton_slice]
@@ -216,7 +216,7 @@ class ViewsState(eqx.Module):
 
 class ViewsTracker(Tracker):
     """Ong & Gong's linear-combination tracker over several calibrated views, scored by each
-    view's detections (the comment above :func:`stack_views`).
+    view's detections (module docstring).
 
     Observations are :class:`DetectionsFrame` leaves with leading ``(time, views)`` axes, made
     beforehand (:func:`jaxtrack.experiments.linear_combination.views_detections`); the first
